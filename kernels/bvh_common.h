@@ -1,0 +1,190 @@
+// The binned-SAH pieces, factored as in the Rust reference (src/bvh/binned.rs):
+// bin mapping, bin accumulate/merge, candidate cost, best split, partition
+// side. Both sides use the same operations in the same order, and
+// contraction into FMA is off, so the device tree equals the reference tree
+// bit for bit. Expects BINS (a power of two, 2..64) to be defined.
+#ifndef SOUPRAY_BVH_COMMON_H
+#define SOUPRAY_BVH_COMMON_H
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "bvh_types.h"
+
+#define INVALID_BINS 0xFFFFFFFFu
+
+inline Bin bin_empty(void) {
+    Bin b;
+    b.lo = (float4)(INFINITY);
+    b.hi = (float4)(-INFINITY);
+    b.clo = b.lo;
+    b.chi = b.hi;
+    b.count = 0;
+    b.id_or = 0;
+    b.id_and = 0xFFFFFFFFu;
+    b.pad = 0;
+    return b;
+}
+
+inline float4 centroid(float4 lo, float4 hi) { return (lo + hi) * 0.5f; }
+
+inline void bin_add(Bin* b, float4 lo, float4 hi, float4 c, uint id) {
+    b->lo = fmin(b->lo, lo);
+    b->hi = fmax(b->hi, hi);
+    b->clo = fmin(b->clo, c);
+    b->chi = fmax(b->chi, c);
+    b->count += 1;
+    b->id_or |= id;
+    b->id_and &= id;
+}
+
+inline Bin bin_merge(Bin a, Bin b) {
+    Bin m;
+    m.lo = fmin(a.lo, b.lo);
+    m.hi = fmax(a.hi, b.hi);
+    m.clo = fmin(a.clo, b.clo);
+    m.chi = fmax(a.chi, b.chi);
+    m.count = a.count + b.count;
+    m.id_or = a.id_or | b.id_or;
+    m.id_and = a.id_and & b.id_and;
+    m.pad = 0;
+    return m;
+}
+
+inline float axis_of(float4 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+
+// The bin of centroid coordinate c. Clamped on both sides, so a mapping
+// that rounds a hair outside [0, BINS) still lands in the first or last bin.
+inline uint bin_index(float c, float cmin, float scale) {
+    float f = (c - cmin) * scale;
+    f = fmin(fmax(f, 0.0f), (float)(BINS - 1));
+    return (uint)f;
+}
+
+// Half the surface area of a box (the factor 2 cancels in every SAH ratio).
+inline float half_area(float4 lo, float4 hi) {
+    float4 d = hi - lo;
+    return d.x * d.y + d.y * d.z + d.z * d.x;
+}
+
+// The SAH cost of candidate i = axis * BINS + position (left = bins below
+// `position`); false where the candidate is not a split.
+inline bool candidate_cost(__local const Bin* bins, float4 scale, uint i, float* cost) {
+    uint axis = i / BINS;
+    uint position = i % BINS;
+    if (position == 0 || !(axis_of(scale, (int)axis) > 0.0f)) return false;
+    Bin l = bin_empty();
+    Bin r = bin_empty();
+    for (uint k = 0; k < position; ++k) l = bin_merge(l, bins[axis * BINS + k]);
+    for (uint k = position; k < BINS; ++k) r = bin_merge(r, bins[axis * BINS + k]);
+    if (l.count == 0 || r.count == 0) return false;
+    *cost = half_area(l.lo, l.hi) * (float)l.count + half_area(r.lo, r.hi) * (float)r.count;
+    return true;
+}
+
+// The best candidate over n threads (n a power of two): the lowest cost,
+// and on equal cost the lowest index, which is what the reference's
+// sequential strict-less scan picks. -1 when no candidate splits the node.
+inline int select_split(__local const Bin* bins, float4 scale, __local float* s_cost,
+                        __local int* s_idx, uint lid, uint n) {
+    float best = 0.0f;
+    int best_i = -1;
+    for (uint i = lid; i < 3 * BINS; i += n) {
+        float c;
+        if (candidate_cost(bins, scale, i, &c) && (best_i < 0 || c < best)) {
+            best = c;
+            best_i = (int)i;
+        }
+    }
+    s_cost[lid] = best;
+    s_idx[lid] = best_i;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint stride = n / 2; stride > 0; stride >>= 1) {
+        if (lid < stride) {
+            int oi = s_idx[lid + stride];
+            float oc = s_cost[lid + stride];
+            int mi = s_idx[lid];
+            float mc = s_cost[lid];
+            if (oi >= 0 && (mi < 0 || oc < mc || (oc == mc && oi < mi))) {
+                s_cost[lid] = oc;
+                s_idx[lid] = oi;
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    int chosen = s_idx[0];
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return chosen;
+}
+
+// The split record for candidate `best`. With no candidate, the node is
+// split by the highest bit in which its primitive ids differ: deterministic
+// whatever order the atomics left the primitives in, never empty on either
+// side, and at most 32 such splits in a row. Both children then inherit the
+// node's bounds, and their counts come from the partition.
+inline SplitResult make_split(__local const Bin* bins, BuildTask t, int best) {
+    SplitResult s;
+    if (best >= 0) {
+        uint axis = (uint)best / BINS;
+        uint position = (uint)best % BINS;
+        Bin l = bin_empty();
+        Bin r = bin_empty();
+        for (uint k = 0; k < position; ++k) l = bin_merge(l, bins[axis * BINS + k]);
+        for (uint k = position; k < BINS; ++k) r = bin_merge(r, bins[axis * BINS + k]);
+        s.left_lo = l.lo;
+        s.left_hi = l.hi;
+        s.right_lo = r.lo;
+        s.right_hi = r.hi;
+        s.left_clo = l.clo;
+        s.left_chi = l.chi;
+        s.right_clo = r.clo;
+        s.right_chi = r.chi;
+        s.axis = (int)axis;
+        s.position = position;
+        s.left_count = l.count;
+        s.right_count = r.count;
+    } else {
+        Bin all = bin_empty();
+        for (uint k = 0; k < BINS; ++k) all = bin_merge(all, bins[k]);
+        uint differ = all.id_or ^ all.id_and;
+        s.left_lo = t.lo;
+        s.left_hi = t.hi;
+        s.right_lo = t.lo;
+        s.right_hi = t.hi;
+        s.left_clo = t.clo;
+        s.left_chi = t.chi;
+        s.right_clo = t.clo;
+        s.right_chi = t.chi;
+        s.axis = -1;
+        s.position = differ == 0 ? 0 : 31 - clz(differ);
+        s.left_count = 0;
+        s.right_count = 0;
+    }
+    return s;
+}
+
+// Which side of split s a primitive goes to: the same bin mapping that binned it.
+inline bool goes_left(BuildTask t, SplitResult s, float4 lo, float4 hi, uint id) {
+    if (s.axis < 0) return ((id >> s.position) & 1u) == 0;
+    float4 c = centroid(lo, hi);
+    return bin_index(axis_of(c, s.axis), axis_of(t.cmin, s.axis), axis_of(t.scale, s.axis)) <
+           s.position;
+}
+
+// Exclusive prefix sum of v over the n threads of a work-group (n a power
+// of two); *total receives the sum over all of them.
+inline uint wg_exclusive_scan(uint v, __local uint* tmp, uint lid, uint n, uint* total) {
+    tmp[lid] = v;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint offset = 1; offset < n; offset <<= 1) {
+        uint add = lid >= offset ? tmp[lid - offset] : 0;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        tmp[lid] += add;
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    uint inclusive = tmp[lid];
+    *total = tmp[n - 1];
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return inclusive - v;
+}
+
+#endif

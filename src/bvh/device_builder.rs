@@ -1,0 +1,429 @@
+//! The paper's builder on the OpenCL device (kernels/bvh_build.cl).
+//!
+//! The host only launches and bookkeeps: per level it uploads the level's
+//! tasks and the two work-group arrays (which node each work-group serves,
+//! and its index within that node), launches the stage's kernels for every
+//! task of the level at once, reads back the split results, and lets
+//! `binned::Levels` (shared with the Rust reference) turn them into nodes and
+//! the next level's tasks. Binning, the split search and the reordering all
+//! run on the device.
+//!
+//! Buffers are sized for the largest soup seen so far and reused from frame
+//! to frame; `allocations()` counts them so a test can prove it.
+
+use super::binned::{BuildError, Levels, Stage, PRIMS_PER_GROUP, REDUCE_FAN};
+use super::layout::{Bin, BuildTask, PrimRef, SplitResult};
+use super::{BuildParams, Bvh};
+use crate::device::{Arg, Device};
+use crate::soup::Soup;
+use opencl3::kernel::Kernel;
+use opencl3::memory::Buffer;
+use std::time::Instant;
+
+/// Device time per stage of one build, in milliseconds, from profiling events.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageTimes {
+    /// Triangle boxes and the root's bounds.
+    pub prepare: f64,
+    pub large: f64,
+    pub medium: f64,
+    pub small: f64,
+}
+
+/// What one build cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BuildStats {
+    /// Wall-clock time of the whole build, uploads and host work included.
+    pub build_ms: f64,
+    /// Device (kernel) time by stage.
+    pub stages_ms: StageTimes,
+    /// Host time spent generating tasks and nodes.
+    pub host_ms: f64,
+    /// Levels processed over all stages.
+    pub levels: u32,
+    pub kernel_launches: usize,
+}
+
+struct Kernels {
+    compute_prim_refs: Kernel,
+    merge_bins: Kernel,
+    bin_triangles: Kernel,
+    reduce_bins: Kernel,
+    find_split: Kernel,
+    partition: Kernel,
+    copy_back: Kernel,
+    split_small: Kernel,
+}
+
+/// Device buffers, sized for `capacity` triangles.
+struct Buffers {
+    capacity: usize,
+    positions: Buffer<[f32; 4]>,
+    refs: Buffer<PrimRef>,
+    ids: Buffer<u32>,
+    ids_scratch: Buffer<u32>,
+    /// Per-work-group bins of `compute_prim_refs`, then the root bin.
+    root_partials: Buffer<Bin>,
+    root_bin: Buffer<Bin>,
+    tasks: Buffer<BuildTask>,
+    group_task: Buffer<u32>,
+    group_index: Buffer<u32>,
+    reduce_task: Buffer<u32>,
+    reduce_index: Buffer<u32>,
+    group_bins: Buffer<Bin>,
+    partial_bins: Buffer<Bin>,
+    splits: Buffer<SplitResult>,
+    cursors: Buffer<u64>,
+}
+
+const BUILD_WG: usize = 128;
+
+/// The builder: compiled kernels and reusable buffers for one device.
+pub struct DeviceBuilder<'d> {
+    device: &'d Device,
+    params: BuildParams,
+    kernels: Kernels,
+    buffers: Option<Buffers>,
+    allocations: usize,
+    // Host-side scratch, reused across levels and frames.
+    group_task: Vec<u32>,
+    group_index: Vec<u32>,
+    reduce_task: Vec<u32>,
+    reduce_index: Vec<u32>,
+    splits: Vec<SplitResult>,
+    cursors: Vec<u64>,
+}
+
+impl<'d> DeviceBuilder<'d> {
+    /// Compiles the builder's kernels for `params` on `device`.
+    pub fn new(device: &'d Device, params: BuildParams) -> Result<DeviceBuilder<'d>, BuildError> {
+        params.check().map_err(BuildError::Params)?;
+        let defines = [
+            ("BINS", params.bins.to_string()),
+            (
+                "HAVE_INT64_ATOMICS",
+                (device.has_int64_atomics() as u32).to_string(),
+            ),
+        ];
+        let program = device.build_program("bvh_build.cl", &defines)?;
+        let k = |name| device.kernel(&program, name);
+        let kernels = Kernels {
+            compute_prim_refs: k("compute_prim_refs")?,
+            merge_bins: k("merge_bins")?,
+            bin_triangles: k("bin_triangles")?,
+            reduce_bins: k("reduce_bins")?,
+            find_split: k("find_split")?,
+            partition: k("partition")?,
+            copy_back: k("copy_back")?,
+            split_small: k("split_small")?,
+        };
+        Ok(DeviceBuilder {
+            device,
+            params,
+            kernels,
+            buffers: None,
+            allocations: 0,
+            group_task: Vec::new(),
+            group_index: Vec::new(),
+            reduce_task: Vec::new(),
+            reduce_index: Vec::new(),
+            splits: Vec::new(),
+            cursors: Vec::new(),
+        })
+    }
+
+    pub fn params(&self) -> BuildParams {
+        self.params
+    }
+
+    /// How many times the device buffers have been (re)allocated: once for
+    /// the first frame, and again only when a frame has more triangles than
+    /// any before it.
+    pub fn allocations(&self) -> usize {
+        self.allocations
+    }
+
+    fn ensure_capacity(&mut self, n: usize) -> Result<(), BuildError> {
+        if self.buffers.as_ref().is_some_and(|b| b.capacity >= n) {
+            return Ok(());
+        }
+        let d = self.device;
+        let n = n.max(1);
+        let bins = 3 * self.params.bins as usize;
+        // Tasks of one level are disjoint and each holds more than leaf_size
+        // triangles; work-groups serve only nodes of 256 or more triangles.
+        let max_tasks = n / (self.params.leaf_size as usize + 1) + 1;
+        let max_groups = n / PRIMS_PER_GROUP as usize + n / super::binned::MEDIUM_FROM as usize + 1;
+        let max_partials =
+            max_groups / REDUCE_FAN as usize + n / super::binned::LARGE_ABOVE as usize + 1;
+        self.buffers = Some(Buffers {
+            capacity: n,
+            positions: d.buffer(3 * n)?,
+            refs: d.buffer(n)?,
+            ids: d.buffer(n)?,
+            ids_scratch: d.buffer(n)?,
+            root_partials: d.buffer(n.div_ceil(BUILD_WG))?,
+            root_bin: d.buffer(1)?,
+            tasks: d.buffer(max_tasks)?,
+            group_task: d.buffer(max_groups)?,
+            group_index: d.buffer(max_groups)?,
+            reduce_task: d.buffer(max_partials)?,
+            reduce_index: d.buffer(max_partials)?,
+            group_bins: d.buffer(max_groups * bins)?,
+            partial_bins: d.buffer(max_partials * bins)?,
+            splits: d.buffer(max_tasks)?,
+            cursors: d.buffer(max_tasks)?,
+        });
+        self.allocations += 1;
+        Ok(())
+    }
+
+    /// Uploads `soup` and builds its tree.
+    pub fn build(&mut self, soup: &Soup) -> Result<(Bvh, BuildStats), BuildError> {
+        let start = Instant::now();
+        let n = soup.triangle_count();
+        self.ensure_capacity(n)?;
+        let b = self.buffers.as_mut().expect("allocated above");
+        self.device.write(&mut b.positions, &soup.positions)?;
+        self.build_uploaded(n, start)
+    }
+
+    /// Builds the tree of the `n` triangles already in the positions buffer.
+    fn build_uploaded(
+        &mut self,
+        n: usize,
+        start: Instant,
+    ) -> Result<(Bvh, BuildStats), BuildError> {
+        let d = self.device;
+        let mut host = 0.0;
+        let mut levels_done = 0;
+        d.take_timings()?; // start this build's profile from zero
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let root = if n == 0 {
+            super::binned::bin_empty()
+        } else {
+            let groups = n.div_ceil(BUILD_WG);
+            let k = &self.kernels;
+            d.launch(
+                "bvh.prepare",
+                &k.compute_prim_refs,
+                groups,
+                BUILD_WG,
+                &[
+                    Arg::Buf(&b.positions),
+                    Arg::U32(n as u32),
+                    Arg::Buf(&b.refs),
+                    Arg::Buf(&b.ids),
+                    Arg::Buf(&b.root_partials),
+                ],
+            )?;
+            d.launch(
+                "bvh.prepare",
+                &k.merge_bins,
+                1,
+                BUILD_WG,
+                &[
+                    Arg::Buf(&b.root_partials),
+                    Arg::U32(groups as u32),
+                    Arg::Buf(&b.root_bin),
+                ],
+            )?;
+            let mut root = [super::binned::bin_empty()];
+            d.read(&b.root_bin, &mut root)?;
+            root[0]
+        };
+        let t0 = Instant::now();
+        let mut levels = Levels::new(&root, n as u32, self.params);
+        host += t0.elapsed().as_secs_f64();
+        for stage in Stage::ALL {
+            let mut level = levels.take_stage(stage);
+            while !level.is_empty() {
+                self.run_level(stage, &mut level)?;
+                let t0 = Instant::now();
+                level = levels.accept(stage, &level, &self.splits)?;
+                host += t0.elapsed().as_secs_f64();
+                levels_done += 1;
+            }
+        }
+        let b = self.buffers.as_ref().expect("allocated by the caller");
+        let mut prim_ids = vec![0u32; n];
+        d.read(&b.ids, &mut prim_ids)?;
+        let timings = d.take_timings()?;
+        let stats = BuildStats {
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+            stages_ms: StageTimes {
+                prepare: timings.ms("bvh.prepare"),
+                large: timings.ms("bvh.large"),
+                medium: timings.ms("bvh.medium"),
+                small: timings.ms("bvh.small"),
+            },
+            host_ms: host * 1e3,
+            levels: levels_done,
+            kernel_launches: timings.launches,
+        };
+        Ok((
+            Bvh {
+                nodes: levels.nodes,
+                prim_ids,
+            },
+            stats,
+        ))
+    }
+
+    /// Runs one level of `stage` on the device and leaves the level's split
+    /// results, with their final counts, in `self.splits`.
+    fn run_level(&mut self, stage: Stage, level: &mut [BuildTask]) -> Result<(), BuildError> {
+        let d = self.device;
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let k = &self.kernels;
+        let name = match stage {
+            Stage::Large => "bvh.large",
+            Stage::Medium => "bvh.medium",
+            Stage::Small => "bvh.small",
+        };
+        let tasks = level.len();
+        if stage == Stage::Small {
+            d.write(&mut b.tasks, level)?;
+            d.launch(
+                name,
+                &k.split_small,
+                tasks,
+                self.params.bins as usize,
+                &[
+                    Arg::Buf(&b.tasks),
+                    Arg::Buf(&b.ids),
+                    Arg::Buf(&b.refs),
+                    Arg::Buf(&b.splits),
+                    Arg::Buf(&b.cursors),
+                ],
+            )?;
+            self.splits.resize(tasks, SplitResult::default());
+            d.read(&b.splits, &mut self.splits)?;
+            return Ok(());
+        }
+
+        // The two arrays that tell each work-group its node and its index
+        // within the node, and the same for the large stage's reduction.
+        self.group_task.clear();
+        self.group_index.clear();
+        self.reduce_task.clear();
+        self.reduce_index.clear();
+        let mut partials = 0u32;
+        for (ti, t) in level.iter_mut().enumerate() {
+            t.first_group = self.group_task.len() as u32;
+            t.group_count = t.count.div_ceil(PRIMS_PER_GROUP);
+            for gi in 0..t.group_count {
+                self.group_task.push(ti as u32);
+                self.group_index.push(gi);
+            }
+            if stage == Stage::Large {
+                t.set_first = partials;
+                t.set_count = t.group_count.div_ceil(REDUCE_FAN);
+                for r in 0..t.set_count {
+                    self.reduce_task.push(ti as u32);
+                    self.reduce_index.push(r);
+                }
+                partials += t.set_count;
+            } else {
+                t.set_first = t.first_group;
+                t.set_count = t.group_count;
+            }
+        }
+        let groups = self.group_task.len();
+        d.write(&mut b.tasks, level)?;
+        d.write(&mut b.group_task, &self.group_task)?;
+        d.write(&mut b.group_index, &self.group_index)?;
+        d.launch(
+            name,
+            &k.bin_triangles,
+            groups,
+            BUILD_WG,
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(&b.group_task),
+                Arg::Buf(&b.group_index),
+                Arg::Buf(&b.ids),
+                Arg::Buf(&b.refs),
+                Arg::Buf(&b.group_bins),
+            ],
+        )?;
+        let sets = if stage == Stage::Large {
+            d.write(&mut b.reduce_task, &self.reduce_task)?;
+            d.write(&mut b.reduce_index, &self.reduce_index)?;
+            d.launch(
+                name,
+                &k.reduce_bins,
+                self.reduce_task.len(),
+                BUILD_WG,
+                &[
+                    Arg::Buf(&b.tasks),
+                    Arg::Buf(&b.reduce_task),
+                    Arg::Buf(&b.reduce_index),
+                    Arg::Buf(&b.group_bins),
+                    Arg::Buf(&b.partial_bins),
+                ],
+            )?;
+            &b.partial_bins
+        } else {
+            &b.group_bins
+        };
+        d.launch(
+            name,
+            &k.find_split,
+            tasks,
+            BUILD_WG,
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(sets),
+                Arg::Buf(&b.splits),
+                Arg::Buf(&b.cursors),
+            ],
+        )?;
+        d.launch(
+            name,
+            &k.partition,
+            groups,
+            BUILD_WG,
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(&b.group_task),
+                Arg::Buf(&b.group_index),
+                Arg::Buf(&b.splits),
+                Arg::Buf(&b.ids),
+                Arg::Buf(&b.refs),
+                Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.cursors),
+            ],
+        )?;
+        d.launch(
+            name,
+            &k.copy_back,
+            groups,
+            BUILD_WG,
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(&b.group_task),
+                Arg::Buf(&b.group_index),
+                Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.ids),
+            ],
+        )?;
+        self.splits.resize(tasks, SplitResult::default());
+        self.cursors.resize(tasks, 0);
+        d.read(&b.splits, &mut self.splits)?;
+        d.read(&b.cursors, &mut self.cursors)?;
+        for ((split, &cursor), t) in self.splits.iter_mut().zip(&self.cursors).zip(level.iter()) {
+            let moved = (cursor as u32, (cursor >> 32) as u32);
+            if split.axis < 0 {
+                (split.left_count, split.right_count) = moved;
+            } else if (split.left_count, split.right_count) != moved {
+                return Err(BuildError::CountMismatch {
+                    node: t.node,
+                    expected: (split.left_count, split.right_count),
+                    got: moved,
+                });
+            }
+        }
+        Ok(())
+    }
+}

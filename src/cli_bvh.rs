@@ -1,0 +1,305 @@
+//! The builder's commands: `soupray devices` lists the OpenCL devices, and
+//! `soupray bvh` builds one tree and prints its measurements.
+//!
+//! `bvh --json` prints one JSON object (documented in `BvhReport`), so
+//! scripts and benchmarks can read a build without parsing prose.
+
+use crate::bvh::{self, binned, device_builder::DeviceBuilder, sweep, BuildParams};
+use crate::device::{list_devices, Device};
+use crate::scene::{LoadOptions, Scene};
+use crate::soup::Soup;
+use anyhow::Context as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// List the OpenCL devices soupray can use, with the index `--device` takes.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DevicesArgs {
+    /// Print the list as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuilderKind {
+    /// The paper's binned-SAH builder on the OpenCL device (what `render` uses).
+    Device,
+    /// The same algorithm in plain Rust on one CPU thread (its test reference).
+    CpuBinned,
+    /// Full-sweep SAH on one CPU thread: slower, the quality reference.
+    CpuSweep,
+}
+
+impl BuilderKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            BuilderKind::Device => "device",
+            BuilderKind::CpuBinned => "cpu-binned",
+            BuilderKind::CpuSweep => "cpu-sweep",
+        }
+    }
+}
+
+/// Build one BVH from a triangle soup and report its size, quality and cost.
+///
+/// INPUT is a PLY triangle mesh (ASCII or binary), or a glTF scene (.gltf or
+/// .glb) evaluated at --frame. Example:
+///
+///   soupray bvh mesh.ply --json
+///   soupray bvh walk.glb --frame 12 --bins 8 --leaf 2
+#[derive(clap::Args, Debug, Clone)]
+pub struct BvhArgs {
+    /// A .ply triangle mesh, or a .gltf/.glb scene.
+    #[arg(value_name = "INPUT")]
+    pub input: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Which builder makes the tree.
+    #[arg(long, value_enum, default_value_t = BuilderKind::Device)]
+    pub builder: BuilderKind,
+    /// SAH bins per axis: a power of two from 2 to 64.
+    #[arg(long, default_value_t = 16, value_name = "N")]
+    pub bins: u32,
+    /// Largest leaf, in triangles (1 to 64).
+    #[arg(long = "leaf", default_value_t = 4, value_name = "N")]
+    pub leaf_size: u32,
+    /// Frame to evaluate when INPUT is a glTF scene (time = N / fps).
+    #[arg(
+        long,
+        default_value_t = 0,
+        allow_negative_numbers = true,
+        value_name = "N"
+    )]
+    pub frame: i64,
+    /// Frames per second of the animation, for --frame.
+    #[arg(long, default_value_t = 24.0, value_name = "FPS")]
+    pub fps: f64,
+    /// Animation to play (glTF), by name or index.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub animation: Option<String>,
+    /// Scene of the glTF file to use (index).
+    #[arg(long, value_name = "N")]
+    pub scene: Option<usize>,
+    /// OpenCL device, by index or name substring (see `soupray devices`).
+    #[arg(long, value_name = "INDEX|NAME")]
+    pub device: Option<String>,
+    /// Builds to run; with more than one, times are the median (the tree is
+    /// the same every time).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub repeat: u32,
+}
+
+/// What `soupray bvh --json` prints. `nodes` counts inner nodes and leaves;
+/// `max_depth` is the deepest leaf (root = 0); `sah_cost` is
+/// `bvh::sah_cost` (K_T = K_I = 1, normalised by the root box's area);
+/// `valid` is whether `bvh::validate` passed (`invalid_reason` says why not);
+/// `build_ms` is wall-clock; `stages_ms` is device kernel time per stage
+/// from profiling events (zero for CPU builders).
+#[derive(serde::Serialize, Debug)]
+pub struct BvhReport {
+    pub input: String,
+    pub builder: &'static str,
+    pub device: Option<String>,
+    pub bins: u32,
+    pub leaf_size: u32,
+    pub triangles: usize,
+    pub nodes: usize,
+    pub leaves: usize,
+    pub max_depth: u32,
+    pub sah_cost: f64,
+    pub valid: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub invalid_reason: Option<String>,
+    pub build_ms: f64,
+    pub stages_ms: StagesMs,
+    pub mtris_per_s: f64,
+}
+
+#[derive(serde::Serialize, Debug, Default)]
+pub struct StagesMs {
+    pub prepare: f64,
+    pub large: f64,
+    pub medium: f64,
+    pub small: f64,
+    pub host: f64,
+}
+
+pub fn run_devices(args: &DevicesArgs) -> anyhow::Result<()> {
+    let devices = list_devices()?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&devices)?);
+        return Ok(());
+    }
+    let default = devices.iter().position(|d| d.kind == "GPU").unwrap_or(0);
+    for d in &devices {
+        println!(
+            "{} {}: {} [{}] {} compute units, {} MiB, {}{}",
+            if d.index == default { "*" } else { " " },
+            d.index,
+            d.name,
+            d.kind,
+            d.compute_units,
+            d.global_mem_mib,
+            d.version,
+            format_args!(" ({})", d.platform),
+        );
+    }
+    println!("\n* the default; choose another with --device INDEX or --device NAME-SUBSTRING");
+    Ok(())
+}
+
+/// Reads INPUT into a soup: PLY directly, glTF evaluated at a frame.
+pub fn load_soup(args: &BvhArgs) -> anyhow::Result<Soup> {
+    let ext = extension(&args.input);
+    if ext == "ply" {
+        return Ok(crate::ply::read_soup(&args.input)?);
+    }
+    if ext == "gltf" || ext == "glb" {
+        let opts = LoadOptions {
+            scene: args.scene,
+            animation: args.animation.clone(),
+            fps: args.fps,
+            ..LoadOptions::default()
+        };
+        let scene = Scene::load(&args.input, &opts)?;
+        let frame = scene.evaluate(scene.time_of_frame(args.frame))?;
+        return Ok(frame.soup);
+    }
+    anyhow::bail!(
+        "{}: unknown input type; soupray bvh reads .ply triangle meshes and .gltf/.glb scenes",
+        args.input.display()
+    )
+}
+
+fn extension(p: &Path) -> String {
+    p.extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
+    let params = BuildParams {
+        bins: args.bins,
+        leaf_size: args.leaf_size,
+    };
+    params.check().map_err(crate::UsageError)?;
+    let soup = load_soup(args)?;
+    let repeat = args.repeat.max(1);
+    let mut times = Vec::new();
+    let mut stages = Vec::new();
+    let mut device_name = None;
+    let tree = match args.builder {
+        BuilderKind::Device => {
+            let device = Device::open(args.device.as_deref())?;
+            device_name = Some(device.info.name.clone());
+            let mut builder = DeviceBuilder::new(&device, params)?;
+            let mut tree = None;
+            for _ in 0..repeat {
+                let (t, s) = builder.build(&soup)?;
+                times.push(s.build_ms);
+                stages.push(s);
+                tree = Some(t);
+            }
+            tree.expect("at least one build")
+        }
+        kind => {
+            let mut tree = None;
+            for _ in 0..repeat {
+                let start = Instant::now();
+                let t = match kind {
+                    BuilderKind::CpuBinned => binned::build(&soup, params)?,
+                    _ => sweep::build(&soup, params),
+                };
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+                tree = Some(t);
+            }
+            tree.expect("at least one build")
+        }
+    };
+    let build_ms = median(times);
+    let stage = |f: fn(&bvh::device_builder::BuildStats) -> f64| {
+        if stages.is_empty() {
+            0.0
+        } else {
+            median(stages.iter().map(f).collect())
+        }
+    };
+    let stages_ms = StagesMs {
+        prepare: stage(|s| s.stages_ms.prepare),
+        large: stage(|s| s.stages_ms.large),
+        medium: stage(|s| s.stages_ms.medium),
+        small: stage(|s| s.stages_ms.small),
+        host: stage(|s| s.host_ms),
+    };
+    let validation = bvh::validate(&tree, &soup, params.leaf_size);
+    let shape = validation.clone().unwrap_or_default();
+    let report = BvhReport {
+        input: args.input.display().to_string(),
+        builder: args.builder.name(),
+        device: device_name,
+        bins: params.bins,
+        leaf_size: params.leaf_size,
+        triangles: soup.triangle_count(),
+        nodes: shape.nodes,
+        leaves: shape.leaves,
+        max_depth: shape.max_depth,
+        sah_cost: bvh::sah_cost(&tree),
+        valid: validation.is_ok(),
+        invalid_reason: validation.err(),
+        build_ms,
+        stages_ms,
+        mtris_per_s: soup.triangle_count() as f64 / (build_ms * 1e3).max(1e-9),
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_report(&report);
+    }
+    if let Some(reason) = &report.invalid_reason {
+        anyhow::bail!("the tree failed validation: {reason}");
+    }
+    Ok(())
+}
+
+fn print_report(r: &BvhReport) {
+    println!("input      {}", r.input);
+    println!(
+        "builder    {}{} (bins {}, leaf {})",
+        r.builder,
+        r.device
+            .as_deref()
+            .map(|d| format!(" on {d}"))
+            .unwrap_or_default(),
+        r.bins,
+        r.leaf_size
+    );
+    println!("triangles  {}", r.triangles);
+    println!(
+        "nodes      {} ({} leaves), max depth {}",
+        r.nodes, r.leaves, r.max_depth
+    );
+    println!("SAH cost   {:.3}", r.sah_cost);
+    println!("valid      {}", if r.valid { "yes" } else { "NO" });
+    println!(
+        "build      {:.2} ms ({:.2} Mtris/s)",
+        r.build_ms, r.mtris_per_s
+    );
+    if r.builder == "device" {
+        let s = &r.stages_ms;
+        println!(
+            "stages     prepare {:.2} ms, large {:.2} ms, medium {:.2} ms, small {:.2} ms (device); host {:.2} ms",
+            s.prepare, s.large, s.medium, s.small, s.host
+        );
+    }
+}
+
+/// Loads a soup from a path for other commands (PLY only).
+pub fn read_ply(path: &Path) -> anyhow::Result<Soup> {
+    crate::ply::read_soup(path).with_context(|| format!("reading {}", path.display()))
+}

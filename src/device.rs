@@ -1,0 +1,464 @@
+//! The OpenCL plumbing: platform and device discovery, device choice,
+//! program building from the embedded `kernels/*.cl` sources, buffers, and
+//! one launch helper through which every kernel runs so that each launch is
+//! named and timed by OpenCL profiling events (never host clocks).
+//!
+//! Nothing here knows about BVHs or scenes; the pipeline stages own their
+//! kernels and call `Device::launch` with the stage's name.
+
+use opencl3::command_queue::{CommandQueue, CL_QUEUE_PROFILING_ENABLE};
+use opencl3::context::Context;
+use opencl3::device::{
+    Device as ClDevice, CL_DEVICE_TYPE_ACCELERATOR, CL_DEVICE_TYPE_ALL, CL_DEVICE_TYPE_CPU,
+    CL_DEVICE_TYPE_GPU,
+};
+use opencl3::event::Event;
+use opencl3::kernel::{ExecuteKernel, Kernel};
+use opencl3::memory::{Buffer, CL_MEM_READ_WRITE};
+use opencl3::platform::get_platforms;
+use opencl3::program::Program;
+use opencl3::types::{cl_event, CL_BLOCKING, CL_NON_BLOCKING};
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::ptr;
+
+/// The OpenCL C sources, embedded so the binary runs from anywhere. Headers
+/// are inlined by `assemble_source` where a program `#include`s them.
+pub const KERNEL_SOURCES: &[(&str, &str)] = &[
+    ("bvh_types.h", include_str!("../kernels/bvh_types.h")),
+    ("bvh_common.h", include_str!("../kernels/bvh_common.h")),
+    ("bvh_build.cl", include_str!("../kernels/bvh_build.cl")),
+    (
+        "layout_probe.cl",
+        include_str!("../kernels/layout_probe.cl"),
+    ),
+];
+
+/// Why the device layer failed. Messages say what to do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(
+        "no OpenCL platform found ({0}).\n  soupray needs an OpenCL driver. On Debian or Ubuntu:\n    \
+         sudo apt-get install pocl-opencl-icd ocl-icd-opencl-dev\n  \
+         (PoCL runs the kernels on the CPU; a GPU vendor's OpenCL driver works too)"
+    )]
+    NoPlatform(String),
+    #[error("no OpenCL device found on any platform; install a driver such as pocl-opencl-icd")]
+    NoDevice,
+    #[error("--device {0:?} matches no device; `soupray devices` lists them (use an index or a name substring)")]
+    NoMatch(String),
+    #[error("OpenCL program {program} failed to build on {device}:\n{log}")]
+    Build {
+        program: String,
+        device: String,
+        log: String,
+    },
+    #[error("OpenCL {what} failed: {code}")]
+    Cl { what: String, code: String },
+}
+
+pub type Result<T> = std::result::Result<T, DeviceError>;
+
+fn cl<T, E: std::fmt::Display>(what: &str, r: std::result::Result<T, E>) -> Result<T> {
+    r.map_err(|e| DeviceError::Cl {
+        what: what.to_owned(),
+        code: e.to_string(),
+    })
+}
+
+/// One OpenCL device as `soupray devices` lists it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub platform: String,
+    pub name: String,
+    pub kind: &'static str,
+    pub compute_units: u32,
+    pub global_mem_mib: u64,
+    pub local_mem_kib: u64,
+    pub max_work_group_size: usize,
+    pub version: String,
+}
+
+fn kind_name(t: u64) -> &'static str {
+    if t & CL_DEVICE_TYPE_GPU != 0 {
+        "GPU"
+    } else if t & CL_DEVICE_TYPE_CPU != 0 {
+        "CPU"
+    } else if t & CL_DEVICE_TYPE_ACCELERATOR != 0 {
+        "accelerator"
+    } else {
+        "other"
+    }
+}
+
+/// Every device of every platform, in a stable order (platform, then device).
+fn enumerate() -> Result<Vec<(DeviceInfo, ClDevice)>> {
+    let platforms = get_platforms().map_err(|e| DeviceError::NoPlatform(e.to_string()))?;
+    if platforms.is_empty() {
+        return Err(DeviceError::NoPlatform("the ICD loader lists none".into()));
+    }
+    let mut out = Vec::new();
+    for platform in platforms {
+        let pname = platform.name().unwrap_or_default();
+        let Ok(ids) = platform.get_devices(CL_DEVICE_TYPE_ALL) else {
+            continue;
+        };
+        for id in ids {
+            let d = ClDevice::new(id);
+            let info = DeviceInfo {
+                index: out.len(),
+                platform: pname.trim().to_owned(),
+                name: d.name().unwrap_or_default().trim().to_owned(),
+                kind: kind_name(d.dev_type().unwrap_or(0)),
+                compute_units: d.max_compute_units().unwrap_or(0),
+                global_mem_mib: d.global_mem_size().unwrap_or(0) >> 20,
+                local_mem_kib: d.local_mem_size().unwrap_or(0) >> 10,
+                max_work_group_size: d.max_work_group_size().unwrap_or(0),
+                version: d.version().unwrap_or_default().trim().to_owned(),
+            };
+            out.push((info, d));
+        }
+    }
+    if out.is_empty() {
+        return Err(DeviceError::NoDevice);
+    }
+    Ok(out)
+}
+
+/// All OpenCL devices, for `soupray devices`.
+pub fn list_devices() -> Result<Vec<DeviceInfo>> {
+    Ok(enumerate()?.into_iter().map(|(i, _)| i).collect())
+}
+
+/// Chooses a device: `selector` is an index into `list_devices()` or a
+/// case-insensitive substring of "platform name"; without one, the first GPU,
+/// else the first device. `SOUPRAY_DEVICE` stands in for a missing selector so
+/// test suites and farm jobs can pin a device without new flags.
+fn choose(selector: Option<&str>) -> Result<(DeviceInfo, ClDevice)> {
+    let mut all = enumerate()?;
+    let env = std::env::var("SOUPRAY_DEVICE").ok();
+    let selector = selector.or(env.as_deref()).filter(|s| !s.is_empty());
+    let at = match selector {
+        Some(s) => if let Ok(i) = s.parse::<usize>() {
+            (i < all.len()).then_some(i)
+        } else {
+            let needle = s.to_lowercase();
+            all.iter().position(|(i, _)| {
+                format!("{} {}", i.platform, i.name)
+                    .to_lowercase()
+                    .contains(&needle)
+            })
+        }
+        .ok_or_else(|| DeviceError::NoMatch(s.to_owned()))?,
+        None => all.iter().position(|(i, _)| i.kind == "GPU").unwrap_or(0),
+    };
+    Ok(all.swap_remove(at))
+}
+
+/// Device time of named launches, from profiling events, in milliseconds.
+#[derive(Clone, Debug, Default)]
+pub struct Timings {
+    pub by_stage: BTreeMap<String, f64>,
+    pub launches: usize,
+}
+
+impl Timings {
+    pub fn ms(&self, stage: &str) -> f64 {
+        self.by_stage.get(stage).copied().unwrap_or(0.0)
+    }
+}
+
+/// A chosen device with its context and one in-order, profiling queue.
+pub struct Device {
+    pub info: DeviceInfo,
+    device: ClDevice,
+    pub context: Context,
+    pub queue: CommandQueue,
+    /// Launches not yet folded into `timings`: (stage, event).
+    pending: RefCell<Vec<(&'static str, Event)>>,
+    timings: RefCell<Timings>,
+}
+
+/// A kernel argument, so launches can be written as one call with a list.
+pub enum Arg<'a> {
+    Buf(&'a dyn BufferArg),
+    U32(u32),
+    I32(i32),
+    F32(f32),
+    Local(usize),
+}
+
+/// Any device buffer, whatever its element type.
+pub trait BufferArg {
+    fn set(&self, exec: &mut ExecuteKernel);
+}
+
+impl<T> BufferArg for Buffer<T> {
+    fn set(&self, exec: &mut ExecuteKernel) {
+        // SAFETY: a cl_mem handle is a valid kernel argument for a
+        // `global T*` parameter; the kernel signatures are checked by the
+        // tests that run every kernel.
+        unsafe {
+            exec.set_arg(self);
+        }
+    }
+}
+
+impl Device {
+    /// Opens the device `selector` names (see `choose`).
+    pub fn open(selector: Option<&str>) -> Result<Device> {
+        let (info, device) = choose(selector)?;
+        let context = cl("clCreateContext", Context::from_device(&device))?;
+        // The deprecated entry point is the one every OpenCL 1.2 driver has.
+        #[allow(deprecated)]
+        let queue = cl(
+            "clCreateCommandQueue",
+            CommandQueue::create_default(&context, CL_QUEUE_PROFILING_ENABLE),
+        )?;
+        Ok(Device {
+            info,
+            device,
+            context,
+            queue,
+            pending: RefCell::new(Vec::new()),
+            timings: RefCell::new(Timings::default()),
+        })
+    }
+
+    /// Whether the device supports 64-bit global atomics, which the builder
+    /// uses to reserve both sides of a partition with one atomic.
+    pub fn has_int64_atomics(&self) -> bool {
+        self.device
+            .extensions()
+            .map(|e| e.contains("cl_khr_int64_base_atomics"))
+            .unwrap_or(false)
+    }
+
+    /// Builds a program from an embedded entry file with its headers inlined,
+    /// under `defines` (each `NAME=VALUE` becomes `-D NAME=VALUE`). A failed
+    /// build returns the device compiler's log, whose line markers name the
+    /// original files.
+    pub fn build_program(&self, entry: &str, defines: &[(&str, String)]) -> Result<Program> {
+        let source = assemble_source(entry);
+        let options = build_options(defines);
+        Program::create_and_build_from_source(&self.context, &source, &options).map_err(|log| {
+            DeviceError::Build {
+                program: entry.to_owned(),
+                device: self.info.name.clone(),
+                log,
+            }
+        })
+    }
+
+    pub fn kernel(&self, program: &Program, name: &str) -> Result<Kernel> {
+        cl(
+            &format!("creating kernel {name}"),
+            Kernel::create(program, name),
+        )
+    }
+
+    /// A device buffer of `len` elements (at least one, as OpenCL forbids
+    /// empty buffers).
+    pub fn buffer<T>(&self, len: usize) -> Result<Buffer<T>> {
+        // SAFETY: no host pointer is passed, so the driver allocates.
+        unsafe {
+            cl(
+                "clCreateBuffer",
+                Buffer::<T>::create(
+                    &self.context,
+                    CL_MEM_READ_WRITE,
+                    len.max(1),
+                    ptr::null_mut(),
+                ),
+            )
+        }
+    }
+
+    /// Copies `data` into the start of `buffer`, blocking.
+    pub fn write<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        // SAFETY: blocking write from a live slice no longer than the buffer
+        // (callers size buffers from the same counts).
+        unsafe {
+            cl(
+                "clEnqueueWriteBuffer",
+                self.queue
+                    .enqueue_write_buffer(buffer, CL_BLOCKING, 0, data, &[]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Queues a copy of `data` into `buffer` without waiting; the caller
+    /// keeps `data` alive and unchanged until the queue is next synchronised.
+    pub fn write_async<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        // SAFETY: see the contract above; the in-order queue finishes this
+        // write before any later command reads the buffer.
+        unsafe {
+            cl(
+                "clEnqueueWriteBuffer",
+                self.queue
+                    .enqueue_write_buffer(buffer, CL_NON_BLOCKING, 0, data, &[]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Reads the first `out.len()` elements of `buffer`, blocking.
+    pub fn read<T>(&self, buffer: &Buffer<T>, out: &mut [T]) -> Result<()> {
+        if out.is_empty() {
+            return Ok(());
+        }
+        // SAFETY: blocking read into a live slice no longer than the buffer.
+        unsafe {
+            cl(
+                "clEnqueueReadBuffer",
+                self.queue
+                    .enqueue_read_buffer(buffer, CL_BLOCKING, 0, out, &[]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Launches `kernel` over `groups` work-groups of `local` items, timed
+    /// under `stage`. Nothing is launched for zero groups.
+    pub fn launch(
+        &self,
+        stage: &'static str,
+        kernel: &Kernel,
+        groups: usize,
+        local: usize,
+        args: &[Arg],
+    ) -> Result<()> {
+        if groups == 0 {
+            return Ok(());
+        }
+        let mut exec = ExecuteKernel::new(kernel);
+        for arg in args {
+            // SAFETY: scalar arguments are plain values matching the kernel's
+            // declared types; local sizes allocate local memory.
+            unsafe {
+                match arg {
+                    Arg::Buf(b) => b.set(&mut exec),
+                    Arg::U32(v) => {
+                        exec.set_arg(v);
+                    }
+                    Arg::I32(v) => {
+                        exec.set_arg(v);
+                    }
+                    Arg::F32(v) => {
+                        exec.set_arg(v);
+                    }
+                    Arg::Local(bytes) => {
+                        exec.set_arg_local_buffer(*bytes);
+                    }
+                }
+            }
+        }
+        exec.set_global_work_size(groups * local)
+            .set_local_work_size(local);
+        // SAFETY: arguments are set above; buffers outlive the queue's use of
+        // them because callers synchronise before dropping them.
+        let event = unsafe { cl(stage, exec.enqueue_nd_range(&self.queue))? };
+        self.pending.borrow_mut().push((stage, event));
+        Ok(())
+    }
+
+    /// Waits for the queue and folds finished launches into the timings.
+    pub fn finish(&self) -> Result<()> {
+        cl("clFinish", self.queue.finish())?;
+        let mut timings = self.timings.borrow_mut();
+        for (stage, event) in self.pending.borrow_mut().drain(..) {
+            let start = cl("profiling", event.profiling_command_start())?;
+            let end = cl("profiling", event.profiling_command_end())?;
+            *timings.by_stage.entry(stage.to_owned()).or_default() +=
+                end.saturating_sub(start) as f64 * 1e-6;
+            timings.launches += 1;
+        }
+        Ok(())
+    }
+
+    /// Returns and clears the accumulated timings (after a `finish`).
+    pub fn take_timings(&self) -> Result<Timings> {
+        self.finish()?;
+        Ok(std::mem::take(&mut *self.timings.borrow_mut()))
+    }
+
+    /// Events are only needed for profiling; a raw list is exposed for the
+    /// rare caller that must wait on one launch.
+    pub fn pending_events(&self) -> Vec<cl_event> {
+        self.pending.borrow().iter().map(|(_, e)| e.get()).collect()
+    }
+}
+
+/// The build options, assembled in one place. Fast-relaxed math is never
+/// used: frames must be reproducible and the builder must agree bit for bit
+/// with its Rust reference. Contraction into FMA is switched off in the
+/// sources themselves (`#pragma OPENCL FP_CONTRACT OFF`).
+pub fn build_options(defines: &[(&str, String)]) -> String {
+    let mut options = String::from("-cl-std=CL1.2");
+    for (name, value) in defines {
+        options.push_str(&format!(" -D {name}={value}"));
+    }
+    options
+}
+
+/// The entry file's text with each `#include "x.h"` replaced by that
+/// embedded header, wrapped in `#line` markers so that compiler messages
+/// name the original file and line. Each header is inlined once.
+pub fn assemble_source(entry: &str) -> String {
+    fn inline(name: &str, out: &mut String, seen: &mut Vec<String>) {
+        if seen.iter().any(|s| s == name) {
+            return;
+        }
+        seen.push(name.to_owned());
+        let Some((_, text)) = KERNEL_SOURCES.iter().find(|(n, _)| *n == name) else {
+            out.push_str(&format!(
+                "#error \"missing embedded kernel source {name}\"\n"
+            ));
+            return;
+        };
+        out.push_str(&format!("#line 1 \"{name}\"\n"));
+        for (i, line) in text.lines().enumerate() {
+            let trimmed = line.trim_start();
+            if let Some(rest) = trimmed.strip_prefix("#include \"") {
+                let header = rest.trim_end_matches('"');
+                inline(header, out, seen);
+                out.push_str(&format!("#line {} \"{name}\"\n", i + 2));
+            } else {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    let mut out = String::new();
+    inline(entry, &mut out, &mut Vec::new());
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_are_inlined_once_with_line_markers() {
+        let src = assemble_source("bvh_build.cl");
+        assert!(src.contains("#line 1 \"bvh_types.h\""));
+        assert!(src.contains("#line 1 \"bvh_common.h\""));
+        assert_eq!(src.matches("#line 1 \"bvh_types.h\"").count(), 1);
+        assert!(!src.contains("#include \"bvh_types.h\""));
+    }
+
+    #[test]
+    fn build_options_have_no_relaxed_math() {
+        let o = build_options(&[("BINS", "16".into())]);
+        assert!(o.contains("-D BINS=16"));
+        assert!(!o.contains("fast-relaxed"));
+    }
+}

@@ -1,0 +1,82 @@
+//! The `soupray` binary: parses the command line and hands each command to
+//! the library. Exit codes are documented in `--help` and the README.
+
+use clap::{Parser, Subcommand};
+use soupray::{cli_bvh, cli_scene};
+use std::process::ExitCode;
+
+const EXIT_CODES: &str = "\
+Exit codes:
+  0    success: everything requested was done
+  1    any other failure
+  2    usage error (bad flags or values)
+  3    OpenCL device set-up failed (no platform, no matching device, kernel build)
+  4    the input could not be read (missing, malformed or unsupported scene or mesh)
+  5    a frame failed
+  130  interrupted (SIGINT); 143 terminated (SIGTERM)";
+
+/// soupray: an offline path tracer for glTF animations.
+///
+/// Each frame is evaluated into a world-space triangle soup, a full
+/// binned-SAH BVH is rebuilt from it on an OpenCL device (PoCL on the CPU,
+/// or a GPU's driver), and the frame is traced.
+#[derive(Parser, Debug)]
+#[command(name = "soupray", version, after_help = EXIT_CODES, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    Devices(cli_bvh::DevicesArgs),
+    Bvh(cli_bvh::BvhArgs),
+    Info(cli_scene::InfoArgs),
+    Soup(cli_scene::SoupArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let result = match &cli.command {
+        Command::Devices(a) => cli_bvh::run_devices(a),
+        Command::Bvh(a) => cli_bvh::run_bvh(a),
+        Command::Info(a) => cli_scene::run_info(a),
+        Command::Soup(a) => cli_scene::run_soup(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("soupray: error: {e:#}");
+            ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
+/// The exit code for an error, from the kind of failure in its chain.
+fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause.is::<soupray::UsageError>() {
+            return 2;
+        }
+        if cause.is::<soupray::device::DeviceError>() {
+            return 3;
+        }
+        if let Some(b) = cause.downcast_ref::<soupray::bvh::binned::BuildError>() {
+            return match b {
+                soupray::bvh::binned::BuildError::Device(_) => 3,
+                soupray::bvh::binned::BuildError::Params(_) => 2,
+                _ => 5,
+            };
+        }
+        if cause.is::<soupray::scene::SceneError>() || cause.is::<soupray::ply::PlyError>() {
+            return 4;
+        }
+    }
+    1
+}

@@ -1,0 +1,458 @@
+//! Building a [`Scene`] from a file: the node hierarchy (checked to be a
+//! forest), the chosen scene, animation and camera, meshes, skins, lights
+//! and materials. Everything that does not depend on time is settled here
+//! so that evaluating a frame cannot fail on the file's structure.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use glam::{Mat4, Quat, Vec3};
+
+use super::accessor::Reader;
+use super::animation::load_clip;
+use super::camera::load_camera;
+use super::error::{Result, SceneError};
+use super::light::load_light;
+use super::material::{load_materials, Material};
+use super::mesh::{load_mesh, Skipped};
+use super::source;
+use super::{LoadOptions, MeshInstance, Node, Scene, Skin, Trs};
+
+pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let file = path.display().to_string();
+    if !(opts.fps.is_finite() && opts.fps > 0.0) {
+        return Err(SceneError::selection(
+            &file,
+            format!(
+                "--fps {} is not a positive number of frames per second. Fix: pass e.g. --fps 24.",
+                opts.fps
+            ),
+        ));
+    }
+    let src = source::load(path)?;
+    let doc = &src.document;
+    let reader = Reader { src: &src };
+    let mut warnings = Vec::new();
+
+    let nodes = load_nodes(&file, doc)?;
+    let node_order = order_nodes(&file, &nodes)?;
+
+    let label_of = |i: usize| match &nodes[i].name {
+        Some(n) => format!("node {i} \"{n}\""),
+        None => format!("node {i}"),
+    };
+
+    // The scene: explicit, else the file's default, else scene 0; a file
+    // without scenes shows every root node.
+    let scene_count = doc.scenes().count();
+    let scene_index = match opts.scene {
+        Some(s) if s >= scene_count => {
+            return Err(SceneError::selection(
+                &file,
+                format!(
+                    "--scene {s} does not exist: the file has {scene_count} scene(s) (0..{}). Fix: pass a valid index, \
+                     or see `soupray info` for the list.",
+                    scene_count.saturating_sub(1)
+                ),
+            ))
+        }
+        Some(s) => Some(s),
+        None => doc.default_scene().map(|s| s.index()).or((scene_count > 0).then_some(0)),
+    };
+    let roots: Vec<usize> = match scene_index.and_then(|s| doc.scenes().nth(s)) {
+        Some(scene) => scene.nodes().map(|n| n.index()).collect(),
+        None => {
+            if !nodes.is_empty() {
+                warnings.push("the file defines no scene; every root node is shown".to_owned());
+            }
+            (0..nodes.len())
+                .filter(|&n| nodes[n].parent.is_none())
+                .collect()
+        }
+    };
+    for &r in &roots {
+        if let Some(p) = nodes[r].parent {
+            return Err(SceneError::invalid(
+                &file,
+                format!(
+                    "{} is a root of scene {} but also a child of {}; glTF requires scene roots to have no parent. \
+                     Fix: re-export the scene.",
+                    label_of(r),
+                    scene_index.unwrap_or(0),
+                    label_of(p)
+                ),
+            ));
+        }
+    }
+    let mut scene_nodes = Vec::new();
+    let mut stack: Vec<usize> = roots.iter().rev().copied().collect();
+    while let Some(n) = stack.pop() {
+        scene_nodes.push(n);
+        stack.extend(nodes[n].children.iter().rev().copied());
+    }
+
+    // Meshes.
+    let sanitize = opts.sanitize;
+    let mut skipped = Skipped::default();
+    let mut meshes = Vec::new();
+    for mesh in doc.meshes() {
+        meshes.push(load_mesh(
+            &reader,
+            &mesh,
+            sanitize,
+            &mut skipped,
+            &mut warnings,
+        )?);
+    }
+    if !skipped.by_mode.is_empty() {
+        let mut modes: Vec<&str> = skipped.by_mode.iter().map(|(m, _)| *m).collect();
+        modes.sort_unstable();
+        modes.dedup();
+        let places: Vec<&str> = skipped.by_mode.iter().map(|(_, w)| w.as_str()).collect();
+        warnings.push(format!(
+            "skipped {} {} primitive(s) ({}): soupray traces triangles only",
+            skipped.by_mode.len(),
+            modes.join("/"),
+            places.join(", ")
+        ));
+    }
+
+    // Skins.
+    let mut skins = Vec::new();
+    for skin in doc.skins() {
+        let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
+        let joint_from_bind = match skin.inverse_bind_matrices() {
+            Some(acc) => {
+                let usage = format!("inverse bind matrices of skin {}", skin.index());
+                let m = reader.mat4s(&acc, &usage)?;
+                if m.len() < joints.len() {
+                    return Err(reader.error(
+                        &acc,
+                        &usage,
+                        format!(
+                            "has {} matrices but the skin has {} joints. Fix: re-export the skin.",
+                            m.len(),
+                            joints.len()
+                        ),
+                    ));
+                }
+                m
+            }
+            None => vec![Mat4::IDENTITY; joints.len()],
+        };
+        skins.push(Skin {
+            name: skin.name().map(str::to_owned),
+            joints,
+            joint_from_bind,
+        });
+    }
+
+    // Mesh instances of the scene, with their skins checked against the
+    // joint numbers their vertices use.
+    let mut instances = Vec::new();
+    for &n in &scene_nodes {
+        let Some(mesh) = nodes[n].mesh else { continue };
+        let skinned = meshes[mesh]
+            .primitives
+            .iter()
+            .any(|p| p.influences.is_some());
+        let skin = match (nodes[n].skin, skinned) {
+            (Some(s), true) => Some(s),
+            (Some(_), false) => {
+                warnings.push(format!(
+                    "{} has a skin but its mesh has no JOINTS_0/WEIGHTS_0; it is drawn unskinned",
+                    label_of(n)
+                ));
+                None
+            }
+            (None, _) => None,
+        };
+        if let Some(s) = skin {
+            let joint_count = skins[s].joints.len() as u32;
+            for p in &meshes[mesh].primitives {
+                let Some(inf) = &p.influences else { continue };
+                let bad = inf
+                    .joints
+                    .iter()
+                    .zip(&inf.weights)
+                    .position(|(&j, &w)| j >= joint_count && w != 0.0);
+                if let Some(slot) = bad {
+                    let set = (slot % inf.slots_per_vertex()) / 4;
+                    let acc = doc
+                        .meshes()
+                        .nth(mesh)
+                        .and_then(|m| m.primitives().nth(p.index_in_mesh))
+                        .and_then(|pr| pr.get(&gltf::Semantic::Joints(set as u32)));
+                    let usage =
+                        format!("JOINTS_{set} of mesh {mesh} primitive {}", p.index_in_mesh);
+                    let problem = format!(
+                        "vertex {} uses joint {}, but skin {s} (used by {}) has only {joint_count} joints. \
+                         Fix: re-export the skinned mesh with its skin.",
+                        slot / inf.slots_per_vertex(),
+                        inf.joints[slot],
+                        label_of(n)
+                    );
+                    return Err(match acc {
+                        Some(acc) => reader.error(&acc, &usage, problem),
+                        None => SceneError::invalid(&file, format!("{usage}: {problem}")),
+                    });
+                }
+            }
+        }
+        if let Some(w) = &nodes[n].weights {
+            if w.len() != meshes[mesh].target_count {
+                return Err(SceneError::invalid(
+                    &file,
+                    format!(
+                        "{} has {} morph weights but its mesh has {} morph targets. Fix: re-export the scene.",
+                        label_of(n),
+                        w.len(),
+                        meshes[mesh].target_count
+                    ),
+                ));
+            }
+        }
+        instances.push(MeshInstance {
+            node: n,
+            mesh,
+            skin,
+        });
+    }
+
+    // Animations: all are read (for `info`), one is applied.
+    let mut clips = Vec::new();
+    for anim in doc.animations() {
+        let targets_of = |node: usize| nodes[node].mesh.map_or(0, |m| meshes[m].target_count);
+        clips.push(load_clip(&reader, &anim, &targets_of, &mut warnings)?);
+    }
+    let clip = select_clip(&file, &clips, opts.animation.as_deref())?;
+    if let Some(c) = clip {
+        for ch in &clips[c].channels {
+            if nodes[ch.node].rest_matrix.is_some() && ch.property != super::Property::Weights {
+                warnings.push(format!(
+                    "{} is animated but defines its rest pose by `matrix`, which glTF forbids for animated nodes; \
+                     the matrix is decomposed into TRS",
+                    label_of(ch.node)
+                ));
+            }
+        }
+    }
+
+    // Cameras and lights placed in the scene.
+    let cameras: Vec<_> = doc.cameras().map(|c| load_camera(&c)).collect();
+    let camera_nodes: Vec<(usize, usize)> = scene_nodes
+        .iter()
+        .filter_map(|&n| nodes[n].camera.map(|c| (n, c)))
+        .collect();
+    let camera_instance = match &opts.camera {
+        None => camera_nodes.first().copied(),
+        Some(want) => {
+            let by_name = camera_nodes.iter().find(|&&(n, c)| {
+                cameras[c].name.as_deref() == Some(want.as_str())
+                    || nodes[n].name.as_deref() == Some(want.as_str())
+            });
+            let by_index = || {
+                want.parse::<usize>()
+                    .ok()
+                    .and_then(|i| camera_nodes.iter().find(|&&(_, c)| c == i))
+            };
+            match by_name.or_else(by_index) {
+                Some(&found) => Some(found),
+                None => {
+                    let listed: Vec<String> = camera_nodes
+                        .iter()
+                        .map(|&(n, c)| {
+                            format!(
+                                "{c} \"{}\" on {}",
+                                cameras[c].name.as_deref().unwrap_or(""),
+                                label_of(n)
+                            )
+                        })
+                        .collect();
+                    return Err(SceneError::selection(
+                        &file,
+                        format!(
+                            "--camera {want} matches no camera placed in the scene ({}). Fix: pass one of those names \
+                             or indices, or omit --camera to {}.",
+                            if listed.is_empty() { "the scene has none".to_owned() } else { listed.join("; ") },
+                            if listed.is_empty() { "use the default framing camera" } else { "use the first" }
+                        ),
+                    ));
+                }
+            }
+        }
+    };
+    let lights: Vec<_> = doc
+        .lights()
+        .map(|ls| ls.map(|l| load_light(&l)).collect())
+        .unwrap_or_default();
+    let light_instances = scene_nodes
+        .iter()
+        .filter_map(|&n| nodes[n].light.map(|l| (n, l)))
+        .filter(|&(_, l)| l < lights.len())
+        .collect();
+
+    // Materials, with the glTF default material appended for primitives
+    // that name none, so every triangle's id indexes the table.
+    let mut materials = load_materials(&src)?;
+    let needs_default = instances
+        .iter()
+        .flat_map(|i| &meshes[i.mesh].primitives)
+        .any(|p| p.material.is_none());
+    if needs_default {
+        materials.default_material = Some(materials.materials.len() as u32);
+        materials.materials.push(Material::default());
+    }
+
+    let instanced = || instances.iter().flat_map(|i| &meshes[i.mesh].primitives);
+    let soup_has_normals = instanced().any(|p| p.normals.is_some());
+    let soup_has_uvs = instanced().any(|p| p.uvs.is_some());
+
+    Ok(Scene {
+        file,
+        options: opts.clone(),
+        node_order,
+        scene_index,
+        scene_count,
+        instances,
+        meshes,
+        skins,
+        clips,
+        clip,
+        cameras,
+        camera_instance,
+        lights,
+        light_instances,
+        materials,
+        warnings,
+        extensions_used: doc.extensions_used().map(str::to_owned).collect(),
+        extensions_required: doc.extensions_required().map(str::to_owned).collect(),
+        soup_has_normals,
+        soup_has_uvs,
+        clip_bounds: OnceLock::new(),
+        nodes,
+    })
+}
+
+fn load_nodes(file: &str, doc: &gltf::Document) -> Result<Vec<Node>> {
+    let mut nodes: Vec<Node> = doc
+        .nodes()
+        .map(|n| {
+            let (rest, rest_matrix) = match n.transform() {
+                gltf::scene::Transform::Matrix { matrix } => {
+                    let m = Mat4::from_cols_array_2d(&matrix);
+                    let (scale, rotation, translation) = m.to_scale_rotation_translation();
+                    (
+                        Trs {
+                            translation,
+                            rotation,
+                            scale,
+                        },
+                        Some(m),
+                    )
+                }
+                gltf::scene::Transform::Decomposed {
+                    translation,
+                    rotation,
+                    scale,
+                } => (
+                    Trs {
+                        translation: Vec3::from(translation),
+                        // The spec requires unit quaternions; normalising
+                        // forgives exporters' rounding.
+                        rotation: Quat::from_array(rotation).normalize(),
+                        scale: Vec3::from(scale),
+                    },
+                    None,
+                ),
+            };
+            Node {
+                name: n.name().map(str::to_owned),
+                parent: None,
+                children: n.children().map(|c| c.index()).collect(),
+                rest,
+                rest_matrix,
+                mesh: n.mesh().map(|m| m.index()),
+                skin: n.skin().map(|s| s.index()),
+                camera: n.camera().map(|c| c.index()),
+                light: n.light().map(|l| l.index()),
+                weights: n.weights().map(<[f32]>::to_vec),
+            }
+        })
+        .collect();
+    for p in 0..nodes.len() {
+        for c in nodes[p].children.clone() {
+            if let Some(other) = nodes[c].parent {
+                return Err(SceneError::invalid(
+                    file,
+                    format!(
+                        "node {c} is a child of both node {other} and node {p}; glTF node hierarchies must be trees. \
+                         Fix: re-export the scene."
+                    ),
+                ));
+            }
+            nodes[c].parent = Some(p);
+        }
+        let rest = &nodes[p].rest;
+        if !(rest.translation.is_finite() && rest.rotation.is_finite() && rest.scale.is_finite())
+            || nodes[p].rest_matrix.is_some_and(|m| !m.is_finite())
+        {
+            return Err(SceneError::invalid(
+                file,
+                format!("node {p} has a non-finite transform. Fix: re-export the scene."),
+            ));
+        }
+    }
+    Ok(nodes)
+}
+
+/// Parents before children; a node left out is on a cycle.
+fn order_nodes(file: &str, nodes: &[Node]) -> Result<Vec<usize>> {
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut stack: Vec<usize> = (0..nodes.len())
+        .rev()
+        .filter(|&n| nodes[n].parent.is_none())
+        .collect();
+    while let Some(n) = stack.pop() {
+        order.push(n);
+        stack.extend(nodes[n].children.iter().rev().copied());
+    }
+    if order.len() != nodes.len() {
+        let mut seen = vec![false; nodes.len()];
+        for &n in &order {
+            seen[n] = true;
+        }
+        let on_cycle = seen.iter().position(|s| !s).unwrap_or(0);
+        return Err(SceneError::invalid(
+            file,
+            format!("node {on_cycle} is part of a cycle in the node hierarchy. Fix: re-export the scene."),
+        ));
+    }
+    Ok(order)
+}
+
+fn select_clip(file: &str, clips: &[super::Clip], want: Option<&str>) -> Result<Option<usize>> {
+    let Some(want) = want else {
+        return Ok((!clips.is_empty()).then_some(0));
+    };
+    if let Some(c) = clips.iter().position(|c| c.name.as_deref() == Some(want)) {
+        return Ok(Some(c));
+    }
+    if let Ok(i) = want.parse::<usize>() {
+        if i < clips.len() {
+            return Ok(Some(i));
+        }
+    }
+    let listed: Vec<String> = clips
+        .iter()
+        .map(|c| format!("{} \"{}\"", c.index, c.name.as_deref().unwrap_or("")))
+        .collect();
+    Err(SceneError::selection(
+        file,
+        format!(
+            "--animation {want} matches no animation ({}). Fix: pass one of those names or indices{}.",
+            if listed.is_empty() { "the file has none".to_owned() } else { listed.join(", ") },
+            if listed.is_empty() { ", or omit --animation" } else { "" }
+        ),
+    ))
+}

@@ -1,0 +1,454 @@
+//! The material table the renderer shades with: metallic-roughness factors
+//! and textures, normal and occlusion maps, emission (with
+//! KHR_materials_emissive_strength), alpha mode, double-sidedness and
+//! KHR_texture_transform. Images are kept as handles and decoded only when
+//! asked for, so scenes whose textures nobody samples never pay for them.
+
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+
+use glam::Mat3;
+
+use super::error::{Result, SceneError};
+use super::source::{decode_base64, resolve_uri, Source};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlphaMode {
+    Opaque,
+    Mask,
+    Blend,
+}
+
+/// KHR_texture_transform: `uv' = T(offset) * R(rotation) * S(scale) * uv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureTransform {
+    pub offset: [f32; 2],
+    pub rotation: f32,
+    pub scale: [f32; 2],
+    /// Overrides the reference's `texCoord` when present.
+    pub tex_coord: Option<u32>,
+}
+
+impl TextureTransform {
+    /// The 3x3 matrix the extension specifies, applied to `(u, v, 1)`.
+    pub fn matrix(&self) -> Mat3 {
+        let (s, c) = self.rotation.sin_cos();
+        let translation = Mat3::from_cols_array(&[
+            1.0,
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+            0.0,
+            self.offset[0],
+            self.offset[1],
+            1.0,
+        ]);
+        // Column by column, as the extension's GLSL `mat3(c, s, 0, -s, c, 0, 0, 0, 1)`.
+        let rotation = Mat3::from_cols_array(&[c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0]);
+        let scale = Mat3::from_diagonal(glam::Vec3::new(self.scale[0], self.scale[1], 1.0));
+        translation * rotation * scale
+    }
+}
+
+/// A material's use of a texture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`MaterialTable::textures`].
+    pub texture: usize,
+    /// Which TEXCOORD_n set (after any transform override).
+    pub tex_coord: u32,
+    pub transform: Option<TextureTransform>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub name: Option<String>,
+    pub base_color_factor: [f32; 4],
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic_factor: f32,
+    pub roughness_factor: f32,
+    /// Roughness in G, metalness in B.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    pub occlusion_texture: Option<TextureRef>,
+    pub occlusion_strength: f32,
+    pub emissive_factor: [f32; 3],
+    /// KHR_materials_emissive_strength multiplier (1 without the extension).
+    pub emissive_strength: f32,
+    pub emissive_texture: Option<TextureRef>,
+    pub alpha_mode: AlphaMode,
+    pub alpha_cutoff: f32,
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// The glTF default material: every property at its specification
+    /// default (base colour 1, metallic 1, roughness 1, opaque, one-sided).
+    fn default() -> Self {
+        Material {
+            name: None,
+            base_color_factor: [1.0; 4],
+            base_color_texture: None,
+            metallic_factor: 1.0,
+            roughness_factor: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive_factor: [0.0; 3],
+            emissive_strength: 1.0,
+            emissive_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    pub fn texture_refs(&self) -> impl Iterator<Item = &TextureRef> {
+        [
+            &self.base_color_texture,
+            &self.metallic_roughness_texture,
+            &self.normal_texture,
+            &self.occlusion_texture,
+            &self.emissive_texture,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    pub fn is_textured(&self) -> bool {
+        self.texture_refs().next().is_some()
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wrap {
+    Repeat,
+    ClampToEdge,
+    MirroredRepeat,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Filter {
+    Nearest,
+    Linear,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Texture {
+    pub name: Option<String>,
+    /// Index into [`MaterialTable::images`].
+    pub image: usize,
+    pub wrap_s: Wrap,
+    pub wrap_t: Wrap,
+    pub mag_filter: Filter,
+    pub min_filter: Filter,
+}
+
+/// Where an image's encoded bytes are.
+#[derive(Debug, Clone)]
+pub enum ImageSource {
+    File(PathBuf),
+    Bytes(Arc<[u8]>),
+}
+
+/// Decoded pixels, RGBA8, rows top to bottom.
+#[derive(Debug, Clone)]
+pub struct DecodedImage {
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+#[derive(Debug)]
+pub struct Image {
+    pub name: Option<String>,
+    pub source: ImageSource,
+    file: String,
+    decoded: OnceLock<std::result::Result<Arc<DecodedImage>, String>>,
+}
+
+impl Image {
+    /// The pixels, decoded on first use and cached.
+    pub fn decoded(&self, index: usize) -> Result<Arc<DecodedImage>> {
+        self.decoded
+            .get_or_init(|| self.decode())
+            .clone()
+            .map_err(|problem| SceneError::Invalid {
+                file: self.file.clone(),
+                detail: format!(
+                    "image {index}{}: {problem}",
+                    self.name
+                        .as_deref()
+                        .map(|n| format!(" \"{n}\""))
+                        .unwrap_or_default()
+                ),
+            })
+    }
+
+    fn decode(&self) -> std::result::Result<Arc<DecodedImage>, String> {
+        let bytes: std::borrow::Cow<[u8]> = match &self.source {
+            ImageSource::File(path) => std::fs::read(path)
+                .map_err(|e| {
+                    format!(
+                        "cannot read {} ({e}). Fix: put the image next to the .gltf file.",
+                        path.display()
+                    )
+                })?
+                .into(),
+            ImageSource::Bytes(b) => (&b[..]).into(),
+        };
+        let img = image::load_from_memory(&bytes)
+            .map_err(|e| format!("cannot be decoded ({e}); soupray reads PNG and JPEG. Fix: re-export the texture as PNG or JPEG."))?;
+        let rgba = img.to_rgba8();
+        Ok(Arc::new(DecodedImage {
+            width: rgba.width(),
+            height: rgba.height(),
+            rgba8: rgba.into_raw(),
+        }))
+    }
+}
+
+/// Everything a renderer needs to shade: materials indexed by the soup's
+/// per-triangle material ids, and the textures and images they use.
+#[derive(Debug, Default)]
+pub struct MaterialTable {
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub images: Vec<Image>,
+    /// Index of the appended glTF default material, used by primitives that
+    /// name no material (present only when some primitive needs it).
+    pub default_material: Option<u32>,
+}
+
+impl MaterialTable {
+    pub fn has_textured_materials(&self) -> bool {
+        self.materials.iter().any(Material::is_textured)
+    }
+
+    /// Decodes every image some material uses (and no other), so that
+    /// rendering never stops half-way on a bad texture.
+    pub fn decode_used_images(&self) -> Result<()> {
+        for m in &self.materials {
+            for r in m.texture_refs() {
+                let image = self.textures[r.texture].image;
+                self.images[image].decoded(image)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn parse_transform(value: Option<&serde_json::Value>) -> Option<TextureTransform> {
+    let v = value?;
+    let pair = |key: &str, default: [f32; 2]| {
+        v.get(key)
+            .and_then(|a| a.as_array())
+            .and_then(|a| Some([a.first()?.as_f64()? as f32, a.get(1)?.as_f64()? as f32]))
+            .unwrap_or(default)
+    };
+    Some(TextureTransform {
+        offset: pair("offset", [0.0, 0.0]),
+        rotation: v.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32,
+        scale: pair("scale", [1.0, 1.0]),
+        tex_coord: v.get("texCoord").and_then(|t| t.as_u64()).map(|t| t as u32),
+    })
+}
+
+fn texture_ref(
+    texture: usize,
+    tex_coord: u32,
+    transform_json: Option<&serde_json::Value>,
+) -> TextureRef {
+    let transform = parse_transform(transform_json);
+    TextureRef {
+        texture,
+        tex_coord: transform.and_then(|t| t.tex_coord).unwrap_or(tex_coord),
+        transform,
+    }
+}
+
+/// The `KHR_texture_transform` object of a material's texture slot, read
+/// from the raw JSON (`slot` is a path such as `["pbrMetallicRoughness",
+/// "baseColorTexture"]`).
+fn transform_json<'j>(
+    src: &'j Source,
+    material: usize,
+    slot: &[&str],
+) -> Option<&'j serde_json::Value> {
+    let mut v = src.json.get("materials")?.get(material)?;
+    for key in slot {
+        v = v.get(key)?;
+    }
+    v.get("extensions")?.get("KHR_texture_transform")
+}
+
+fn info_ref(
+    src: &Source,
+    material: usize,
+    slot: &[&str],
+    info: Option<gltf::texture::Info>,
+) -> Option<TextureRef> {
+    let info = info?;
+    Some(texture_ref(
+        info.texture().index(),
+        info.tex_coord(),
+        transform_json(src, material, slot),
+    ))
+}
+
+pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
+    let doc = &src.document;
+    let mut materials = Vec::new();
+    for m in doc.materials() {
+        let i = m.index().unwrap_or(0);
+        let pbr = m.pbr_metallic_roughness();
+        let normal = m.normal_texture();
+        let occlusion = m.occlusion_texture();
+        materials.push(Material {
+            name: m.name().map(str::to_owned),
+            base_color_factor: pbr.base_color_factor(),
+            base_color_texture: info_ref(
+                src,
+                i,
+                &["pbrMetallicRoughness", "baseColorTexture"],
+                pbr.base_color_texture(),
+            ),
+            metallic_factor: pbr.metallic_factor(),
+            roughness_factor: pbr.roughness_factor(),
+            metallic_roughness_texture: info_ref(
+                src,
+                i,
+                &["pbrMetallicRoughness", "metallicRoughnessTexture"],
+                pbr.metallic_roughness_texture(),
+            ),
+            normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
+            normal_texture: normal.as_ref().map(|n| {
+                texture_ref(
+                    n.texture().index(),
+                    n.tex_coord(),
+                    transform_json(src, i, &["normalTexture"]),
+                )
+            }),
+            occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
+            occlusion_texture: occlusion.as_ref().map(|o| {
+                texture_ref(
+                    o.texture().index(),
+                    o.tex_coord(),
+                    transform_json(src, i, &["occlusionTexture"]),
+                )
+            }),
+            emissive_factor: m.emissive_factor(),
+            emissive_strength: m.emissive_strength().unwrap_or(1.0),
+            emissive_texture: info_ref(src, i, &["emissiveTexture"], m.emissive_texture()),
+            alpha_mode: match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
+            double_sided: m.double_sided(),
+        });
+    }
+
+    let wrap = |w: gltf::texture::WrappingMode| match w {
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+    };
+    let textures = doc
+        .textures()
+        .map(|t| {
+            let s = t.sampler();
+            Texture {
+                name: t.name().map(str::to_owned),
+                image: t.source().index(),
+                wrap_s: wrap(s.wrap_s()),
+                wrap_t: wrap(s.wrap_t()),
+                mag_filter: match s.mag_filter() {
+                    Some(gltf::texture::MagFilter::Nearest) => Filter::Nearest,
+                    _ => Filter::Linear,
+                },
+                min_filter: match s.min_filter() {
+                    Some(gltf::texture::MinFilter::Nearest)
+                    | Some(gltf::texture::MinFilter::NearestMipmapNearest)
+                    | Some(gltf::texture::MinFilter::NearestMipmapLinear) => Filter::Nearest,
+                    _ => Filter::Linear,
+                },
+            }
+        })
+        .collect();
+
+    let mut images = Vec::new();
+    for img in doc.images() {
+        let source = match img.source() {
+            gltf::image::Source::Uri { uri, .. } => match uri.strip_prefix("data:") {
+                Some(rest) => {
+                    let payload = rest.split_once(',').map_or("", |(_, p)| p);
+                    ImageSource::Bytes(decode_base64(payload).unwrap_or_default().into())
+                }
+                None => ImageSource::File(resolve_uri(&src.dir, uri)),
+            },
+            gltf::image::Source::View { view, .. } => {
+                let data = &src.buffers[view.buffer().index()];
+                let end = view.offset().saturating_add(view.length());
+                if end > data.len() {
+                    return Err(SceneError::invalid(
+                        &src.file,
+                        format!(
+                            "image {} lies in bufferView {} (bytes {}..{end} of buffer {}), but the buffer holds only {} bytes. \
+                             Fix: re-export the asset or re-copy it completely.",
+                            img.index(),
+                            view.index(),
+                            view.offset(),
+                            view.buffer().index(),
+                            data.len()
+                        ),
+                    ));
+                }
+                ImageSource::Bytes(data[view.offset()..end].into())
+            }
+        };
+        images.push(Image {
+            name: img.name().map(str::to_owned),
+            source,
+            file: src.file.clone(),
+            decoded: OnceLock::new(),
+        });
+    }
+
+    Ok(MaterialTable {
+        materials,
+        textures,
+        images,
+        default_material: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_transform_matches_extension_example() {
+        // By hand from the extension's GLSL (column-major mat3 constructors):
+        // (1, 0) scaled by 2 is (2, 0); rotated by pi/2 it is 2 * first
+        // column (cos, sin) = (0, 2); offset (0.5, 0) gives (0.5, 2).
+        let t = TextureTransform {
+            offset: [0.5, 0.0],
+            rotation: std::f32::consts::FRAC_PI_2,
+            scale: [2.0, 2.0],
+            tex_coord: None,
+        };
+        let uv = t.matrix() * glam::Vec3::new(1.0, 0.0, 1.0);
+        assert!(
+            (uv.x - 0.5).abs() < 1e-6 && (uv.y - 2.0).abs() < 1e-6,
+            "{uv:?}"
+        );
+    }
+}

@@ -1,0 +1,448 @@
+//! Mesh primitives in bind (mesh) space, ready for the per-vertex pass:
+//! topology turned into a triangle list, attributes read and checked, morph
+//! target deltas, and joint influences from every JOINTS_n/WEIGHTS_n set.
+//! Nothing here depends on time.
+
+use glam::Vec3;
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use gltf::Semantic;
+
+use super::accessor::Reader;
+use super::error::Result;
+
+/// One mesh of the file.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    pub name: Option<String>,
+    pub primitives: Vec<Primitive>,
+    /// Number of morph targets (the same for every primitive, per spec).
+    pub target_count: usize,
+    /// `mesh.weights`, or zeros: the weights when neither node nor
+    /// animation says otherwise.
+    pub default_weights: Vec<f32>,
+}
+
+/// A triangle primitive in mesh space.
+#[derive(Debug, Clone)]
+pub struct Primitive {
+    /// Index of the primitive inside its mesh, for messages.
+    pub index_in_mesh: usize,
+    pub positions: Vec<Vec3>,
+    pub normals: Option<Vec<Vec3>>,
+    /// TEXCOORD_0.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Corner indices in the winding glTF defines for the source topology.
+    pub triangles: Vec<[u32; 3]>,
+    pub targets: Vec<MorphTarget>,
+    pub influences: Option<Influences>,
+    pub material: Option<usize>,
+}
+
+/// Per-vertex deltas of one morph target; absent attributes are all zero.
+#[derive(Debug, Clone, Default)]
+pub struct MorphTarget {
+    pub positions: Option<Vec<Vec3>>,
+    pub normals: Option<Vec<Vec3>>,
+}
+
+/// Joint influences of every vertex: `sets` groups of four (one group per
+/// JOINTS_n/WEIGHTS_n pair), stored vertex-major so vertex `v`'s slots are
+/// `v*4*sets .. (v+1)*4*sets`. Weights are renormalised to sum to one over
+/// all sets together.
+#[derive(Debug, Clone)]
+pub struct Influences {
+    pub sets: usize,
+    pub joints: Vec<u32>,
+    pub weights: Vec<f32>,
+}
+
+impl Influences {
+    pub fn slots_per_vertex(&self) -> usize {
+        4 * self.sets
+    }
+
+    /// The (joint, weight) slots of vertex `v`.
+    pub fn of_vertex(&self, v: usize) -> (&[u32], &[f32]) {
+        let n = self.slots_per_vertex();
+        (
+            &self.joints[v * n..(v + 1) * n],
+            &self.weights[v * n..(v + 1) * n],
+        )
+    }
+}
+
+impl Primitive {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+}
+
+pub(crate) fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Points => "POINTS",
+        Mode::Lines => "LINES",
+        Mode::LineLoop => "LINE_LOOP",
+        Mode::LineStrip => "LINE_STRIP",
+        Mode::Triangles => "TRIANGLES",
+        Mode::TriangleStrip => "TRIANGLE_STRIP",
+        Mode::TriangleFan => "TRIANGLE_FAN",
+    }
+}
+
+/// Triangles of a triangle-based topology, by the formulas of glTF 2.0
+/// §3.7.2.1 (strips alternate winding; fans pivot on the first vertex).
+pub fn assemble_triangles(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    let n = indices.len();
+    match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+        Mode::TriangleStrip if n >= 3 => (0..n - 2)
+            .map(|i| {
+                let odd = i % 2;
+                [indices[i], indices[i + 1 + odd], indices[i + 2 - odd]]
+            })
+            .collect(),
+        Mode::TriangleFan if n >= 3 => (0..n - 2)
+            .map(|i| [indices[i + 1], indices[i + 2], indices[0]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// What the loader did not turn into triangles, so it can warn once.
+#[derive(Default)]
+pub(crate) struct Skipped {
+    pub by_mode: Vec<(&'static str, String)>,
+}
+
+pub(crate) fn load_mesh(
+    reader: &Reader,
+    mesh: &gltf::Mesh,
+    sanitize: bool,
+    skipped: &mut Skipped,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh> {
+    let file = &reader.src.file;
+    let label = match mesh.name() {
+        Some(n) => format!("mesh {} \"{n}\"", mesh.index()),
+        None => format!("mesh {}", mesh.index()),
+    };
+    let mut primitives = Vec::new();
+    let mut target_count = None;
+    for prim in mesh.primitives() {
+        let where_ = format!("{label} primitive {}", prim.index());
+        let targets = prim.morph_targets().count();
+        match target_count {
+            None => target_count = Some(targets),
+            Some(t) if t != targets => {
+                return Err(super::error::SceneError::invalid(
+                    file,
+                    format!(
+                        "{where_} has {targets} morph targets but an earlier primitive of the mesh has {t}; \
+                         glTF requires the same count in every primitive. Fix: re-export the mesh."
+                    ),
+                ))
+            }
+            _ => {}
+        }
+        match prim.mode() {
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan => {}
+            other => {
+                skipped.by_mode.push((mode_name(other), where_));
+                continue;
+            }
+        }
+        match load_primitive(reader, &prim, &where_, sanitize, warnings)? {
+            Some(p) => primitives.push(p),
+            None => warnings.push(format!(
+                "{where_} has no POSITION attribute and is skipped, as glTF 2.0 §3.7.2.1 allows"
+            )),
+        }
+    }
+    let target_count = target_count.unwrap_or(0);
+    let default_weights = match mesh.weights() {
+        Some(w) if w.len() == target_count => w.to_vec(),
+        Some(w) => {
+            return Err(super::error::SceneError::invalid(
+                file,
+                format!(
+                    "{label} has {} default weights but {target_count} morph targets. Fix: re-export the mesh.",
+                    w.len()
+                ),
+            ))
+        }
+        None => vec![0.0; target_count],
+    };
+    Ok(Mesh {
+        name: mesh.name().map(str::to_owned),
+        primitives,
+        target_count,
+        default_weights,
+    })
+}
+
+fn load_primitive(
+    reader: &Reader,
+    prim: &gltf::Primitive,
+    where_: &str,
+    sanitize: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Primitive>> {
+    let Some(pos_acc) = prim.get(&Semantic::Positions) else {
+        return Ok(None);
+    };
+    let usage = |attr: &str| format!("{attr} of {where_}");
+    // Positions are float in core glTF 2.0; integer positions need
+    // KHR_mesh_quantization, which soupray refuses at load.
+    reader.expect(
+        &pos_acc,
+        &usage("POSITION"),
+        &[Dimensions::Vec3],
+        &[DataType::F32],
+    )?;
+    let positions = reader.vec3s(&pos_acc, &usage("POSITION"), !sanitize)?;
+    let vertex_count = positions.len();
+
+    let same_count = |acc: &gltf::Accessor, attr: &str| -> Result<()> {
+        if acc.count() != vertex_count {
+            return Err(reader.error(
+                acc,
+                &usage(attr),
+                format!(
+                    "has {} elements but POSITION (accessor {}) has {vertex_count}; every attribute of a \
+                     primitive needs one element per vertex. Fix: re-export the mesh.",
+                    acc.count(),
+                    pos_acc.index()
+                ),
+            ));
+        }
+        Ok(())
+    };
+
+    let normals = match prim.get(&Semantic::Normals) {
+        Some(acc) => {
+            reader.expect(
+                &acc,
+                &usage("NORMAL"),
+                &[Dimensions::Vec3],
+                &[DataType::F32],
+            )?;
+            same_count(&acc, "NORMAL")?;
+            Some(reader.vec3s(&acc, &usage("NORMAL"), !sanitize)?)
+        }
+        None => None,
+    };
+
+    let uvs = match prim.get(&Semantic::TexCoords(0)) {
+        Some(acc) => {
+            reader.expect(
+                &acc,
+                &usage("TEXCOORD_0"),
+                &[Dimensions::Vec2],
+                &[DataType::F32, DataType::U8, DataType::U16],
+            )?;
+            same_count(&acc, "TEXCOORD_0")?;
+            let flat = reader.floats(&acc, &usage("TEXCOORD_0"))?;
+            if !sanitize {
+                reader.check_finite(&acc, &usage("TEXCOORD_0"), &flat)?;
+            }
+            Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+        }
+        None => None,
+    };
+
+    let indices: Vec<u32> = match prim.indices() {
+        Some(acc) => {
+            let what = format!("indices of {where_}");
+            reader.expect(
+                &acc,
+                &what,
+                &[Dimensions::Scalar],
+                &[DataType::U8, DataType::U16, DataType::U32],
+            )?;
+            let indices = reader.uints(&acc, &what)?;
+            if let Some(at) = indices.iter().position(|&i| i as usize >= vertex_count) {
+                return Err(reader.error(
+                    &acc,
+                    &what,
+                    format!(
+                        "index {} at position {at} is out of range: the primitive has {vertex_count} vertices \
+                         (POSITION accessor {}). Fix: re-export the mesh; its index buffer does not match its \
+                         vertex data.",
+                        indices[at],
+                        pos_acc.index()
+                    ),
+                ));
+            }
+            indices
+        }
+        None => (0..vertex_count as u32).collect(),
+    };
+    if prim.mode() == Mode::Triangles && indices.len() % 3 != 0 {
+        warnings.push(format!(
+            "{where_} has {} indices, not a multiple of 3; the last {} are ignored",
+            indices.len(),
+            indices.len() % 3
+        ));
+    }
+    let triangles = assemble_triangles(prim.mode(), &indices);
+
+    let mut targets = Vec::new();
+    for (t, target) in prim.morph_targets().enumerate() {
+        let mut loaded = MorphTarget::default();
+        for (acc, attr, slot) in [
+            (target.positions(), "POSITION", &mut loaded.positions),
+            (target.normals(), "NORMAL", &mut loaded.normals),
+        ] {
+            if let Some(acc) = acc {
+                let what = format!("morph target {t} {attr}");
+                // Integer deltas need KHR_mesh_quantization; core glTF has floats.
+                reader.expect(&acc, &usage(&what), &[Dimensions::Vec3], &[DataType::F32])?;
+                same_count(&acc, &what)?;
+                *slot = Some(reader.vec3s(&acc, &usage(&what), !sanitize)?);
+            }
+        }
+        targets.push(loaded);
+    }
+
+    let influences = load_influences(reader, prim, where_, vertex_count, warnings)?;
+
+    Ok(Some(Primitive {
+        index_in_mesh: prim.index(),
+        positions,
+        normals,
+        uvs,
+        triangles,
+        targets,
+        influences,
+        material: prim.material().index(),
+    }))
+}
+
+fn load_influences(
+    reader: &Reader,
+    prim: &gltf::Primitive,
+    where_: &str,
+    vertex_count: usize,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Influences>> {
+    let mut sets = Vec::new();
+    loop {
+        let n = sets.len() as u32;
+        let (joints, weights) = (
+            prim.get(&Semantic::Joints(n)),
+            prim.get(&Semantic::Weights(n)),
+        );
+        let (joints, weights) = match (joints, weights) {
+            (Some(j), Some(w)) => (j, w),
+            (None, None) => break,
+            (j, _) => {
+                let missing = if j.is_some() { "WEIGHTS" } else { "JOINTS" };
+                return Err(super::error::SceneError::invalid(
+                    &reader.src.file,
+                    format!(
+                        "{where_} has {}_{n} without {missing}_{n}; skinning needs both. Fix: re-export the skinned mesh.",
+                        if j.is_some() { "JOINTS" } else { "WEIGHTS" }
+                    ),
+                ));
+            }
+        };
+        let j_usage = format!("JOINTS_{n} of {where_}");
+        let w_usage = format!("WEIGHTS_{n} of {where_}");
+        reader.expect(
+            &joints,
+            &j_usage,
+            &[Dimensions::Vec4],
+            &[DataType::U8, DataType::U16],
+        )?;
+        reader.expect(
+            &weights,
+            &w_usage,
+            &[Dimensions::Vec4],
+            &[DataType::F32, DataType::U8, DataType::U16],
+        )?;
+        for (acc, what) in [(&joints, &j_usage), (&weights, &w_usage)] {
+            if acc.count() != vertex_count {
+                return Err(reader.error(
+                    acc,
+                    what,
+                    format!(
+                        "has {} elements but the primitive has {vertex_count} vertices. Fix: re-export the skinned mesh.",
+                        acc.count()
+                    ),
+                ));
+            }
+        }
+        let j = reader.uints(&joints, &j_usage)?;
+        let w = reader.finite_floats(&weights, &w_usage)?;
+        if let Some(at) = w.iter().position(|&x| x < 0.0) {
+            return Err(reader.error(
+                &weights,
+                &w_usage,
+                format!(
+                    "element {} holds a negative weight {}. Fix: re-export the skinned mesh.",
+                    at / 4,
+                    w[at]
+                ),
+            ));
+        }
+        sets.push((j, w));
+    }
+    if sets.is_empty() {
+        return Ok(None);
+    }
+    let per_vertex = 4 * sets.len();
+    let mut joints = Vec::with_capacity(vertex_count * per_vertex);
+    let mut weights = Vec::with_capacity(vertex_count * per_vertex);
+    let mut unweighted = 0usize;
+    for v in 0..vertex_count {
+        let start = weights.len();
+        for (j, w) in &sets {
+            joints.extend_from_slice(&j[4 * v..4 * v + 4]);
+            weights.extend_from_slice(&w[4 * v..4 * v + 4]);
+        }
+        // Quantized weights rarely sum to exactly one; the spec asks for the
+        // sum to be one, so divide by it rather than trusting the file.
+        let sum: f64 = weights[start..].iter().map(|&x| x as f64).sum();
+        if sum > 0.0 {
+            for x in &mut weights[start..] {
+                *x = (*x as f64 / sum) as f32;
+            }
+        } else {
+            // A vertex with no weight would collapse to the origin; bind it
+            // rigidly to its first listed joint instead.
+            unweighted += 1;
+            weights[start] = 1.0;
+        }
+    }
+    if unweighted > 0 {
+        warnings.push(format!(
+            "{where_}: {unweighted} vertices have all skin weights zero; each is bound fully to its first listed joint"
+        ));
+    }
+    Ok(Some(Influences {
+        sets: sets.len(),
+        joints,
+        weights,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strip_alternates_winding_per_spec() {
+        let t = assemble_triangles(Mode::TriangleStrip, &[0, 1, 2, 3, 4]);
+        assert_eq!(t, vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]);
+    }
+
+    #[test]
+    fn fan_pivots_on_first_vertex_per_spec() {
+        let t = assemble_triangles(Mode::TriangleFan, &[0, 1, 2, 3]);
+        assert_eq!(t, vec![[1, 2, 0], [2, 3, 0]]);
+    }
+}

@@ -1,0 +1,316 @@
+//! The scene side of soupray: a glTF 2.0 file loaded once, then evaluated at
+//! any time into the exact world-space triangle soup the specification
+//! defines, together with the frame's camera and lights.
+//!
+//! Loading (`load`) reads and checks everything that does not depend on
+//! time. Each frame then runs in two stages that the OpenCL path mirrors:
+//! `pose` computes the per-frame data (node world matrices, joint matrices
+//! `world_from_joint * joint_from_bind`, morph weights) and `evaluate` runs
+//! the per-vertex pass of `deform` over every mesh instance.
+
+mod accessor;
+pub mod animation;
+pub mod camera;
+pub mod deform;
+pub mod error;
+mod evaluate;
+pub mod light;
+mod load;
+pub mod material;
+pub mod mesh;
+pub mod pose;
+mod source;
+
+use std::sync::OnceLock;
+
+use glam::{Mat4, Quat, Vec3};
+
+pub use animation::{Clip, Interpolation, Property};
+pub use camera::{CameraDef, FrameCamera, Projection};
+pub use error::SceneError;
+pub use evaluate::FrameSoup;
+pub use light::{FrameLight, LightDef, LightKind};
+pub use material::{AlphaMode, Material, MaterialTable, TextureRef, TextureTransform};
+pub use mesh::{Influences, Mesh, MorphTarget, Primitive};
+pub use pose::Pose;
+pub use source::SUPPORTED_EXTENSIONS;
+
+/// How to load a file and which of its contents to use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadOptions {
+    /// Index of the scene to use; `None` is the file's default scene.
+    pub scene: Option<usize>,
+    /// Animation name or index; `None` is animation 0 (when there is one).
+    pub animation: Option<String>,
+    /// Camera name (of the camera or of its node) or camera index; `None`
+    /// is the first camera found in the scene, or a framing default camera.
+    pub camera: Option<String>,
+    /// Frames per second: frame N is at time N / fps.
+    pub fps: f64,
+    /// Drop triangles with NaN/infinite vertices (counted as warnings)
+    /// instead of failing.
+    pub sanitize: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions {
+            scene: None,
+            animation: None,
+            camera: None,
+            fps: 24.0,
+            sanitize: false,
+        }
+    }
+}
+
+/// Translation, rotation, scale: the animatable form of a local transform.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Trs {
+    pub translation: Vec3,
+    pub rotation: Quat,
+    pub scale: Vec3,
+}
+
+impl Trs {
+    /// `T * R * S`, the order glTF defines.
+    pub fn matrix(&self) -> Mat4 {
+        Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Node {
+    pub name: Option<String>,
+    pub parent: Option<usize>,
+    pub children: Vec<usize>,
+    /// The rest pose as TRS (decomposed from `matrix` when the node has one).
+    pub rest: Trs,
+    /// The node's `matrix`, used verbatim unless an animation targets it.
+    pub rest_matrix: Option<Mat4>,
+    pub mesh: Option<usize>,
+    pub skin: Option<usize>,
+    pub camera: Option<usize>,
+    pub light: Option<usize>,
+    /// `node.weights`, overriding `mesh.weights`.
+    pub weights: Option<Vec<f32>>,
+}
+
+#[derive(Debug, Clone)]
+pub struct Skin {
+    pub name: Option<String>,
+    /// Node index of each joint.
+    pub joints: Vec<usize>,
+    /// Inverse bind matrices (identity when the file has none).
+    pub joint_from_bind: Vec<Mat4>,
+}
+
+/// A mesh placed in the scene by a node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshInstance {
+    pub node: usize,
+    pub mesh: usize,
+    /// The node's skin, when its mesh carries joint influences.
+    pub skin: Option<usize>,
+}
+
+/// A loaded glTF file with one scene, animation and camera chosen.
+#[derive(Debug)]
+pub struct Scene {
+    file: String,
+    options: LoadOptions,
+    nodes: Vec<Node>,
+    /// Every node in the hierarchy, parents before children.
+    node_order: Vec<usize>,
+    scene_index: Option<usize>,
+    scene_count: usize,
+    instances: Vec<MeshInstance>,
+    meshes: Vec<Mesh>,
+    skins: Vec<Skin>,
+    clips: Vec<Clip>,
+    clip: Option<usize>,
+    cameras: Vec<CameraDef>,
+    /// (node, camera) of the chosen camera.
+    camera_instance: Option<(usize, usize)>,
+    lights: Vec<LightDef>,
+    /// (node, light) of every light placed in the scene.
+    light_instances: Vec<(usize, usize)>,
+    materials: MaterialTable,
+    warnings: Vec<String>,
+    extensions_used: Vec<String>,
+    extensions_required: Vec<String>,
+    soup_has_normals: bool,
+    soup_has_uvs: bool,
+    /// Bounds of every frame of the clip, for the default camera.
+    clip_bounds: OnceLock<(Vec3, Vec3)>,
+}
+
+impl Scene {
+    /// Loads `path` (.gltf or .glb) and selects scene, animation and camera.
+    pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+        load::load(path, opts)
+    }
+
+    /// The path as given, as it appears in messages.
+    pub fn file(&self) -> &str {
+        &self.file
+    }
+
+    pub fn options(&self) -> &LoadOptions {
+        &self.options
+    }
+
+    /// First and last frame of the chosen clip: 0 ..= ceil(duration * fps).
+    pub fn frame_range(&self) -> (i64, i64) {
+        let frames = self.duration() * self.options.fps;
+        // Key times are f32; allow their rounding so that a clip of exactly
+        // N frames does not grow a spurious frame N + 1.
+        let last = (frames - 1e-4).ceil().max(0.0);
+        (0, last as i64)
+    }
+
+    pub fn time_of_frame(&self, frame: i64) -> f64 {
+        frame as f64 / self.options.fps
+    }
+
+    /// Duration of the chosen clip in seconds (0 without animation).
+    pub fn duration(&self) -> f64 {
+        self.active_clip().map_or(0.0, |c| c.duration)
+    }
+
+    pub fn active_clip(&self) -> Option<&Clip> {
+        self.clip.map(|c| &self.clips[c])
+    }
+
+    /// Every animation of the file (only the active one is ever applied).
+    pub fn clips(&self) -> &[Clip] {
+        &self.clips
+    }
+
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// Nodes ordered so that every parent precedes its children.
+    pub fn node_order(&self) -> &[usize] {
+        &self.node_order
+    }
+
+    pub fn meshes(&self) -> &[Mesh] {
+        &self.meshes
+    }
+
+    pub fn skins(&self) -> &[Skin] {
+        &self.skins
+    }
+
+    /// The mesh instances of the chosen scene, in traversal order.
+    pub fn instances(&self) -> &[MeshInstance] {
+        &self.instances
+    }
+
+    pub fn cameras(&self) -> &[CameraDef] {
+        &self.cameras
+    }
+
+    /// (node, camera index) of the camera frames are seen through, or
+    /// `None` when the default framing camera is used.
+    pub fn camera_instance(&self) -> Option<(usize, usize)> {
+        self.camera_instance
+    }
+
+    pub fn lights(&self) -> &[LightDef] {
+        &self.lights
+    }
+
+    pub fn light_instances(&self) -> &[(usize, usize)] {
+        &self.light_instances
+    }
+
+    pub fn materials(&self) -> &MaterialTable {
+        &self.materials
+    }
+
+    /// Problems found while loading that did not stop it.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    pub fn scene_index(&self) -> Option<usize> {
+        self.scene_index
+    }
+
+    pub fn scene_count(&self) -> usize {
+        self.scene_count
+    }
+
+    pub fn extensions_used(&self) -> &[String] {
+        &self.extensions_used
+    }
+
+    pub fn extensions_required(&self) -> &[String] {
+        &self.extensions_required
+    }
+
+    /// Whether any mesh instance is skinned.
+    pub fn has_skins(&self) -> bool {
+        self.instances.iter().any(|i| i.skin.is_some())
+    }
+
+    /// The most morph targets any instanced mesh has (0: no morphing).
+    pub fn max_morph_targets(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh].target_count)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The most JOINTS_n/WEIGHTS_n sets any skinned primitive has.
+    pub fn max_influence_sets(&self) -> usize {
+        self.instances
+            .iter()
+            .filter(|i| i.skin.is_some())
+            .flat_map(|i| &self.meshes[i.mesh].primitives)
+            .filter_map(|p| p.influences.as_ref().map(|inf| inf.sets))
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The largest joint count of any skin in use.
+    pub fn max_joints(&self) -> usize {
+        self.instances
+            .iter()
+            .filter_map(|i| i.skin.map(|s| self.skins[s].joints.len()))
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Whether frames carry per-corner normals.
+    pub fn has_normals(&self) -> bool {
+        self.soup_has_normals
+    }
+
+    /// Whether frames carry TEXCOORD_0.
+    pub fn has_uvs(&self) -> bool {
+        self.soup_has_uvs
+    }
+
+    /// Triangles per frame (topology never changes with time; `--sanitize`
+    /// may drop some from a frame).
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .flat_map(|i| &self.meshes[i.mesh].primitives)
+            .map(|p| p.triangles.len())
+            .sum()
+    }
+
+    /// "node 3 \"Arm\"" for messages.
+    pub fn node_label(&self, node: usize) -> String {
+        match &self.nodes[node].name {
+            Some(n) => format!("node {node} \"{n}\""),
+            None => format!("node {node}"),
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! Turning a path into a validated glTF document plus the bytes of every
+//! buffer: `.gltf` with external or data-URI buffers, and `.glb`. The GLB
+//! container is parsed here rather than by the `gltf` crate so that a
+//! truncated binary chunk is kept (short) instead of rejected outright: the
+//! accessor that reaches past the end then reports itself by name, which
+//! tells the user far more than "length mismatch".
+
+use std::path::{Path, PathBuf};
+
+use super::error::{Result, SceneError};
+
+/// Extensions whose semantics soupray implements; any other name in
+/// `extensionsRequired` is refused. (Names in `extensionsUsed` only are
+/// optional by definition and are ignored when unknown.)
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+];
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// A loaded document and its buffers.
+pub struct Source {
+    /// The path as the user gave it, for messages.
+    pub file: String,
+    /// Directory that relative URIs resolve against.
+    pub dir: PathBuf,
+    pub document: gltf::Document,
+    /// The same JSON untyped, for the few extension fields the `gltf`
+    /// crate drops (KHR_texture_transform on normal and occlusion maps).
+    pub json: serde_json::Value,
+    pub buffers: Vec<Vec<u8>>,
+    /// Per buffer: why it holds fewer bytes than its `byteLength` says, if so.
+    pub short_buffers: Vec<Option<String>>,
+}
+
+struct Glb<'a> {
+    json: &'a [u8],
+    bin: Option<Vec<u8>>,
+    /// Set when the file ends before the length its header declares.
+    truncation: Option<String>,
+}
+
+pub fn load(path: &Path) -> Result<Source> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        file: file.clone(),
+        what: "the glTF file".into(),
+        source,
+    })?;
+    let dir = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+
+    let glb = if bytes.starts_with(GLB_MAGIC) {
+        Some(parse_glb(&file, &bytes)?)
+    } else {
+        None
+    };
+    let json_bytes = glb.as_ref().map_or(&bytes[..], |g| g.json);
+    let root: gltf::json::Root =
+        gltf::json::deserialize::from_slice(json_bytes).map_err(|e| SceneError::Malformed {
+            file: file.clone(),
+            detail: format!(
+                "is not valid glTF JSON: {e}{}. Fix: re-export the file; if it was copied or downloaded, \
+                 check that the copy is complete.",
+                glb.as_ref()
+                    .and_then(|g| g.truncation.as_deref())
+                    .map(|t| format!(" ({t})"))
+                    .unwrap_or_default()
+            ),
+        })?;
+
+    let json: serde_json::Value = serde_json::from_slice(json_bytes).unwrap_or_default();
+    for extension in &root.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&extension.as_str()) {
+            return Err(SceneError::UnsupportedExtension {
+                file,
+                extension: extension.clone(),
+                supported: SUPPORTED_EXTENSIONS.join(", "),
+            });
+        }
+    }
+
+    let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
+        file: file.clone(),
+        detail: format!(
+            "is not valid glTF 2.0: {e}. Fix: run the file through the Khronos glTF-Validator \
+             and re-export it from the authoring tool."
+        ),
+    })?;
+
+    let (glb_bin, glb_truncation) = match glb {
+        Some(g) => (g.bin, g.truncation),
+        None => (None, None),
+    };
+    let mut glb_bin = glb_bin;
+    let mut buffers = Vec::new();
+    let mut short_buffers = Vec::new();
+    for buffer in document.buffers() {
+        let (data, glb_note) = match buffer.source() {
+            gltf::buffer::Source::Bin => match glb_bin.take() {
+                Some(bin) => (bin, glb_truncation.clone()),
+                None => {
+                    return Err(SceneError::Buffer {
+                        file,
+                        buffer: buffer.index(),
+                        uri: "(GLB binary chunk)".into(),
+                        problem: "is missing: the buffer has no uri and the file has no GLB BIN chunk. \
+                                  Fix: re-export the asset as a complete .glb, or give the buffer a uri."
+                            .into(),
+                    })
+                }
+            },
+            gltf::buffer::Source::Uri(uri) => (read_uri(&file, &dir, buffer.index(), uri)?, None),
+        };
+        let note = (data.len() < buffer.length()).then(|| {
+            glb_note.unwrap_or_else(|| {
+                format!(
+                    "buffer {} holds {} bytes but its byteLength is {}: its data is truncated",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                )
+            })
+        });
+        buffers.push(data);
+        short_buffers.push(note);
+    }
+
+    Ok(Source {
+        file,
+        dir,
+        document,
+        json,
+        buffers,
+        short_buffers,
+    })
+}
+
+fn parse_glb<'a>(file: &str, bytes: &'a [u8]) -> Result<Glb<'a>> {
+    let malformed = |detail: String| {
+        SceneError::Malformed {
+        file: file.to_owned(),
+        detail: format!("{detail}. Fix: re-export the .glb; if it was copied or downloaded, check that the copy is complete."),
+    }
+    };
+    let u32_at = |at: usize| -> Option<u32> {
+        bytes
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let version = u32_at(4)
+        .ok_or_else(|| malformed("is a truncated GLB: the 12-byte header is incomplete".into()))?;
+    if version != 2 {
+        return Err(malformed(format!(
+            "is a GLB of container version {version}; soupray reads glTF 2.0 (version 2)"
+        )));
+    }
+    let declared = u32_at(8)
+        .ok_or_else(|| malformed("is a truncated GLB: the 12-byte header is incomplete".into()))?
+        as usize;
+    let truncation = (bytes.len() < declared).then(|| {
+        format!(
+            "the GLB header declares {declared} bytes but the file has only {}: the file is truncated",
+            bytes.len()
+        )
+    });
+    let end = declared.min(bytes.len());
+
+    let json_len = u32_at(12)
+        .ok_or_else(|| malformed("is a truncated GLB: it ends before its JSON chunk".into()))?
+        as usize;
+    if u32_at(16) != Some(CHUNK_JSON) {
+        return Err(malformed(
+            "is not a valid GLB: the first chunk is not the JSON chunk".into(),
+        ));
+    }
+    let json_start = 20;
+    let json_end = json_start + json_len;
+    if json_end > end {
+        return Err(malformed(format!(
+            "is a truncated GLB: its JSON chunk needs bytes {json_start}..{json_end} but the file ends at {}",
+            bytes.len()
+        )));
+    }
+    let json = &bytes[json_start..json_end];
+
+    let bin_header = (json_end + 3) & !3;
+    let mut bin = None;
+    if let (Some(bin_len), Some(kind)) = (u32_at(bin_header), u32_at(bin_header + 4)) {
+        if kind == CHUNK_BIN {
+            let start = bin_header + 8;
+            let want_end = start + bin_len as usize;
+            // Keep whatever part of the chunk exists; accessors that need
+            // the missing tail report themselves by name.
+            let have_end = want_end.min(end).max(start.min(end));
+            bin = Some(bytes[start.min(end)..have_end].to_vec());
+        }
+    } else if truncation.is_some() && bin_header < declared {
+        bin = Some(Vec::new());
+    }
+    Ok(Glb {
+        json,
+        bin,
+        truncation,
+    })
+}
+
+fn read_uri(file: &str, dir: &Path, buffer: usize, uri: &str) -> Result<Vec<u8>> {
+    let err = |problem: String| SceneError::Buffer {
+        file: file.to_owned(),
+        buffer,
+        uri: shorten(uri),
+        problem,
+    };
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (header, payload) = rest.split_once(',').ok_or_else(|| {
+            err("is a data URI without a ',' before its payload. Fix: re-export the asset.".into())
+        })?;
+        if !header.ends_with(";base64") {
+            return Err(err("is a data URI that is not base64-encoded; glTF buffers must use base64. Fix: re-export the asset.".into()));
+        }
+        return decode_base64(payload).ok_or_else(|| {
+            err("is a data URI whose base64 payload is corrupt. Fix: re-export the asset.".into())
+        });
+    }
+    let relative = percent_decode(uri);
+    let path = dir.join(&relative);
+    std::fs::read(&path).map_err(|e| {
+        err(format!(
+            "cannot be read as {} ({e}). Fix: put {relative} next to {file} (glTF resolves buffer URIs \
+             relative to the .gltf file), or use the .glb version of the asset.",
+            path.display()
+        ))
+    })
+}
+
+pub(crate) fn resolve_uri(dir: &Path, uri: &str) -> PathBuf {
+    dir.join(percent_decode(uri))
+}
+
+fn shorten(uri: &str) -> String {
+    if uri.len() > 60 {
+        let cut = (0..=60)
+            .rev()
+            .find(|&i| uri.is_char_boundary(i))
+            .unwrap_or(0);
+        format!("{}...", &uri[..cut])
+    } else {
+        uri.to_owned()
+    }
+}
+
+/// URIs in glTF are RFC 3986 references, so file names with spaces and the
+/// like arrive percent-encoded.
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' && i + 2 < bytes.len() {
+            let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).ok();
+            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Decodes standard or URL-safe base64, ignoring whitespace and padding.
+pub(crate) fn decode_base64(text: &str) -> Option<Vec<u8>> {
+    let mut out = Vec::with_capacity(text.len() * 3 / 4);
+    let mut acc = 0u32;
+    let mut bits = 0;
+    for c in text.bytes() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            b'=' | b' ' | b'\n' | b'\r' | b'\t' => continue,
+            _ => return None,
+        };
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_round_trip_of_known_text() {
+        assert_eq!(decode_base64("aGVsbG8gd29ybGQ=").unwrap(), b"hello world");
+        assert_eq!(decode_base64("AAECAw==").unwrap(), vec![0, 1, 2, 3]);
+        assert!(decode_base64("ab$c").is_none());
+    }
+
+    #[test]
+    fn percent_decoding_of_spaces() {
+        assert_eq!(percent_decode("my%20file.bin"), "my file.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+    }
+}

@@ -1,0 +1,86 @@
+//! The per-frame world-space triangle soup: the one input of the BVH builder
+//! and the tracer. Triangles share nothing; vertex `3*t + k` is corner `k` of
+//! triangle `t`. Positions are padded to four floats so the host array is the
+//! device buffer byte for byte (OpenCL `float4`).
+
+use std::fmt;
+
+/// A world-space triangle soup.
+#[derive(Clone, Default, PartialEq)]
+pub struct Soup {
+    /// Corner positions, three per triangle; `w` is 0 and unused.
+    pub positions: Vec<[f32; 4]>,
+    /// Shading normals, one per corner (same length as `positions`), or empty
+    /// when the source had none (the tracer then uses the geometric normal).
+    pub normals: Vec<[f32; 4]>,
+    /// Texture coordinates (TEXCOORD_0), one per corner, or empty.
+    pub uvs: Vec<[f32; 2]>,
+    /// Index into the scene's material table, one per triangle, or empty
+    /// (every triangle uses the default material).
+    pub material_ids: Vec<u32>,
+}
+
+impl Soup {
+    /// A soup of positions only, from triangles given as three corners each.
+    pub fn from_triangles(triangles: &[[[f32; 3]; 3]]) -> Soup {
+        let positions = triangles
+            .iter()
+            .flat_map(|t| t.iter().map(|p| [p[0], p[1], p[2], 0.0]))
+            .collect();
+        Soup {
+            positions,
+            ..Soup::default()
+        }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.positions.len() / 3
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Corner `k` of triangle `t`.
+    pub fn corner(&self, t: usize, k: usize) -> [f32; 3] {
+        let p = self.positions[3 * t + k];
+        [p[0], p[1], p[2]]
+    }
+
+    /// The axis-aligned bounds of every corner, or `None` for an empty soup.
+    pub fn bounds(&self) -> Option<([f32; 3], [f32; 3])> {
+        let mut it = self.positions.iter();
+        let first = it.next()?;
+        let mut lo = [first[0], first[1], first[2]];
+        let mut hi = lo;
+        for p in it {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        Some((lo, hi))
+    }
+}
+
+impl fmt::Debug for Soup {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Soup")
+            .field("triangles", &self.triangle_count())
+            .field("normals", &!self.normals.is_empty())
+            .field("uvs", &!self.uvs.is_empty())
+            .field("materials", &!self.material_ids.is_empty())
+            .finish()
+    }
+}
+
+/// A temporary path in the same directory as `path`, so that a finished file
+/// can be renamed into place atomically (rename is atomic only within one
+/// file system). The process id keeps concurrent writers apart.
+pub fn temporary_sibling(path: &std::path::Path) -> std::path::PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}

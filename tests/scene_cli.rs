@@ -1,0 +1,78 @@
+//! The `info` and `soup` commands, called as functions the way main.rs
+//! calls them.
+
+mod scene_support;
+
+use clap::Parser;
+use scene_support::{asset, load};
+use soupray::cli_scene::{describe, run_info, run_soup, InfoArgs, SoupArgs};
+
+#[derive(Parser)]
+struct SoupCli {
+    #[command(flatten)]
+    args: SoupArgs,
+}
+
+#[derive(Parser)]
+struct InfoCli {
+    #[command(flatten)]
+    args: InfoArgs,
+}
+
+#[test]
+fn info_describes_meshes_skins_animations_and_materials() {
+    let text = describe(&load(&asset("Fox/Fox.glb"), None));
+    for part in [
+        "Fox.glb",
+        "576 triangles",
+        "24 joints",
+        "animation 0 \"Survey\": 3.417 s",
+        "frames 0..=82",
+        "animation 1 \"Walk\"",
+        "animation 2 \"Run\"",
+        "a default camera frames the whole clip",
+        "[texture 0 uv0]",
+        "extensions required: none",
+    ] {
+        assert!(text.contains(part), "missing {part:?} in:\n{text}");
+    }
+    let text = describe(&load(&asset("MorphStressTest/MorphStressTest.gltf"), None));
+    assert!(text.contains("8 morph targets"), "{text}");
+    let args = InfoCli::try_parse_from([
+        "info",
+        asset("SimpleSkin/SimpleSkin.gltf").to_str().unwrap(),
+    ])
+    .unwrap()
+    .args;
+    run_info(&args).unwrap();
+}
+
+#[test]
+fn soup_writes_the_frame_as_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fox.ply");
+    let args = SoupCli::try_parse_from([
+        "soup",
+        asset("Fox/Fox.glb").to_str().unwrap(),
+        "--frame",
+        "7",
+        "--animation",
+        "Run",
+        "-o",
+        out.to_str().unwrap(),
+    ])
+    .unwrap()
+    .args;
+    run_soup(&args).unwrap();
+    let written = soupray::ply::read_soup(&out).unwrap();
+    let scene = load(&asset("Fox/Fox.glb"), Some("Run"));
+    let expected = scene.evaluate(7.0 / 24.0).unwrap().soup;
+    assert_eq!(written.positions, expected.positions);
+
+    // Errors name the input file.
+    let missing = SoupCli::try_parse_from(["soup", "nothere.glb", "-o", out.to_str().unwrap()])
+        .unwrap()
+        .args;
+    let msg = run_soup(&missing).unwrap_err().to_string();
+    assert!(msg.contains("nothere.glb"), "{msg}");
+}
