@@ -6,18 +6,32 @@
 //
 //   compute_prim_refs, merge_bins  triangle boxes and the root's bin
 //   bin_triangles                  per-work-group bins, 512 triangles a group,
-//                                  counted by BINS-thread groups over blocks
-//                                  of BINS triangles (the paper's half-warps)
+//                                  counted by groups of BIN_LANES threads over
+//                                  blocks of BIN_LANES triangles
 //   reduce_bins                    large nodes only: REDUCE_FAN group bins -> one
 //   find_split                     one work-group a node: final reduction and
 //                                  the best SAH split, chosen on the device
 //   partition                      one global atomic per work-group reserves
 //                                  the group's left and right slots at once
 //   copy_back                      the partitioned indices back into place
-//   split_small                    small nodes: one BINS-thread group a node
-//                                  bins, splits and partitions in local memory
+//   split_small                    small nodes: one work-group a node bins,
+//                                  splits and partitions in local memory
 //
-// Defines: BINS, HAVE_INT64_ATOMICS (0/1).
+// Defines:
+//   BINS                bins per axis
+//   BUILD_WG            work-items of the large/medium kernels' groups
+//   BIN_LANES           threads that count one block together; lane `l` owns
+//                       the bins b with b % BIN_LANES == l on every axis
+//   SMALL_WG            work-items of split_small's groups
+//   SMALL_TASKS         small nodes one split_small group takes in turn (on a
+//                       CPU many, to spread the launch cost of a group)
+//   HAVE_INT64_ATOMICS  0/1
+// On a GPU, BIN_LANES = BINS = 16 is the paper's half-warp scheme: the 16
+// threads walk the same 16 triangles and each takes those in its bin, with
+// no atomics and no bank conflicts. On a CPU, where work-items run one
+// after another, that walk is 16 times the work; there BUILD_WG = BIN_LANES
+// = SMALL_WG = 1, and the one work-item keeps all bins in private memory.
+// Both mappings produce the same bins, bit for bit.
 #include "bvh_types.h"
 #include "bvh_common.h"
 
@@ -25,14 +39,17 @@
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
 #endif
 
-#define BUILD_WG 128
-#define HALVES (BUILD_WG / BINS)
+#define HALVES (BUILD_WG / BIN_LANES)
+#define OWNED (BINS / BIN_LANES)
 #define PRIMS_PER_GROUP 512
 #define ROUNDS (PRIMS_PER_GROUP / BUILD_WG)
+#define PRIMS_PER_THREAD (PRIMS_PER_GROUP / BUILD_WG)
 #define REDUCE_FAN 64
 #define SMALL_MAX 256
 
 // Loads primitive slot p into staging slot k: its box, id and packed bins.
+// Boxes travel with their ids through every partition, so `refs` is read
+// in slot order, never gathered through the ids.
 inline void stage_prim(bool valid, uint p, float4 cmin, float4 scale,
                        __global const uint* ids, __global const PrimRef* refs,
                        __local float4* s_lo, __local float4* s_hi, __local uint* s_bin,
@@ -42,7 +59,7 @@ inline void stage_prim(bool valid, uint p, float4 cmin, float4 scale,
         return;
     }
     uint id = ids[p];
-    PrimRef r = refs[id];
+    PrimRef r = refs[p];
     float4 c = centroid(r.lo, r.hi);
     uint bx = bin_index(c.x, cmin.x, scale.x);
     uint by = bin_index(c.y, cmin.y, scale.y);
@@ -53,14 +70,14 @@ inline void stage_prim(bool valid, uint p, float4 cmin, float4 scale,
     s_id[k] = id;
 }
 
-// The paper's counting step: the BINS threads of a group walk the same
-// block of BINS staged primitives, and thread `lane` takes those that fall
-// in bin `lane` of each axis. No atomics, no conflicts; each thread ends
-// with its own three bins.
+// The paper's counting step: the BIN_LANES threads of a group walk the
+// same block of BIN_LANES staged primitives, and lane `lane` takes those
+// that fall in one of its bins, on each axis. No atomics, no conflicts; each
+// thread ends with its own OWNED bins per axis in `acc`.
 inline void bin_block(uint base, uint limit, uint lane, __local const float4* s_lo,
                       __local const float4* s_hi, __local const uint* s_bin,
-                      __local const uint* s_id, Bin* ax, Bin* ay, Bin* az) {
-    for (uint j = 0; j < BINS; ++j) {
+                      __local const uint* s_id, Bin* acc) {
+    for (uint j = 0; j < BIN_LANES; ++j) {
         uint k = base + j;
         if (k >= limit) break;
         uint packed = s_bin[k];
@@ -69,9 +86,17 @@ inline void bin_block(uint base, uint limit, uint lane, __local const float4* s_
         float4 hi = s_hi[k];
         float4 c = centroid(lo, hi);
         uint id = s_id[k];
-        if ((packed & 0xFFu) == lane) bin_add(ax, lo, hi, c, id);
-        if (((packed >> 8) & 0xFFu) == lane) bin_add(ay, lo, hi, c, id);
-        if (((packed >> 16) & 0xFFu) == lane) bin_add(az, lo, hi, c, id);
+        for (uint axis = 0; axis < 3; ++axis) {
+            uint b = (packed >> (8 * axis)) & 0xFFu;
+            if (b % BIN_LANES == lane) bin_add(&acc[axis * OWNED + b / BIN_LANES], lo, hi, c, id);
+        }
+    }
+}
+
+// Stores a lane's bins into the group's 3 * BINS bin array `out`.
+inline void store_lane_bins(const Bin* acc, uint lane, __local Bin* out) {
+    for (uint axis = 0; axis < 3; ++axis) {
+        for (uint o = 0; o < OWNED; ++o) out[axis * BINS + o * BIN_LANES + lane] = acc[axis * OWNED + o];
     }
 }
 
@@ -90,10 +115,11 @@ __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void compute_prim_refs(__global const float4* positions, uint n, __global PrimRef* refs,
                        __global uint* ids, __global Bin* partials) {
     __local Bin s_bins[BUILD_WG];
-    uint i = get_global_id(0);
     uint lid = get_local_id(0);
+    uint begin = get_group_id(0) * PRIMS_PER_GROUP;
+    uint end = min(begin + PRIMS_PER_GROUP, n);
     Bin b = bin_empty();
-    if (i < n) {
+    for (uint i = begin + lid; i < end; i += BUILD_WG) {
         float4 v0 = positions[3 * i];
         float4 v1 = positions[3 * i + 1];
         float4 v2 = positions[3 * i + 2];
@@ -138,29 +164,26 @@ void bin_triangles(__global const BuildTask* tasks, __global const uint* group_t
     __local float4 s_hi[BUILD_WG];
     __local uint s_bin[BUILD_WG];
     __local uint s_id[BUILD_WG];
-    __local Bin s_red[3 * BUILD_WG];
+    __local Bin s_red[3 * BINS * HALVES];
     uint g = get_group_id(0);
     uint lid = get_local_id(0);
     BuildTask t = tasks[group_task[g]];
     uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
     uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
-    uint half_warp = lid / BINS;
-    uint lane = lid % BINS;
-    Bin ax = bin_empty();
-    Bin ay = bin_empty();
-    Bin az = bin_empty();
+    uint group_of_lanes = lid / BIN_LANES;
+    uint lane = lid % BIN_LANES;
+    Bin acc[3 * OWNED];
+    for (uint i = 0; i < 3 * OWNED; ++i) acc[i] = bin_empty();
     for (uint round = 0; round < ROUNDS; ++round) {
         uint first = begin + round * BUILD_WG;
         if (first >= end) break;  // the same for the whole group
         stage_prim(first + lid < end, first + lid, t.cmin, t.scale, ids, refs, s_lo, s_hi, s_bin,
                    s_id, lid);
         barrier(CLK_LOCAL_MEM_FENCE);
-        bin_block(half_warp * BINS, BUILD_WG, lane, s_lo, s_hi, s_bin, s_id, &ax, &ay, &az);
+        bin_block(group_of_lanes * BIN_LANES, BUILD_WG, lane, s_lo, s_hi, s_bin, s_id, acc);
         barrier(CLK_LOCAL_MEM_FENCE);
     }
-    s_red[(half_warp * 3 + 0) * BINS + lane] = ax;
-    s_red[(half_warp * 3 + 1) * BINS + lane] = ay;
-    s_red[(half_warp * 3 + 2) * BINS + lane] = az;
+    store_lane_bins(acc, lane, s_red + group_of_lanes * 3 * BINS);
     barrier(CLK_LOCAL_MEM_FENCE);
     for (uint i = lid; i < 3 * BINS; i += BUILD_WG) {
         Bin b = bin_empty();
@@ -190,8 +213,8 @@ __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void find_split(__global const BuildTask* tasks, __global const Bin* sets,
                 __global SplitResult* splits, __global ulong* cursors) {
     __local Bin s_bins[3 * BINS];
-    __local float s_cost[BUILD_WG];
-    __local int s_idx[BUILD_WG];
+    __local float s_cost[3];
+    __local int s_idx[3];
     uint g = get_group_id(0);
     uint lid = get_local_id(0);
     BuildTask t = tasks[g];
@@ -211,8 +234,9 @@ void find_split(__global const BuildTask* tasks, __global const Bin* sets,
 __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void partition(__global const BuildTask* tasks, __global const uint* group_task,
                __global const uint* group_index, __global const SplitResult* splits,
-               __global const uint* ids_in, __global const PrimRef* refs, __global uint* ids_out,
-               __global ulong* cursors) {
+               __global const uint* ids_in, __global const PrimRef* refs_in,
+               __global uint* ids_out, __global PrimRef* refs_out, __global ulong* cursors,
+               __global const Bin* group_bins) {
     __local uint s_scan[BUILD_WG];
     __local uint2 s_base;
     uint g = get_group_id(0);
@@ -222,22 +246,25 @@ void partition(__global const BuildTask* tasks, __global const uint* group_task,
     SplitResult s = splits[ti];
     uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
     uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
-    uint mine[PRIMS_PER_GROUP / BUILD_WG];
-    uint sides = 0;
-    uint n = 0;
+    // Each thread takes a contiguous chunk, so the scan keeps the order.
+    uint chunk_begin = min(begin + lid * PRIMS_PER_THREAD, end);
+    uint chunk_end = min(chunk_begin + PRIMS_PER_THREAD, end);
     uint nl = 0;
-    for (uint k = 0; k < PRIMS_PER_GROUP / BUILD_WG; ++k) {
-        uint p = begin + lid * (PRIMS_PER_GROUP / BUILD_WG) + k;
-        if (p < end) {
-            uint id = ids_in[p];
-            PrimRef r = refs[id];
-            bool left = goes_left(t, s, r.lo, r.hi, id);
-            mine[k] = id;
-            sides |= (uint)left << k;
-            nl += (uint)left;
-            n += 1;
+#if BUILD_WG == 1
+    // One work-item takes the whole group, and its own bins already say how
+    // many of its triangles go left: no counting pass over the triangles.
+    if (s.axis >= 0) {
+        __global const Bin* mine = group_bins + g * 3 * BINS + s.axis * BINS;
+        for (uint b = 0; b < s.position; ++b) nl += mine[b].count;
+    } else
+#endif
+    {
+        for (uint p = chunk_begin; p < chunk_end; ++p) {
+            PrimRef r = refs_in[p];
+            nl += (uint)goes_left(t, s, r.lo, r.hi, ids_in[p]);
         }
     }
+    uint n = chunk_end - chunk_begin;
     // Left and right counts travel packed in one word (each is at most 512).
     uint total;
     uint before = wg_exclusive_scan(((n - nl) << 16) | nl, s_scan, lid, BUILD_WG, &total);
@@ -246,61 +273,62 @@ void partition(__global const BuildTask* tasks, __global const uint* group_task,
     uint left_slot = t.start + s_base.x + (before & 0xFFFFu);
     uint right_rank = s_base.y + (before >> 16);
     uint last = t.start + t.count - 1;
-    for (uint k = 0; k < n; ++k) {
-        if ((sides >> k) & 1u) {
-            ids_out[left_slot++] = mine[k];
-        } else {
-            ids_out[last - right_rank++] = mine[k];
-        }
+    for (uint p = chunk_begin; p < chunk_end; ++p) {
+        uint id = ids_in[p];
+        PrimRef r = refs_in[p];
+        uint slot = goes_left(t, s, r.lo, r.hi, id) ? left_slot++ : last - right_rank++;
+        ids_out[slot] = id;
+        refs_out[slot] = r;
     }
 }
 
 __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void copy_back(__global const BuildTask* tasks, __global const uint* group_task,
-               __global const uint* group_index, __global const uint* src, __global uint* dst) {
+               __global const uint* group_index, __global const uint* ids_src,
+               __global const PrimRef* refs_src, __global uint* ids_dst, __global PrimRef* refs_dst) {
     uint g = get_group_id(0);
     BuildTask t = tasks[group_task[g]];
     uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
     uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
-    for (uint p = begin + get_local_id(0); p < end; p += BUILD_WG) dst[p] = src[p];
+    for (uint p = begin + get_local_id(0); p < end; p += BUILD_WG) {
+        ids_dst[p] = ids_src[p];
+        refs_dst[p] = refs_src[p];
+    }
 }
 
-__kernel __attribute__((reqd_work_group_size(BINS, 1, 1)))
-void split_small(__global const BuildTask* tasks, __global uint* ids,
-                 __global const PrimRef* refs, __global SplitResult* splits,
-                 __global ulong* cursors) {
-    __local float4 s_lo[SMALL_MAX];
-    __local float4 s_hi[SMALL_MAX];
-    __local uint s_bin[SMALL_MAX];
-    __local uint s_id[SMALL_MAX];
-    __local uchar s_left[SMALL_MAX];
-    __local Bin s_bins[3 * BINS];
-    __local float s_cost[BINS];
-    __local int s_idx[BINS];
-    __local uint s_scan[BINS];
-    uint g = get_group_id(0);
-    uint lane = get_local_id(0);
+// One small node: binned, split and partitioned by one work-group.
+inline void split_small_node(uint g, __global const BuildTask* tasks, __global uint* ids,
+                             __global PrimRef* refs, __global SplitResult* splits,
+                             __global ulong* cursors, __local float4* s_lo, __local float4* s_hi,
+                             __local uint* s_bin, __local uint* s_id, __local uchar* s_left,
+                             __local Bin* s_bins, __local float* s_cost, __local int* s_idx,
+                             __local uint* s_scan) {
+    uint lid = get_local_id(0);
     BuildTask t = tasks[g];
-    for (uint k = lane; k < t.count; k += BINS) {
+    for (uint k = lid; k < t.count; k += SMALL_WG) {
         stage_prim(true, t.start + k, t.cmin, t.scale, ids, refs, s_lo, s_hi, s_bin, s_id, k);
     }
     barrier(CLK_LOCAL_MEM_FENCE);
-    Bin ax = bin_empty();
-    Bin ay = bin_empty();
-    Bin az = bin_empty();
-    for (uint base = 0; base < t.count; base += BINS) {
-        bin_block(base, t.count, lane, s_lo, s_hi, s_bin, s_id, &ax, &ay, &az);
+    // SMALL_WG / BIN_LANES groups of lanes take turns over the blocks.
+    uint group_of_lanes = lid / BIN_LANES;
+    uint lane = lid % BIN_LANES;
+    Bin acc[3 * OWNED];
+    for (uint i = 0; i < 3 * OWNED; ++i) acc[i] = bin_empty();
+    for (uint base = group_of_lanes * BIN_LANES; base < t.count; base += SMALL_WG) {
+        bin_block(base, t.count, lane, s_lo, s_hi, s_bin, s_id, acc);
     }
-    s_bins[lane] = ax;
-    s_bins[BINS + lane] = ay;
-    s_bins[2 * BINS + lane] = az;
+    store_lane_bins(acc, lane, s_bins + group_of_lanes * 3 * BINS);
     barrier(CLK_LOCAL_MEM_FENCE);
-    int best = select_split(s_bins, t.scale, s_cost, s_idx, lane, BINS);
+    for (uint i = lid; i < 3 * BINS; i += SMALL_WG) {
+        for (uint h = 1; h < SMALL_WG / BIN_LANES; ++h) s_bins[i] = bin_merge(s_bins[i], s_bins[h * 3 * BINS + i]);
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    int best = select_split(s_bins, t.scale, s_cost, s_idx, lid, SMALL_WG);
     SplitResult s = make_split(s_bins, t, best);
 
     // Each thread partitions one contiguous chunk, so the scan keeps order.
-    uint chunk = (t.count + BINS - 1) / BINS;
-    uint begin = min(lane * chunk, t.count);
+    uint chunk = (t.count + SMALL_WG - 1) / SMALL_WG;
+    uint begin = min(lid * chunk, t.count);
     uint end = min(begin + chunk, t.count);
     uint nl = 0;
     for (uint k = begin; k < end; ++k) {
@@ -309,21 +337,42 @@ void split_small(__global const BuildTask* tasks, __global uint* ids,
         nl += (uint)left;
     }
     uint total;
-    uint before = wg_exclusive_scan(((end - begin - nl) << 16) | nl, s_scan, lane, BINS, &total);
+    uint before = wg_exclusive_scan(((end - begin - nl) << 16) | nl, s_scan, lid, SMALL_WG, &total);
     uint left_slot = t.start + (before & 0xFFFFu);
     uint right_rank = before >> 16;
     uint last = t.start + t.count - 1;
     for (uint k = begin; k < end; ++k) {
-        if (s_left[k]) {
-            ids[left_slot++] = s_id[k];
-        } else {
-            ids[last - right_rank++] = s_id[k];
-        }
+        uint slot = s_left[k] ? left_slot++ : last - right_rank++;
+        ids[slot] = s_id[k];
+        refs[slot].lo = s_lo[k];
+        refs[slot].hi = s_hi[k];
     }
-    if (lane == 0) {
+    if (lid == 0) {
         s.left_count = total & 0xFFFFu;
         s.right_count = total >> 16;
         splits[g] = s;
         cursors[g] = ((ulong)s.right_count << 32) | (ulong)s.left_count;
+    }
+}
+
+__kernel __attribute__((reqd_work_group_size(SMALL_WG, 1, 1)))
+void split_small(__global const BuildTask* tasks, uint task_count, __global uint* ids,
+                 __global PrimRef* refs, __global SplitResult* splits,
+                 __global ulong* cursors) {
+    __local float4 s_lo[SMALL_MAX];
+    __local float4 s_hi[SMALL_MAX];
+    __local uint s_bin[SMALL_MAX];
+    __local uint s_id[SMALL_MAX];
+    __local uchar s_left[SMALL_MAX];
+    __local Bin s_bins[3 * BINS * (SMALL_WG / BIN_LANES)];
+    __local float s_cost[3];
+    __local int s_idx[3];
+    __local uint s_scan[SMALL_WG];
+    uint first = get_group_id(0) * SMALL_TASKS;
+    uint last = min(first + SMALL_TASKS, task_count);
+    for (uint g = first; g < last; ++g) {
+        split_small_node(g, tasks, ids, refs, splits, cursors, s_lo, s_hi, s_bin, s_id, s_left,
+                         s_bins, s_cost, s_idx, s_scan);
+        barrier(CLK_LOCAL_MEM_FENCE);
     }
 }

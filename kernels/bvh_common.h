@@ -66,52 +66,61 @@ inline float half_area(float4 lo, float4 hi) {
     return d.x * d.y + d.y * d.z + d.z * d.x;
 }
 
-// The SAH cost of candidate i = axis * BINS + position (left = bins below
-// `position`); false where the candidate is not a split.
-inline bool candidate_cost(__local const Bin* bins, float4 scale, uint i, float* cost) {
-    uint axis = i / BINS;
-    uint position = i % BINS;
-    if (position == 0 || !(axis_of(scale, (int)axis) > 0.0f)) return false;
-    Bin l = bin_empty();
-    Bin r = bin_empty();
-    for (uint k = 0; k < position; ++k) l = bin_merge(l, bins[axis * BINS + k]);
-    for (uint k = position; k < BINS; ++k) r = bin_merge(r, bins[axis * BINS + k]);
-    if (l.count == 0 || r.count == 0) return false;
-    *cost = half_area(l.lo, l.hi) * (float)l.count + half_area(r.lo, r.hi) * (float)r.count;
-    return true;
-}
-
-// The best candidate over n threads (n a power of two): the lowest cost,
-// and on equal cost the lowest index, which is what the reference's
-// sequential strict-less scan picks. -1 when no candidate splits the node.
+// The best split of a node from its 3 * BINS bins: the lowest SAH cost
+// half_area(L) * N(L) + half_area(R) * N(R) over the candidates
+// i = axis * BINS + position (left = the bins below `position`), and on equal
+// cost the lowest i, which is what the reference's scan in candidate order
+// picks. Threads 0..2 each sweep one axis (right to left for the right
+// sides, then left to right), then the three axis winners are compared.
+// -1 when no candidate has triangles on both sides. s_cost and s_idx hold
+// three entries; all n threads must call it.
 inline int select_split(__local const Bin* bins, float4 scale, __local float* s_cost,
                         __local int* s_idx, uint lid, uint n) {
-    float best = 0.0f;
-    int best_i = -1;
-    for (uint i = lid; i < 3 * BINS; i += n) {
-        float c;
-        if (candidate_cost(bins, scale, i, &c) && (best_i < 0 || c < best)) {
-            best = c;
-            best_i = (int)i;
-        }
-    }
-    s_cost[lid] = best;
-    s_idx[lid] = best_i;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (uint stride = n / 2; stride > 0; stride >>= 1) {
-        if (lid < stride) {
-            int oi = s_idx[lid + stride];
-            float oc = s_cost[lid + stride];
-            int mi = s_idx[lid];
-            float mc = s_cost[lid];
-            if (oi >= 0 && (mi < 0 || oc < mc || (oc == mc && oi < mi))) {
-                s_cost[lid] = oc;
-                s_idx[lid] = oi;
+    for (uint axis = lid; axis < 3; axis += n) {
+        float best = 0.0f;
+        int best_i = -1;
+        if (axis_of(scale, (int)axis) > 0.0f) {
+            float right_area[BINS];
+            uint right_count[BINS];
+            float4 lo = (float4)(INFINITY);
+            float4 hi = (float4)(-INFINITY);
+            uint count = 0;
+            for (uint k = BINS - 1; k >= 1; --k) {
+                Bin b = bins[axis * BINS + k];
+                lo = fmin(lo, b.lo);
+                hi = fmax(hi, b.hi);
+                count += b.count;
+                right_area[k] = half_area(lo, hi);
+                right_count[k] = count;
+            }
+            lo = (float4)(INFINITY);
+            hi = (float4)(-INFINITY);
+            count = 0;
+            for (uint k = 1; k < BINS; ++k) {
+                Bin b = bins[axis * BINS + k - 1];
+                lo = fmin(lo, b.lo);
+                hi = fmax(hi, b.hi);
+                count += b.count;
+                if (count == 0 || right_count[k] == 0) continue;
+                float cost = half_area(lo, hi) * (float)count + right_area[k] * (float)right_count[k];
+                if (best_i < 0 || cost < best) {
+                    best = cost;
+                    best_i = (int)(axis * BINS + k);
+                }
             }
         }
-        barrier(CLK_LOCAL_MEM_FENCE);
+        s_cost[axis] = best;
+        s_idx[axis] = best_i;
     }
-    int chosen = s_idx[0];
+    barrier(CLK_LOCAL_MEM_FENCE);
+    int chosen = -1;
+    float chosen_cost = 0.0f;
+    for (uint axis = 0; axis < 3; ++axis) {
+        if (s_idx[axis] >= 0 && (chosen < 0 || s_cost[axis] < chosen_cost)) {
+            chosen = s_idx[axis];
+            chosen_cost = s_cost[axis];
+        }
+    }
     barrier(CLK_LOCAL_MEM_FENCE);
     return chosen;
 }

@@ -88,6 +88,9 @@ pub struct BvhArgs {
     /// the same every time).
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub repeat: u32,
+    /// Also print each kernel's device time (of the last build) on stderr.
+    #[arg(long, short)]
+    pub verbose: bool,
 }
 
 /// What `soupray bvh --json` prints. `nodes` counts inner nodes and leaves;
@@ -256,6 +259,13 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
         stages_ms,
         mtris_per_s: soup.triangle_count() as f64 / (build_ms * 1e3).max(1e-9),
     };
+    if args.verbose {
+        if let Some(last) = stages.last() {
+            for (kernel, ms) in &last.kernels_ms {
+                eprintln!("  {kernel:<32} {ms:8.2} ms");
+            }
+        }
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

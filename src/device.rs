@@ -164,8 +164,18 @@ pub struct Timings {
 }
 
 impl Timings {
+    /// Time under `stage`: launches named `stage` or `stage/<kernel>`.
     pub fn ms(&self, stage: &str) -> f64 {
-        self.by_stage.get(stage).copied().unwrap_or(0.0)
+        self.by_stage
+            .iter()
+            .filter(|(name, _)| {
+                name.as_str() == stage
+                    || name
+                        .strip_prefix(stage)
+                        .is_some_and(|rest| rest.starts_with('/'))
+            })
+            .map(|(_, ms)| ms)
+            .sum()
     }
 }
 
@@ -326,6 +336,23 @@ impl Device {
         Ok(())
     }
 
+    /// Queues a read of the first `out.len()` elements of `buffer` without
+    /// waiting, and returns its event.
+    ///
+    /// # Safety
+    /// `out` must stay alive and untouched until the event completes (wait
+    /// on it, or `finish` the queue).
+    pub unsafe fn read_async<T>(&self, buffer: &Buffer<T>, out: &mut [T]) -> Result<Event> {
+        // SAFETY: the caller keeps `out` alive until the read completes.
+        unsafe {
+            cl(
+                "clEnqueueReadBuffer",
+                self.queue
+                    .enqueue_read_buffer(buffer, CL_NON_BLOCKING, 0, out, &[]),
+            )
+        }
+    }
+
     /// Launches `kernel` over `groups` work-groups of `local` items, timed
     /// under `stage`. Nothing is launched for zero groups.
     pub fn launch(
@@ -368,6 +395,11 @@ impl Device {
         let event = unsafe { cl(stage, exec.enqueue_nd_range(&self.queue))? };
         self.pending.borrow_mut().push((stage, event));
         Ok(())
+    }
+
+    /// Submits queued commands without waiting for them.
+    pub fn flush(&self) -> Result<()> {
+        cl("clFlush", self.queue.flush())
     }
 
     /// Waits for the queue and folds finished launches into the timings.

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{device, mesh, random_soup, transformed};
-use soupray::bvh::device_builder::DeviceBuilder;
+use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::layout::host_layout;
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams, Bvh, Child};
 use soupray::device::Arg;
@@ -52,7 +52,17 @@ fn leaf_sets(bvh: &Bvh) -> Vec<Vec<u32>> {
 /// the same nodes bit for bit, the same leaf contents, the same SAH cost.
 fn check_equal(soup: &Soup, params: BuildParams, what: &str) -> f64 {
     let d = device();
-    let mut builder = DeviceBuilder::new(&d, params).unwrap();
+    let mut cost = 0.0;
+    // Both mappings: the CPU one PoCL uses by default, and the paper's
+    // half-warp one that GPUs use, run here on PoCL.
+    for mapping in [Mapping::SingleLane, Mapping::Paper] {
+        let mut builder = DeviceBuilder::with_mapping(&d, params, mapping).unwrap();
+        cost = check_one(&mut builder, soup, params, &format!("{what} ({mapping:?})"));
+    }
+    cost
+}
+
+fn check_one(builder: &mut DeviceBuilder, soup: &Soup, params: BuildParams, what: &str) -> f64 {
     let (dev, _) = builder.build(soup).unwrap();
     let reference = binned::build(soup, params).unwrap();
     let shape = validate(&dev, soup, params.leaf_size).unwrap_or_else(|e| panic!("{what}: {e}"));
@@ -194,14 +204,21 @@ fn buffers_are_reused_between_frames() {
     let a = random_soup(10_000, 0.02, 21);
     let b = random_soup(10_000, 0.03, 22);
     builder.build(&a).unwrap();
+    let after_first_frame = builder.allocations();
     builder.build(&b).unwrap();
     builder.build(&random_soup(9_000, 0.03, 23)).unwrap();
     assert_eq!(
         builder.allocations(),
-        1,
+        after_first_frame,
         "frames of the same or smaller size reallocated"
     );
     let (again, _) = builder.build(&a).unwrap();
+    assert_eq!(builder.allocations(), after_first_frame);
+    builder.build(&random_soup(12_000, 0.03, 24)).unwrap();
+    assert!(
+        builder.allocations() > after_first_frame,
+        "a bigger frame must grow the buffers"
+    );
     assert_eq!(
         again.nodes,
         binned::build(&a, BuildParams::default()).unwrap().nodes

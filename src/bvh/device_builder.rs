@@ -16,6 +16,7 @@ use super::layout::{Bin, BuildTask, PrimRef, SplitResult};
 use super::{BuildParams, Bvh};
 use crate::device::{Arg, Device};
 use crate::soup::Soup;
+use opencl3::event::Event;
 use opencl3::kernel::Kernel;
 use opencl3::memory::Buffer;
 use std::time::Instant;
@@ -31,7 +32,7 @@ pub struct StageTimes {
 }
 
 /// What one build cost.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct BuildStats {
     /// Wall-clock time of the whole build, uploads and host work included.
     pub build_ms: f64,
@@ -42,6 +43,9 @@ pub struct BuildStats {
     /// Levels processed over all stages.
     pub levels: u32,
     pub kernel_launches: usize,
+    /// Device time of each kernel, "stage/kernel" → ms.
+    #[serde(skip)]
+    pub kernels_ms: std::collections::BTreeMap<String, f64>,
 }
 
 struct Kernels {
@@ -58,8 +62,9 @@ struct Kernels {
 /// Device buffers, sized for `capacity` triangles.
 struct Buffers {
     capacity: usize,
-    positions: Buffer<[f32; 4]>,
+    /// Triangle boxes, in the same slot order as `ids` (they move together).
     refs: Buffer<PrimRef>,
+    refs_scratch: Buffer<PrimRef>,
     ids: Buffer<u32>,
     ids_scratch: Buffer<u32>,
     /// Per-work-group bins of `compute_prim_refs`, then the root bin.
@@ -76,14 +81,66 @@ struct Buffers {
     cursors: Buffer<u64>,
 }
 
-const BUILD_WG: usize = 128;
+/// How the kernels map onto the device's threads (see the header of
+/// `kernels/bvh_build.cl`). Both mappings build the same tree, bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Mapping {
+    /// The paper's: work-groups of 128, bins counted by groups of `bins`
+    /// threads over blocks of `bins` triangles, small nodes by one such group.
+    /// For GPUs, whose SIMD lanes make the 16-pass walk free.
+    Paper,
+    /// One work-item per work-group keeps every bin private. For CPU devices,
+    /// where the paper's walk would do each triangle's work 16 times.
+    SingleLane,
+}
+
+impl Mapping {
+    /// The mapping for a device: single-lane on CPUs, the paper's elsewhere.
+    /// `SOUPRAY_BVH_MAPPING=paper|single-lane` overrides it (tests use this
+    /// to run the GPU mapping on PoCL).
+    pub fn for_device(device: &Device) -> Mapping {
+        match std::env::var("SOUPRAY_BVH_MAPPING").as_deref() {
+            Ok("paper") => Mapping::Paper,
+            Ok("single-lane") => Mapping::SingleLane,
+            _ if device.info.kind == "CPU" => Mapping::SingleLane,
+            _ => Mapping::Paper,
+        }
+    }
+
+    fn build_wg(self) -> usize {
+        match self {
+            Mapping::Paper => 128,
+            Mapping::SingleLane => 1,
+        }
+    }
+
+    /// Small nodes per `split_small` work-group.
+    fn small_tasks(self) -> usize {
+        match self {
+            Mapping::Paper => 1,
+            Mapping::SingleLane => 16,
+        }
+    }
+
+    fn bin_lanes(self, bins: u32) -> u32 {
+        match self {
+            Mapping::Paper => bins,
+            Mapping::SingleLane => 1,
+        }
+    }
+}
 
 /// The builder: compiled kernels and reusable buffers for one device.
 pub struct DeviceBuilder<'d> {
     device: &'d Device,
     params: BuildParams,
+    mapping: Mapping,
     kernels: Kernels,
     buffers: Option<Buffers>,
+    /// Where `build` uploads a host soup (`build_from_device` reads the
+    /// caller's buffer instead).
+    upload: Option<Buffer<[f32; 4]>>,
+    upload_capacity: usize,
     allocations: usize,
     // Host-side scratch, reused across levels and frames.
     group_task: Vec<u32>,
@@ -92,14 +149,29 @@ pub struct DeviceBuilder<'d> {
     reduce_index: Vec<u32>,
     splits: Vec<SplitResult>,
     cursors: Vec<u64>,
+    pending_check: Option<PendingCheck>,
 }
 
 impl<'d> DeviceBuilder<'d> {
-    /// Compiles the builder's kernels for `params` on `device`.
+    /// Compiles the builder's kernels for `params` on `device`, with the
+    /// device's mapping (`Mapping::for_device`).
     pub fn new(device: &'d Device, params: BuildParams) -> Result<DeviceBuilder<'d>, BuildError> {
+        Self::with_mapping(device, params, Mapping::for_device(device))
+    }
+
+    pub fn with_mapping(
+        device: &'d Device,
+        params: BuildParams,
+        mapping: Mapping,
+    ) -> Result<DeviceBuilder<'d>, BuildError> {
         params.check().map_err(BuildError::Params)?;
+        let lanes = mapping.bin_lanes(params.bins);
         let defines = [
             ("BINS", params.bins.to_string()),
+            ("BUILD_WG", mapping.build_wg().to_string()),
+            ("BIN_LANES", lanes.to_string()),
+            ("SMALL_WG", lanes.to_string()),
+            ("SMALL_TASKS", mapping.small_tasks().to_string()),
             (
                 "HAVE_INT64_ATOMICS",
                 (device.has_int64_atomics() as u32).to_string(),
@@ -120,8 +192,11 @@ impl<'d> DeviceBuilder<'d> {
         Ok(DeviceBuilder {
             device,
             params,
+            mapping,
             kernels,
             buffers: None,
+            upload: None,
+            upload_capacity: 0,
             allocations: 0,
             group_task: Vec::new(),
             group_index: Vec::new(),
@@ -129,11 +204,16 @@ impl<'d> DeviceBuilder<'d> {
             reduce_index: Vec::new(),
             splits: Vec::new(),
             cursors: Vec::new(),
+            pending_check: None,
         })
     }
 
     pub fn params(&self) -> BuildParams {
         self.params
+    }
+
+    pub fn mapping(&self) -> Mapping {
+        self.mapping
     }
 
     /// How many times the device buffers have been (re)allocated: once for
@@ -158,11 +238,11 @@ impl<'d> DeviceBuilder<'d> {
             max_groups / REDUCE_FAN as usize + n / super::binned::LARGE_ABOVE as usize + 1;
         self.buffers = Some(Buffers {
             capacity: n,
-            positions: d.buffer(3 * n)?,
             refs: d.buffer(n)?,
+            refs_scratch: d.buffer(n)?,
             ids: d.buffer(n)?,
             ids_scratch: d.buffer(n)?,
-            root_partials: d.buffer(n.div_ceil(BUILD_WG))?,
+            root_partials: d.buffer(n.div_ceil(PRIMS_PER_GROUP as usize))?,
             root_bin: d.buffer(1)?,
             tasks: d.buffer(max_tasks)?,
             group_task: d.buffer(max_groups)?,
@@ -182,35 +262,63 @@ impl<'d> DeviceBuilder<'d> {
     pub fn build(&mut self, soup: &Soup) -> Result<(Bvh, BuildStats), BuildError> {
         let start = Instant::now();
         let n = soup.triangle_count();
-        self.ensure_capacity(n)?;
-        let b = self.buffers.as_mut().expect("allocated above");
-        self.device.write(&mut b.positions, &soup.positions)?;
-        self.build_uploaded(n, start)
+        if self.upload.is_none() || self.upload_capacity < n {
+            self.upload = Some(self.device.buffer(3 * n.max(1))?);
+            self.upload_capacity = n;
+            self.allocations += 1;
+        }
+        let mut upload = self.upload.take().expect("allocated above");
+        let result = self
+            .device
+            .write(&mut upload, &soup.positions)
+            .map_err(BuildError::from)
+            .and_then(|()| self.build_timed(&upload, n, start));
+        self.upload = Some(upload);
+        result
     }
 
-    /// Builds the tree of the `n` triangles already in the positions buffer.
-    fn build_uploaded(
+    /// Builds the tree of the `n` triangles whose corners are already in
+    /// `positions` on the device (three `float4` per triangle), as the
+    /// frame's soup kernel leaves them: nothing crosses to the host.
+    pub fn build_from_device(
         &mut self,
+        positions: &Buffer<[f32; 4]>,
+        n: usize,
+    ) -> Result<(Bvh, BuildStats), BuildError> {
+        self.build_timed(positions, n, Instant::now())
+    }
+
+    /// The primitive-index array of the last build, still on the device:
+    /// leaf slot → triangle index, for the tracer.
+    pub fn device_prim_ids(&self) -> Option<&Buffer<u32>> {
+        self.buffers.as_ref().map(|b| &b.ids)
+    }
+
+    fn build_timed(
+        &mut self,
+        positions: &Buffer<[f32; 4]>,
         n: usize,
         start: Instant,
     ) -> Result<(Bvh, BuildStats), BuildError> {
+        self.ensure_capacity(n)?;
         let d = self.device;
         let mut host = 0.0;
         let mut levels_done = 0;
         d.take_timings()?; // start this build's profile from zero
-        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let b = self.buffers.as_mut().expect("allocated above");
         let root = if n == 0 {
             super::binned::bin_empty()
         } else {
-            let groups = n.div_ceil(BUILD_WG);
+            let groups = n.div_ceil(PRIMS_PER_GROUP as usize);
+            let wg = self.mapping.build_wg();
             let k = &self.kernels;
             d.launch(
-                "bvh.prepare",
+                "bvh.prepare/compute_prim_refs",
                 &k.compute_prim_refs,
                 groups,
-                BUILD_WG,
+                wg,
                 &[
-                    Arg::Buf(&b.positions),
+                    Arg::Buf(positions),
                     Arg::U32(n as u32),
                     Arg::Buf(&b.refs),
                     Arg::Buf(&b.ids),
@@ -218,10 +326,10 @@ impl<'d> DeviceBuilder<'d> {
                 ],
             )?;
             d.launch(
-                "bvh.prepare",
+                "bvh.prepare/merge_bins",
                 &k.merge_bins,
                 1,
-                BUILD_WG,
+                wg,
                 &[
                     Arg::Buf(&b.root_partials),
                     Arg::U32(groups as u32),
@@ -245,7 +353,8 @@ impl<'d> DeviceBuilder<'d> {
                 levels_done += 1;
             }
         }
-        let b = self.buffers.as_ref().expect("allocated by the caller");
+        self.check_cursors()?;
+        let b = self.buffers.as_ref().expect("allocated above");
         let mut prim_ids = vec![0u32; n];
         d.read(&b.ids, &mut prim_ids)?;
         let timings = d.take_timings()?;
@@ -260,6 +369,7 @@ impl<'d> DeviceBuilder<'d> {
             host_ms: host * 1e3,
             levels: levels_done,
             kernel_launches: timings.launches,
+            kernels_ms: timings.by_stage.clone(),
         };
         Ok((
             Bvh {
@@ -273,24 +383,38 @@ impl<'d> DeviceBuilder<'d> {
     /// Runs one level of `stage` on the device and leaves the level's split
     /// results, with their final counts, in `self.splits`.
     fn run_level(&mut self, stage: Stage, level: &mut [BuildTask]) -> Result<(), BuildError> {
+        self.check_cursors()?;
         let d = self.device;
         let b = self.buffers.as_mut().expect("allocated by the caller");
         let k = &self.kernels;
-        let name = match stage {
-            Stage::Large => "bvh.large",
-            Stage::Medium => "bvh.medium",
-            Stage::Small => "bvh.small",
+        let wg = self.mapping.build_wg();
+        // Launch names are "bvh.<stage>/<kernel>", so the log can show
+        // both the stage totals and each kernel's share.
+        let name = |kernel: &str| -> &'static str {
+            match (stage, kernel) {
+                (Stage::Small, _) => "bvh.small/split_small",
+                (Stage::Large, "bin") => "bvh.large/bin_triangles",
+                (Stage::Large, "reduce") => "bvh.large/reduce_bins",
+                (Stage::Large, "split") => "bvh.large/find_split",
+                (Stage::Large, "partition") => "bvh.large/partition",
+                (Stage::Large, _) => "bvh.large/copy_back",
+                (_, "bin") => "bvh.medium/bin_triangles",
+                (_, "split") => "bvh.medium/find_split",
+                (_, "partition") => "bvh.medium/partition",
+                _ => "bvh.medium/copy_back",
+            }
         };
         let tasks = level.len();
         if stage == Stage::Small {
             d.write(&mut b.tasks, level)?;
             d.launch(
-                name,
+                name("split"),
                 &k.split_small,
-                tasks,
-                self.params.bins as usize,
+                tasks.div_ceil(self.mapping.small_tasks()),
+                self.mapping.bin_lanes(self.params.bins) as usize,
                 &[
                     Arg::Buf(&b.tasks),
+                    Arg::U32(tasks as u32),
                     Arg::Buf(&b.ids),
                     Arg::Buf(&b.refs),
                     Arg::Buf(&b.splits),
@@ -334,10 +458,10 @@ impl<'d> DeviceBuilder<'d> {
         d.write(&mut b.group_task, &self.group_task)?;
         d.write(&mut b.group_index, &self.group_index)?;
         d.launch(
-            name,
+            name("bin"),
             &k.bin_triangles,
             groups,
-            BUILD_WG,
+            wg,
             &[
                 Arg::Buf(&b.tasks),
                 Arg::Buf(&b.group_task),
@@ -351,10 +475,10 @@ impl<'d> DeviceBuilder<'d> {
             d.write(&mut b.reduce_task, &self.reduce_task)?;
             d.write(&mut b.reduce_index, &self.reduce_index)?;
             d.launch(
-                name,
+                name("reduce"),
                 &k.reduce_bins,
                 self.reduce_task.len(),
-                BUILD_WG,
+                wg,
                 &[
                     Arg::Buf(&b.tasks),
                     Arg::Buf(&b.reduce_task),
@@ -368,10 +492,10 @@ impl<'d> DeviceBuilder<'d> {
             &b.group_bins
         };
         d.launch(
-            name,
+            name("split"),
             &k.find_split,
             tasks,
-            BUILD_WG,
+            wg,
             &[
                 Arg::Buf(&b.tasks),
                 Arg::Buf(sets),
@@ -379,11 +503,53 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.cursors),
             ],
         )?;
+        // Read the splits as soon as find_split is done and let the device
+        // partition while the host turns them into the next level's tasks.
+        // The partition's cursors are only needed now for id splits, whose
+        // counts are not known before; otherwise they are checked against
+        // the bins' counts at the next sync point.
+        self.splits.resize(tasks, SplitResult::default());
+        // SAFETY: `self.splits` is not touched until `splits_read` completes.
+        let splits_read = unsafe { d.read_async(&b.splits, &mut self.splits)? };
+        self.enqueue_partition(stage, groups)?;
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        self.cursors.resize(tasks, 0);
+        // SAFETY: `self.cursors` is only touched again in `check_cursors`,
+        // which waits for this read first.
+        let cursors_read = unsafe { d.read_async(&b.cursors, &mut self.cursors)? };
+        d.flush()?;
+        splits_read
+            .wait()
+            .map_err(|e| device_error("reading splits", e))?;
+        self.pending_check = Some(PendingCheck {
+            cursors_read,
+            nodes: level.iter().map(|t| t.node).collect(),
+        });
+        if self.splits.iter().any(|s| s.axis < 0) {
+            self.check_cursors()?;
+        }
+        Ok(())
+    }
+
+    /// Queues the level's partition and copy-back.
+    fn enqueue_partition(&mut self, stage: Stage, groups: usize) -> Result<(), BuildError> {
+        let d = self.device;
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let k = &self.kernels;
+        let wg = self.mapping.build_wg();
+        let name = |kernel: &str| -> &'static str {
+            match (stage, kernel) {
+                (Stage::Large, "partition") => "bvh.large/partition",
+                (Stage::Large, _) => "bvh.large/copy_back",
+                (_, "partition") => "bvh.medium/partition",
+                _ => "bvh.medium/copy_back",
+            }
+        };
         d.launch(
-            name,
+            name("partition"),
             &k.partition,
             groups,
-            BUILD_WG,
+            wg,
             &[
                 Arg::Buf(&b.tasks),
                 Arg::Buf(&b.group_task),
@@ -392,33 +558,48 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.ids),
                 Arg::Buf(&b.refs),
                 Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.refs_scratch),
                 Arg::Buf(&b.cursors),
+                Arg::Buf(&b.group_bins),
             ],
         )?;
         d.launch(
-            name,
+            name("copy"),
             &k.copy_back,
             groups,
-            BUILD_WG,
+            wg,
             &[
                 Arg::Buf(&b.tasks),
                 Arg::Buf(&b.group_task),
                 Arg::Buf(&b.group_index),
                 Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.refs_scratch),
                 Arg::Buf(&b.ids),
+                Arg::Buf(&b.refs),
             ],
         )?;
-        self.splits.resize(tasks, SplitResult::default());
-        self.cursors.resize(tasks, 0);
-        d.read(&b.splits, &mut self.splits)?;
-        d.read(&b.cursors, &mut self.cursors)?;
-        for ((split, &cursor), t) in self.splits.iter_mut().zip(&self.cursors).zip(level.iter()) {
+        Ok(())
+    }
+
+    /// Waits for the last level's partition cursors, fills in the counts of
+    /// id splits, and checks that every other split moved exactly the
+    /// triangles its bins counted.
+    fn check_cursors(&mut self) -> Result<(), BuildError> {
+        let Some(check) = self.pending_check.take() else {
+            return Ok(());
+        };
+        check
+            .cursors_read
+            .wait()
+            .map_err(|e| device_error("reading partition cursors", e))?;
+        for ((split, &cursor), &node) in self.splits.iter_mut().zip(&self.cursors).zip(&check.nodes)
+        {
             let moved = (cursor as u32, (cursor >> 32) as u32);
             if split.axis < 0 {
                 (split.left_count, split.right_count) = moved;
             } else if (split.left_count, split.right_count) != moved {
                 return Err(BuildError::CountMismatch {
-                    node: t.node,
+                    node,
                     expected: (split.left_count, split.right_count),
                     got: moved,
                 });
@@ -426,4 +607,17 @@ impl<'d> DeviceBuilder<'d> {
         }
         Ok(())
     }
+}
+
+/// A partition whose cursors are still being read back.
+struct PendingCheck {
+    cursors_read: Event,
+    nodes: Vec<u32>,
+}
+
+fn device_error(what: &str, e: impl std::fmt::Display) -> BuildError {
+    BuildError::Device(crate::device::DeviceError::Cl {
+        what: what.to_owned(),
+        code: e.to_string(),
+    })
 }

@@ -175,7 +175,7 @@ impl Reader<'_> {
         len: usize,
         what: &str,
     ) -> Result<&[u8]> {
-        let end = start.checked_add(len).unwrap_or(usize::MAX);
+        let end = start.saturating_add(len);
         if end > view.length() {
             return Err(self.error(
                 acc,

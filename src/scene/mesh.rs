@@ -281,7 +281,7 @@ fn load_primitive(
         }
         None => (0..vertex_count as u32).collect(),
     };
-    if prim.mode() == Mode::Triangles && indices.len() % 3 != 0 {
+    if prim.mode() == Mode::Triangles && !indices.len().is_multiple_of(3) {
         warnings.push(format!(
             "{where_} has {} indices, not a multiple of 3; the last {} are ignored",
             indices.len(),

@@ -65,7 +65,7 @@ fn type_of(width: usize) -> &'static str {
 
 impl Builder {
     pub fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();

@@ -1,0 +1,278 @@
+//! BVH build benchmark: the device builder side by side with the `bvh`
+//! crate's parallel builder and soupray's CPU builders, on real meshes and
+//! instanced arrangements of them, in one run.
+//!
+//!   cargo bench --bench bvh_build            # all sizes
+//!   cargo bench --bench bvh_build -- --quick # 70K and 250K only
+//!
+//! Prints a Markdown table for BENCHMARKS.md: median build ms, Mtris/s, the
+//! device's per-stage split, SAH cost relative to the full sweep, and each
+//! builder's peak host memory (VmHWM, reset before each builder).
+
+use soupray::bvh::device_builder::DeviceBuilder;
+use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
+use soupray::device::Device;
+use soupray::soup::Soup;
+use std::path::Path;
+use std::time::Instant;
+
+fn mesh(name: &str) -> Soup {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/assets/meshes")
+        .join(name);
+    soupray::ply::read_soup(&p).unwrap()
+}
+
+/// `copies` copies of `base` on a square grid, each turned about the vertical
+/// axis, spaced at 0.7 of the mesh's width so neighbours overlap as in a
+/// crowded scene.
+fn arrangement(base: &Soup, copies: usize) -> Soup {
+    let (lo, hi) = base.bounds().unwrap();
+    let width = (hi[0] - lo[0]).max(hi[2] - lo[2]);
+    let side = (copies as f64).sqrt().ceil() as usize;
+    let mut out = Soup::default();
+    out.positions.reserve(base.positions.len() * copies);
+    for c in 0..copies {
+        let angle = c as f32 * 2.399; // golden angle: no two copies alike
+        let (s, co) = angle.sin_cos();
+        let dx = (c % side) as f32 * width * 0.7;
+        let dz = (c / side) as f32 * width * 0.7;
+        for p in &base.positions {
+            let x = p[0] - lo[0];
+            let z = p[2] - lo[2];
+            out.positions
+                .push([co * x - s * z + dx, p[1], s * x + co * z + dz, 0.0]);
+        }
+    }
+    out
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Peak resident memory since the last reset, in MiB (Linux).
+fn peak_mib() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|kb| kb.parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn reset_peak() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+struct Tri([[f32; 3]; 3], usize);
+
+impl bvh::aabb::Bounded<f32, 3> for Tri {
+    fn aabb(&self) -> bvh::aabb::Aabb<f32, 3> {
+        let mut b = bvh::aabb::Aabb::empty();
+        for v in &self.0 {
+            b.grow_mut(&nalgebra::Point3::new(v[0], v[1], v[2]));
+        }
+        b
+    }
+}
+
+impl bvh::bounding_hierarchy::BHShape<f32, 3> for Tri {
+    fn set_bh_node_index(&mut self, i: usize) {
+        self.1 = i;
+    }
+    fn bh_node_index(&self) -> usize {
+        self.1
+    }
+}
+
+/// SAH cost of a `bvh` crate tree (leaves of one triangle), by the same
+/// definition as `soupray::bvh::sah_cost`.
+fn bvh_crate_sah(tree: &bvh::bvh::Bvh<f32, 3>) -> f64 {
+    use bvh::bvh::BvhNode;
+    let area = |b: &bvh::aabb::Aabb<f32, 3>| {
+        let d = [
+            (b.max.x - b.min.x) as f64,
+            (b.max.y - b.min.y) as f64,
+            (b.max.z - b.min.z) as f64,
+        ];
+        2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
+    };
+    let BvhNode::Node {
+        child_l_aabb,
+        child_r_aabb,
+        ..
+    } = &tree.nodes[0]
+    else {
+        return 0.0;
+    };
+    let root = area(&child_l_aabb.join(child_r_aabb));
+    let mut cost = root;
+    for node in &tree.nodes {
+        if let BvhNode::Node {
+            child_l_index,
+            child_l_aabb,
+            child_r_index,
+            child_r_aabb,
+            ..
+        } = node
+        {
+            for (i, b) in [(child_l_index, child_l_aabb), (child_r_index, child_r_aabb)] {
+                // An inner child costs its box once; a leaf its box times one triangle.
+                let _ = i;
+                cost += area(b);
+            }
+        }
+    }
+    cost / root
+}
+
+struct Row {
+    scene: String,
+    builder: &'static str,
+    ms: f64,
+    mtris: f64,
+    stages: String,
+    sah: f64,
+    sah_vs_sweep: f64,
+    peak: f64,
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let beast = mesh("beast.ply");
+    let nefertiti = mesh("nefertiti.ply");
+    let mut scenes = vec![
+        ("beast (real)".to_string(), beast.clone()),
+        ("4 x beast".to_string(), arrangement(&beast, 4)),
+    ];
+    if !quick {
+        scenes.push(("10 x nefertiti".to_string(), arrangement(&nefertiti, 10)));
+        scenes.push(("25 x nefertiti".to_string(), arrangement(&nefertiti, 25)));
+    }
+    let device = Device::open(None).expect("an OpenCL device");
+    let params = BuildParams::default();
+    let mut builder = DeviceBuilder::new(&device, params).unwrap();
+    let mut rows = Vec::new();
+    for (name, soup) in &scenes {
+        let n = soup.triangle_count();
+        let label = format!("{name}, {:.0}K", n as f64 / 1e3);
+        let reps = if n > 500_000 { 3 } else { 5 };
+        eprintln!("{label}: sweep");
+        reset_peak();
+        let t = Instant::now();
+        let sweep_tree = sweep::build(soup, params);
+        let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
+        let sweep_sah = sah_cost(&sweep_tree);
+        drop(sweep_tree);
+        rows.push(Row {
+            scene: label.clone(),
+            builder: "soupray cpu-sweep (1 thread)",
+            ms: sweep_ms,
+            mtris: n as f64 / sweep_ms / 1e3,
+            stages: String::new(),
+            sah: sweep_sah,
+            sah_vs_sweep: 1.0,
+            peak: peak_mib(),
+        });
+
+        eprintln!("{label}: device");
+        reset_peak();
+        builder.build(soup).unwrap(); // warm-up: buffers and caches
+        let mut times = Vec::new();
+        let mut stats = Vec::new();
+        let mut tree = None;
+        for _ in 0..reps {
+            let (t, s) = builder.build(soup).unwrap();
+            times.push(s.build_ms);
+            stats.push(s);
+            tree = Some(t);
+        }
+        let tree = tree.unwrap();
+        validate(&tree, soup, params.leaf_size).expect("device tree valid");
+        let ms = median(times);
+        let st = |f: fn(&soupray::bvh::device_builder::BuildStats) -> f64| {
+            median(stats.iter().map(f).collect())
+        };
+        let stages = format!(
+            "prep {:.1} / large {:.1} / medium {:.1} / small {:.1} / host {:.1}",
+            st(|s| s.stages_ms.prepare),
+            st(|s| s.stages_ms.large),
+            st(|s| s.stages_ms.medium),
+            st(|s| s.stages_ms.small),
+            st(|s| s.host_ms)
+        );
+        let sah = sah_cost(&tree);
+        drop(tree);
+        rows.push(Row {
+            scene: label.clone(),
+            builder: "soupray device (PoCL)",
+            ms,
+            mtris: n as f64 / ms / 1e3,
+            stages,
+            sah,
+            sah_vs_sweep: sah / sweep_sah,
+            peak: peak_mib(),
+        });
+
+        eprintln!("{label}: cpu-binned");
+        reset_peak();
+        let mut times = Vec::new();
+        let mut sah = 0.0;
+        for _ in 0..reps.min(3) {
+            let t = Instant::now();
+            let tree = binned::build(soup, params).unwrap();
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            sah = sah_cost(&tree);
+        }
+        let ms = median(times);
+        rows.push(Row {
+            scene: label.clone(),
+            builder: "soupray cpu-binned (1 thread)",
+            ms,
+            mtris: n as f64 / ms / 1e3,
+            stages: String::new(),
+            sah,
+            sah_vs_sweep: sah / sweep_sah,
+            peak: peak_mib(),
+        });
+
+        eprintln!("{label}: bvh crate");
+        reset_peak();
+        let mut times = Vec::new();
+        let mut sah = 0.0;
+        for _ in 0..reps.min(3) {
+            let mut shapes: Vec<Tri> = (0..n)
+                .map(|t| Tri(std::array::from_fn(|k| soup.corner(t, k)), 0))
+                .collect();
+            let t = Instant::now();
+            let tree = <bvh::bvh::Bvh<f32, 3> as bvh::bounding_hierarchy::BoundingHierarchy<
+                f32,
+                3,
+            >>::build_par(&mut shapes);
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            sah = bvh_crate_sah(&tree);
+        }
+        let ms = median(times);
+        rows.push(Row {
+            scene: label.clone(),
+            builder: "bvh 0.13 build_par (rayon, leaf 1)",
+            ms,
+            mtris: n as f64 / ms / 1e3,
+            stages: String::new(),
+            sah,
+            sah_vs_sweep: sah / sweep_sah,
+            peak: peak_mib(),
+        });
+    }
+    println!("| scene | builder | build ms (median) | Mtris/s | device stages ms | SAH cost | SAH / sweep | peak host MiB |");
+    println!("|---|---|---:|---:|---|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.1} | {:.2} | {} | {:.2} | {:.3} | {:.0} |",
+            r.scene, r.builder, r.ms, r.mtris, r.stages, r.sah, r.sah_vs_sweep, r.peak
+        );
+    }
+}
