@@ -12,10 +12,16 @@
 //   find_split                     one work-group a node: final reduction and
 //                                  the best SAH split, chosen on the device
 //   partition                      one global atomic per work-group reserves
-//                                  the group's left and right slots at once
-//   copy_back                      the partitioned indices back into place
+//                                  the group's left and right slots at once;
+//                                  writes into the other buffer pair
 //   split_small                    small nodes: one work-group a node bins,
-//                                  splits and partitions in local memory
+//                                  splits and partitions in place
+//   gather_ranges                  last: finished ranges left in buffer pair 1
+//                                  copied into pair 0
+//
+// Triangle ids and boxes live in two buffer pairs (a, b). A level's
+// partition reads its task's `source` pair and writes the other, so no
+// level copies back; the host records which finished ranges end up in b.
 //
 // Defines:
 //   BINS                bins per axis
@@ -93,6 +99,15 @@ inline void bin_block(uint base, uint limit, uint lane, __local const float4* s_
     }
 }
 
+// The single-lane counting step: one work-item takes a triangle straight
+// from global memory into its own 3 * BINS bins (no staging, no lanes).
+inline void bin_direct(BuildTask t, uint id, PrimRef r, Bin* acc) {
+    float4 c = centroid(r.lo, r.hi);
+    bin_add(&acc[bin_index(c.x, t.cmin.x, t.scale.x)], r.lo, r.hi, c, id);
+    bin_add(&acc[BINS + bin_index(c.y, t.cmin.y, t.scale.y)], r.lo, r.hi, c, id);
+    bin_add(&acc[2 * BINS + bin_index(c.z, t.cmin.z, t.scale.z)], r.lo, r.hi, c, id);
+}
+
 // Stores a lane's bins into the group's 3 * BINS bin array `out`.
 inline void store_lane_bins(const Bin* acc, uint lane, __local Bin* out) {
     for (uint axis = 0; axis < 3; ++axis) {
@@ -101,6 +116,9 @@ inline void store_lane_bins(const Bin* acc, uint lane, __local Bin* out) {
 }
 
 // Reserves l left and r right slots of task ti; returns the slots taken before.
+#define IDS(t) ((t).source ? ids_b : ids_a)
+#define REFS(t) ((t).source ? refs_b : refs_a)
+
 inline uint2 reserve(__global ulong* cursors, uint ti, uint l, uint r) {
 #if HAVE_INT64_ATOMICS
     ulong before = atom_add(&cursors[ti], ((ulong)r << 32) | (ulong)l);
@@ -158,8 +176,9 @@ void merge_bins(__global const Bin* in, uint n, __global Bin* out) {
 
 __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void bin_triangles(__global const BuildTask* tasks, __global const uint* group_task,
-                   __global const uint* group_index, __global const uint* ids,
-                   __global const PrimRef* refs, __global Bin* group_bins) {
+                   __global const uint* group_index, __global const uint* ids_a,
+                   __global const PrimRef* refs_a, __global const uint* ids_b,
+                   __global const PrimRef* refs_b, __global Bin* group_bins) {
     __local float4 s_lo[BUILD_WG];
     __local float4 s_hi[BUILD_WG];
     __local uint s_bin[BUILD_WG];
@@ -168,12 +187,19 @@ void bin_triangles(__global const BuildTask* tasks, __global const uint* group_t
     uint g = get_group_id(0);
     uint lid = get_local_id(0);
     BuildTask t = tasks[group_task[g]];
+    __global const uint* ids = IDS(t);
+    __global const PrimRef* refs = REFS(t);
     uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
     uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
     uint group_of_lanes = lid / BIN_LANES;
     uint lane = lid % BIN_LANES;
     Bin acc[3 * OWNED];
     for (uint i = 0; i < 3 * OWNED; ++i) acc[i] = bin_empty();
+#if BIN_LANES == 1 && BUILD_WG == 1
+    for (uint p = begin; p < end; ++p) bin_direct(t, ids[p], refs[p], acc);
+    for (uint i = 0; i < 3 * BINS; ++i) group_bins[g * 3 * BINS + i] = acc[i];
+    return;
+#endif
     for (uint round = 0; round < ROUNDS; ++round) {
         uint first = begin + round * BUILD_WG;
         if (first >= end) break;  // the same for the whole group
@@ -234,9 +260,8 @@ void find_split(__global const BuildTask* tasks, __global const Bin* sets,
 __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
 void partition(__global const BuildTask* tasks, __global const uint* group_task,
                __global const uint* group_index, __global const SplitResult* splits,
-               __global const uint* ids_in, __global const PrimRef* refs_in,
-               __global uint* ids_out, __global PrimRef* refs_out, __global ulong* cursors,
-               __global const Bin* group_bins) {
+               __global uint* ids_a, __global PrimRef* refs_a, __global uint* ids_b,
+               __global PrimRef* refs_b, __global ulong* cursors, __global const Bin* group_bins) {
     __local uint s_scan[BUILD_WG];
     __local uint2 s_base;
     uint g = get_group_id(0);
@@ -244,6 +269,10 @@ void partition(__global const BuildTask* tasks, __global const uint* group_task,
     uint ti = group_task[g];
     BuildTask t = tasks[ti];
     SplitResult s = splits[ti];
+    __global const uint* ids_in = IDS(t);
+    __global const PrimRef* refs_in = REFS(t);
+    __global uint* ids_out = t.source ? ids_a : ids_b;
+    __global PrimRef* refs_out = t.source ? refs_a : refs_b;
     uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
     uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
     // Each thread takes a contiguous chunk, so the scan keeps the order.
@@ -282,29 +311,68 @@ void partition(__global const BuildTask* tasks, __global const uint* group_task,
     }
 }
 
+// Copies each finished range (first slot, count) from buffer pair b's ids
+// into pair a's, one work-group a range. Boxes are not needed after the build.
 __kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
-void copy_back(__global const BuildTask* tasks, __global const uint* group_task,
-               __global const uint* group_index, __global const uint* ids_src,
-               __global const PrimRef* refs_src, __global uint* ids_dst, __global PrimRef* refs_dst) {
-    uint g = get_group_id(0);
-    BuildTask t = tasks[group_task[g]];
-    uint begin = t.start + group_index[g] * PRIMS_PER_GROUP;
-    uint end = min(begin + PRIMS_PER_GROUP, t.start + t.count);
-    for (uint p = begin + get_local_id(0); p < end; p += BUILD_WG) {
-        ids_dst[p] = ids_src[p];
-        refs_dst[p] = refs_src[p];
-    }
+void gather_ranges(__global const uint2* ranges, __global const uint* ids_b,
+                   __global uint* ids_a) {
+    uint2 range = ranges[get_group_id(0)];
+    for (uint p = range.x + get_local_id(0); p < range.x + range.y; p += BUILD_WG) ids_a[p] = ids_b[p];
 }
 
+#if SMALL_WG == 1
+// One small node by one work-item: binned straight from global memory and
+// partitioned in place from both ends (the order inside each side is free:
+// only the sides' contents matter, and one work-item is deterministic).
+inline void split_small_node_single_lane(uint g, BuildTask t, __global uint* ids,
+                                         __global PrimRef* refs, __global SplitResult* splits,
+                                         __global ulong* cursors, __local Bin* s_bins,
+                                         __local float* s_cost, __local int* s_idx) {
+    Bin acc[3 * BINS];
+    for (uint i = 0; i < 3 * BINS; ++i) acc[i] = bin_empty();
+    uint end = t.start + t.count;
+    for (uint p = t.start; p < end; ++p) bin_direct(t, ids[p], refs[p], acc);
+    for (uint i = 0; i < 3 * BINS; ++i) s_bins[i] = acc[i];
+    int best = select_split(s_bins, t.scale, s_cost, s_idx, 0, 1);
+    SplitResult s = make_split(s_bins, t, best);
+    uint lo = t.start;
+    uint hi = end;  // [lo, hi) is still undecided
+    while (lo < hi) {
+        PrimRef r = refs[lo];
+        uint id = ids[lo];
+        if (goes_left(t, s, r.lo, r.hi, id)) {
+            ++lo;
+        } else {
+            --hi;
+            refs[lo] = refs[hi];
+            ids[lo] = ids[hi];
+            refs[hi] = r;
+            ids[hi] = id;
+        }
+    }
+    s.left_count = lo - t.start;
+    s.right_count = end - lo;
+    splits[g] = s;
+    cursors[g] = ((ulong)s.right_count << 32) | (ulong)s.left_count;
+}
+#endif
+
 // One small node: binned, split and partitioned by one work-group.
-inline void split_small_node(uint g, __global const BuildTask* tasks, __global uint* ids,
-                             __global PrimRef* refs, __global SplitResult* splits,
+inline void split_small_node(uint g, __global const BuildTask* tasks, __global uint* ids_a,
+                             __global PrimRef* refs_a, __global uint* ids_b,
+                             __global PrimRef* refs_b, __global SplitResult* splits,
                              __global ulong* cursors, __local float4* s_lo, __local float4* s_hi,
                              __local uint* s_bin, __local uint* s_id, __local uchar* s_left,
                              __local Bin* s_bins, __local float* s_cost, __local int* s_idx,
                              __local uint* s_scan) {
     uint lid = get_local_id(0);
     BuildTask t = tasks[g];
+    __global uint* ids = IDS(t);
+    __global PrimRef* refs = REFS(t);
+#if SMALL_WG == 1
+    split_small_node_single_lane(g, t, ids, refs, splits, cursors, s_bins, s_cost, s_idx);
+    return;
+#endif
     for (uint k = lid; k < t.count; k += SMALL_WG) {
         stage_prim(true, t.start + k, t.cmin, t.scale, ids, refs, s_lo, s_hi, s_bin, s_id, k);
     }
@@ -356,8 +424,9 @@ inline void split_small_node(uint g, __global const BuildTask* tasks, __global u
 }
 
 __kernel __attribute__((reqd_work_group_size(SMALL_WG, 1, 1)))
-void split_small(__global const BuildTask* tasks, uint task_count, __global uint* ids,
-                 __global PrimRef* refs, __global SplitResult* splits,
+void split_small(__global const BuildTask* tasks, uint task_count, __global uint* ids_a,
+                 __global PrimRef* refs_a, __global uint* ids_b, __global PrimRef* refs_b,
+                 __global SplitResult* splits,
                  __global ulong* cursors) {
     __local float4 s_lo[SMALL_MAX];
     __local float4 s_hi[SMALL_MAX];
@@ -371,7 +440,7 @@ void split_small(__global const BuildTask* tasks, uint task_count, __global uint
     uint first = get_group_id(0) * SMALL_TASKS;
     uint last = min(first + SMALL_TASKS, task_count);
     for (uint g = first; g < last; ++g) {
-        split_small_node(g, tasks, ids, refs, splits, cursors, s_lo, s_hi, s_bin, s_id, s_left,
+        split_small_node(g, tasks, ids_a, refs_a, ids_b, refs_b, splits, cursors, s_lo, s_hi, s_bin, s_id, s_left,
                          s_bins, s_cost, s_idx, s_scan);
         barrier(CLK_LOCAL_MEM_FENCE);
     }

@@ -63,8 +63,8 @@ typedef struct {
     uint group_count;
     uint set_first;    // the bin sets find_split merges for it
     uint set_count;
-    uint node;  // its index in the node array (host bookkeeping)
-    uint pad;
+    uint node;    // its index in the node array (host bookkeeping)
+    uint source;  // which index/box buffer pair holds its triangles: 0 or 1
 } BuildTask;
 
 // The split chosen for a task (device -> host). axis >= 0: primitives whose

@@ -28,6 +28,7 @@ __kernel void layout_probe(__global uint* out) {
     PUT(offsetof(BuildTask, start)); PUT(offsetof(BuildTask, count));
     PUT(offsetof(BuildTask, first_group)); PUT(offsetof(BuildTask, group_count));
     PUT(offsetof(BuildTask, set_first)); PUT(offsetof(BuildTask, set_count));
+    PUT(offsetof(BuildTask, node)); PUT(offsetof(BuildTask, source));
     PUT(sizeof(SplitResult));
     PUT(offsetof(SplitResult, left_lo)); PUT(offsetof(SplitResult, left_hi));
     PUT(offsetof(SplitResult, right_lo)); PUT(offsetof(SplitResult, right_hi));

@@ -302,6 +302,9 @@ pub struct Levels {
     queues: [Vec<BuildTask>; 3],
     depth: Vec<u32>,
     pub max_depth: u32,
+    /// Slot ranges whose final order is in buffer pair 1 (the device
+    /// builder ping-pongs between two pairs; see `BuildTask::source`).
+    pub finished_in_second: Vec<[u32; 2]>,
 }
 
 impl Levels {
@@ -313,6 +316,7 @@ impl Levels {
             queues: [Vec::new(), Vec::new(), Vec::new()],
             depth: vec![0],
             max_depth: 0,
+            finished_in_second: Vec::new(),
         };
         if count == 0 {
             return levels;
@@ -366,6 +370,9 @@ impl Levels {
                 });
             }
             let depth = self.depth[task.node as usize] + 1;
+            // Small nodes are partitioned in place; larger ones into the
+            // other buffer pair.
+            let source = if stage == Stage::Small { task.source } else { 1 - task.source };
             let sides = [
                 (
                     task.start,
@@ -407,6 +414,12 @@ impl Levels {
                     }
                     let t = make_task(start, count, (lo, hi), (clo, chi), index, self.params.bins);
                     let child_stage = Stage::of(count);
+                    let t = BuildTask { source, ..t };
+                    // A small node's whole subtree is partitioned in place,
+                    // so its range ends where it starts.
+                    if child_stage == Stage::Small && stage != Stage::Small && source == 1 {
+                        self.finished_in_second.push([start, count]);
+                    }
                     if child_stage == stage {
                         next.push(t);
                     } else {

@@ -55,7 +55,7 @@ struct Kernels {
     reduce_bins: Kernel,
     find_split: Kernel,
     partition: Kernel,
-    copy_back: Kernel,
+    gather_ranges: Kernel,
     split_small: Kernel,
 }
 
@@ -67,6 +67,8 @@ struct Buffers {
     refs_scratch: Buffer<PrimRef>,
     ids: Buffer<u32>,
     ids_scratch: Buffer<u32>,
+    /// Finished slot ranges to copy from the scratch pair at the end.
+    ranges: Buffer<[u32; 2]>,
     /// Per-work-group bins of `compute_prim_refs`, then the root bin.
     root_partials: Buffer<Bin>,
     root_bin: Buffer<Bin>,
@@ -186,7 +188,7 @@ impl<'d> DeviceBuilder<'d> {
             reduce_bins: k("reduce_bins")?,
             find_split: k("find_split")?,
             partition: k("partition")?,
-            copy_back: k("copy_back")?,
+            gather_ranges: k("gather_ranges")?,
             split_small: k("split_small")?,
         };
         Ok(DeviceBuilder {
@@ -242,6 +244,9 @@ impl<'d> DeviceBuilder<'d> {
             refs_scratch: d.buffer(n)?,
             ids: d.buffer(n)?,
             ids_scratch: d.buffer(n)?,
+            // Small-node roots (each over leaf_size triangles) plus leaves cut
+            // straight from nodes of 256 or more.
+            ranges: d.buffer(n / (self.params.leaf_size as usize + 1) + n / 128 + 2)?,
             root_partials: d.buffer(n.div_ceil(PRIMS_PER_GROUP as usize))?,
             root_bin: d.buffer(1)?,
             tasks: d.buffer(max_tasks)?,
@@ -354,7 +359,17 @@ impl<'d> DeviceBuilder<'d> {
             }
         }
         self.check_cursors()?;
-        let b = self.buffers.as_ref().expect("allocated above");
+        let b = self.buffers.as_mut().expect("allocated above");
+        if !levels.finished_in_second.is_empty() {
+            d.write(&mut b.ranges, &levels.finished_in_second)?;
+            d.launch(
+                "bvh.small/gather_ranges",
+                &self.kernels.gather_ranges,
+                levels.finished_in_second.len(),
+                self.mapping.build_wg(),
+                &[Arg::Buf(&b.ranges), Arg::Buf(&b.ids_scratch), Arg::Buf(&b.ids)],
+            )?;
+        }
         let mut prim_ids = vec![0u32; n];
         d.read(&b.ids, &mut prim_ids)?;
         let timings = d.take_timings()?;
@@ -395,13 +410,9 @@ impl<'d> DeviceBuilder<'d> {
                 (Stage::Small, _) => "bvh.small/split_small",
                 (Stage::Large, "bin") => "bvh.large/bin_triangles",
                 (Stage::Large, "reduce") => "bvh.large/reduce_bins",
-                (Stage::Large, "split") => "bvh.large/find_split",
-                (Stage::Large, "partition") => "bvh.large/partition",
-                (Stage::Large, _) => "bvh.large/copy_back",
+                (Stage::Large, _) => "bvh.large/find_split",
                 (_, "bin") => "bvh.medium/bin_triangles",
-                (_, "split") => "bvh.medium/find_split",
-                (_, "partition") => "bvh.medium/partition",
-                _ => "bvh.medium/copy_back",
+                _ => "bvh.medium/find_split",
             }
         };
         let tasks = level.len();
@@ -417,6 +428,8 @@ impl<'d> DeviceBuilder<'d> {
                     Arg::U32(tasks as u32),
                     Arg::Buf(&b.ids),
                     Arg::Buf(&b.refs),
+                    Arg::Buf(&b.ids_scratch),
+                    Arg::Buf(&b.refs_scratch),
                     Arg::Buf(&b.splits),
                     Arg::Buf(&b.cursors),
                 ],
@@ -468,6 +481,8 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.group_index),
                 Arg::Buf(&b.ids),
                 Arg::Buf(&b.refs),
+                Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.refs_scratch),
                 Arg::Buf(&b.group_bins),
             ],
         )?;
@@ -531,22 +546,18 @@ impl<'d> DeviceBuilder<'d> {
         Ok(())
     }
 
-    /// Queues the level's partition and copy-back.
+    /// Queues the level's partition (into the other buffer pair).
     fn enqueue_partition(&mut self, stage: Stage, groups: usize) -> Result<(), BuildError> {
         let d = self.device;
         let b = self.buffers.as_mut().expect("allocated by the caller");
         let k = &self.kernels;
         let wg = self.mapping.build_wg();
-        let name = |kernel: &str| -> &'static str {
-            match (stage, kernel) {
-                (Stage::Large, "partition") => "bvh.large/partition",
-                (Stage::Large, _) => "bvh.large/copy_back",
-                (_, "partition") => "bvh.medium/partition",
-                _ => "bvh.medium/copy_back",
-            }
+        let name = match stage {
+            Stage::Large => "bvh.large/partition",
+            _ => "bvh.medium/partition",
         };
         d.launch(
-            name("partition"),
+            name,
             &k.partition,
             groups,
             wg,
@@ -561,21 +572,6 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.refs_scratch),
                 Arg::Buf(&b.cursors),
                 Arg::Buf(&b.group_bins),
-            ],
-        )?;
-        d.launch(
-            name("copy"),
-            &k.copy_back,
-            groups,
-            wg,
-            &[
-                Arg::Buf(&b.tasks),
-                Arg::Buf(&b.group_task),
-                Arg::Buf(&b.group_index),
-                Arg::Buf(&b.ids_scratch),
-                Arg::Buf(&b.refs_scratch),
-                Arg::Buf(&b.ids),
-                Arg::Buf(&b.refs),
             ],
         )?;
         Ok(())

@@ -69,7 +69,9 @@ pub struct BuildTask {
     pub set_count: u32,
     /// Its index in the node array (host bookkeeping).
     pub node: u32,
-    pub pad: u32,
+    /// Which index/box buffer pair holds its triangles (0 or 1): levels
+    /// ping-pong between the two instead of copying back.
+    pub source: u32,
 }
 
 /// The split chosen for a task (device → host). `axis == -1` is an id
@@ -135,6 +137,8 @@ pub fn host_layout() -> Vec<u32> {
         v(offset_of!(BuildTask, group_count)),
         v(offset_of!(BuildTask, set_first)),
         v(offset_of!(BuildTask, set_count)),
+        v(offset_of!(BuildTask, node)),
+        v(offset_of!(BuildTask, source)),
         v(size_of::<SplitResult>()),
         v(offset_of!(SplitResult, left_lo)),
         v(offset_of!(SplitResult, left_hi)),

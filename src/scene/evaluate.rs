@@ -65,7 +65,20 @@ impl Scene {
         let pose = self.pose(time);
         let mut warnings = Vec::new();
         let soup = self.soup_of(&pose, true, &mut warnings)?;
-        let camera = match self.camera_instance() {
+        Ok(FrameSoup {
+            time,
+            soup,
+            camera: self.frame_camera(&pose)?,
+            lights: self.frame_lights(&pose),
+            warnings,
+        })
+    }
+
+    /// The camera of a pose: the chosen camera's node, or the default
+    /// camera framing the whole clip. Shared with the device soup path so
+    /// both place the camera identically.
+    pub fn frame_camera(&self, pose: &Pose) -> Result<FrameCamera> {
+        Ok(match self.camera_instance() {
             Some((node, camera)) => {
                 let def = &self.cameras()[camera];
                 FrameCamera {
@@ -79,19 +92,15 @@ impl Scene {
                 let (lo, hi) = self.clip_bounds()?;
                 framing(lo, hi)
             }
-        };
-        let lights = self
-            .light_instances()
+        })
+    }
+
+    /// The lights of a pose, in world space.
+    pub fn frame_lights(&self, pose: &Pose) -> Vec<FrameLight> {
+        self.light_instances()
             .iter()
             .map(|&(node, light)| place(&self.lights()[light], node, &pose.world_from_node[node]))
-            .collect();
-        Ok(FrameSoup {
-            time,
-            soup,
-            camera,
-            lights,
-            warnings,
-        })
+            .collect()
     }
 
     /// Bounds of the geometry over every frame of the clip.
