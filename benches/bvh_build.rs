@@ -9,7 +9,7 @@
 //! device's per-stage split, SAH cost relative to the full sweep, and each
 //! builder's peak host memory (VmHWM, reset before each builder).
 
-use soupray::bvh::device_builder::DeviceBuilder;
+use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
 use soupray::device::Device;
 use soupray::soup::Soup;
@@ -154,7 +154,10 @@ fn main() {
     }
     let device = Device::open(None).expect("an OpenCL device");
     let params = BuildParams::default();
-    let mut builder = DeviceBuilder::new(&device, params).unwrap();
+    let mut builder = DeviceBuilder::with_mapping(&device, params, Mapping::SingleLane).unwrap();
+    // The paper's GPU mapping run on the same CPU device: the variant the
+    // single-lane mapping replaces on CPUs.
+    let mut paper = DeviceBuilder::with_mapping(&device, params, Mapping::Paper).unwrap();
     let mut rows = Vec::new();
     for (name, soup) in &scenes {
         let n = soup.triangle_count();

@@ -10,13 +10,14 @@ use std::io;
 pub enum SceneError {
     /// The file (or a file it refers to) could not be read.
     #[error(
-        "{file}: cannot read {what}: {source}. Fix: check that the path exists and is readable."
+        "{file}: cannot read {what}: {cause}. Fix: check that the path exists and is readable."
     )]
     Io {
         file: String,
         what: String,
-        #[source]
-        source: io::Error,
+        // Not a `#[source]`: the message already says it, and error chains
+        // would print it twice.
+        cause: io::Error,
     },
 
     /// The JSON or the GLB container is broken; nothing can be trusted.

@@ -46,10 +46,10 @@ struct Glb<'a> {
 
 pub fn load(path: &Path) -> Result<Source> {
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+    let bytes = std::fs::read(path).map_err(|cause| SceneError::Io {
         file: file.clone(),
         what: "the glTF file".into(),
-        source,
+        cause,
     })?;
     let dir = path
         .parent()
