@@ -224,3 +224,36 @@ fn buffers_are_reused_between_frames() {
         binned::build(&a, BuildParams::default()).unwrap().nodes
     );
 }
+
+#[test]
+fn leaves_cut_straight_from_big_nodes_keep_their_triangles() {
+    // A medium root (302 triangles) whose best split cuts off the two far
+    // outliers as a leaf: its partition writes that leaf into the second
+    // buffer pair, from which it must be gathered back at the end.
+    let mut tris: Vec<[[f32; 3]; 3]> = random_soup(300, 0.01, 31)
+        .positions
+        .chunks(3)
+        .map(|c| std::array::from_fn(|k| [c[k][0], c[k][1], c[k][2]]))
+        .collect();
+    // First in the soup, so the slots they end in held other triangles.
+    for x in [100.0f32, 101.0] {
+        tris.insert(0, [[x, 0.0, 0.0], [x + 0.01, 0.0, 0.0], [x, 0.01, 0.0]]);
+    }
+    let soup = Soup::from_triangles(&tris);
+    check_equal(&soup, BuildParams::default(), "outlier leaf");
+    // And a large node (over 32K) doing the same.
+    let mut big: Vec<[[f32; 3]; 3]> = random_soup(40_000, 0.002, 32)
+        .positions
+        .chunks(3)
+        .map(|c| std::array::from_fn(|k| [c[k][0], c[k][1], c[k][2]]))
+        .collect();
+    big.insert(
+        0,
+        [[500.0, 0.0, 0.0], [500.01, 0.0, 0.0], [500.0, 0.01, 0.0]],
+    );
+    check_equal(
+        &Soup::from_triangles(&big),
+        BuildParams::default(),
+        "large outlier leaf",
+    );
+}

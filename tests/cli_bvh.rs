@@ -27,7 +27,11 @@ fn bvh_json_reports_a_valid_tree_for_every_builder() {
     let mut costs = Vec::new();
     for builder in ["device", "cpu-binned", "cpu-sweep"] {
         let out = soupray(&["bvh", &input, "--json", "--builder", builder]);
-        assert!(out.status.success(), "{builder}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{builder}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
         assert_eq!(v["triangles"], 64618, "{builder}");
         assert_eq!(v["valid"], true, "{builder}");
@@ -36,14 +40,26 @@ fn bvh_json_reports_a_valid_tree_for_every_builder() {
             assert!(v[key].is_number(), "{builder}: {key} missing");
         }
         for stage in ["large", "medium", "small"] {
-            assert!(v["stages_ms"][stage].is_number(), "{builder}: stages_ms.{stage}");
+            assert!(
+                v["stages_ms"][stage].is_number(),
+                "{builder}: stages_ms.{stage}"
+            );
         }
         let leaves = v["leaves"].as_u64().unwrap();
-        assert!(leaves >= 64618 / 4, "{builder}: {leaves} leaves cannot hold 64618 triangles in 4s");
+        assert!(
+            leaves >= 64618 / 4,
+            "{builder}: {leaves} leaves cannot hold 64618 triangles in 4s"
+        );
         costs.push(v["sah_cost"].as_f64().unwrap());
     }
-    assert_eq!(costs[0], costs[1], "device and CPU binned builds are the same tree");
-    assert!(costs[2] <= costs[0], "the full sweep is the quality reference");
+    assert_eq!(
+        costs[0], costs[1],
+        "device and CPU binned builds are the same tree"
+    );
+    assert!(
+        costs[2] <= costs[0],
+        "the full sweep is the quality reference"
+    );
     // The device build of a 65K mesh spends time in the medium and small stages.
     let out = soupray(&["bvh", &input, "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -68,7 +84,10 @@ fn bad_input_gives_a_clear_error_and_exit_code() {
     let out = soupray(&["bvh", missing.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(4));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("missing.ply") && err.contains("cannot read"), "{err}");
+    assert!(
+        err.contains("missing.ply") && err.contains("cannot read"),
+        "{err}"
+    );
 
     let quad = dir.path().join("quad.ply");
     std::fs::write(
@@ -94,13 +113,21 @@ fn bad_input_gives_a_clear_error_and_exit_code() {
     let out = soupray(&["bvh", nan.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(4));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("nan.ply") && err.contains("vertex 1") && err.contains("not finite"), "{err}");
+    assert!(
+        err.contains("nan.ply") && err.contains("vertex 1") && err.contains("not finite"),
+        "{err}"
+    );
 
     let out = soupray(&["bvh", &mesh_path("beast.ply"), "--bins", "12"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("power of two"));
 
-    let out = soupray(&["bvh", &mesh_path("beast.ply"), "--device", "no-such-device-xyz"]);
+    let out = soupray(&[
+        "bvh",
+        &mesh_path("beast.ply"),
+        "--device",
+        "no-such-device-xyz",
+    ]);
     assert_eq!(out.status.code(), Some(3));
     assert!(String::from_utf8_lossy(&out.stderr).contains("soupray devices"));
 }
@@ -125,7 +152,11 @@ fn bvh_builds_a_gltf_frame() {
         panic!("missing test asset {}", scene.display());
     }
     let out = soupray(&["bvh", scene.to_str().unwrap(), "--frame", "10", "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["triangles"], 4672);
     assert_eq!(v["valid"], true);

@@ -372,7 +372,11 @@ impl Levels {
             let depth = self.depth[task.node as usize] + 1;
             // Small nodes are partitioned in place; larger ones into the
             // other buffer pair.
-            let source = if stage == Stage::Small { task.source } else { 1 - task.source };
+            let source = if stage == Stage::Small {
+                task.source
+            } else {
+                1 - task.source
+            };
             let sides = [
                 (
                     task.start,
@@ -398,6 +402,9 @@ impl Levels {
                 };
                 let child = if count <= self.params.leaf_size {
                     self.max_depth = self.max_depth.max(depth);
+                    if source == 1 && stage != Stage::Small {
+                        self.finished_in_second.push([start, count]);
+                    }
                     Child::Leaf {
                         first: start,
                         count,

@@ -367,7 +367,11 @@ impl<'d> DeviceBuilder<'d> {
                 &self.kernels.gather_ranges,
                 levels.finished_in_second.len(),
                 self.mapping.build_wg(),
-                &[Arg::Buf(&b.ranges), Arg::Buf(&b.ids_scratch), Arg::Buf(&b.ids)],
+                &[
+                    Arg::Buf(&b.ranges),
+                    Arg::Buf(&b.ids_scratch),
+                    Arg::Buf(&b.ids),
+                ],
             )?;
         }
         let mut prim_ids = vec![0u32; n];

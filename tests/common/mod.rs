@@ -7,7 +7,11 @@ use soupray::soup::Soup;
 use std::path::{Path, PathBuf};
 
 /// The OpenCL device the tests run on (SOUPRAY_DEVICE picks another).
+/// Opening is serialised: PoCL's platform discovery is not safe to run from
+/// several test threads at once (it then sometimes reports no device).
 pub fn device() -> Device {
+    static OPEN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = OPEN.lock().unwrap_or_else(|e| e.into_inner());
     Device::open(None).unwrap_or_else(|e| panic!("the tests need an OpenCL device: {e}"))
 }
 
