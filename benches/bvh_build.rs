@@ -211,10 +211,32 @@ fn main() {
         drop(tree);
         rows.push(Row {
             scene: label.clone(),
-            builder: "soupray device (PoCL)",
+            builder: "soupray device, single-lane mapping (CPU default)",
             ms,
             mtris: n as f64 / ms / 1e3,
             stages,
+            sah,
+            sah_vs_sweep: sah / sweep_sah,
+            peak: peak_mib(),
+        });
+
+        eprintln!("{label}: device, paper mapping");
+        reset_peak();
+        paper.build(soup).unwrap();
+        let mut times = Vec::new();
+        let mut sah = 0.0;
+        for _ in 0..if n > 500_000 { 1 } else { 3 } {
+            let (tree, stats) = paper.build(soup).unwrap();
+            times.push(stats.build_ms);
+            sah = sah_cost(&tree);
+        }
+        let ms = median(times);
+        rows.push(Row {
+            scene: label.clone(),
+            builder: "soupray device, paper's 16-lane mapping",
+            ms,
+            mtris: n as f64 / ms / 1e3,
+            stages: String::new(),
             sah,
             sah_vs_sweep: sah / sweep_sah,
             peak: peak_mib(),

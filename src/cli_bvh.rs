@@ -7,6 +7,7 @@
 use crate::bvh::{self, binned, device_builder::DeviceBuilder, sweep, BuildParams};
 use crate::device::{list_devices, Device};
 use crate::scene::{LoadOptions, Scene};
+use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
 use anyhow::Context as _;
 use std::path::{Path, PathBuf};
@@ -152,27 +153,36 @@ pub fn run_devices(args: &DevicesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Reads INPUT into a soup: PLY directly, glTF evaluated at a frame.
+/// Reads INPUT into a soup: PLY directly, glTF evaluated at a frame on the CPU.
 pub fn load_soup(args: &BvhArgs) -> anyhow::Result<Soup> {
-    let ext = extension(&args.input);
-    if ext == "ply" {
-        return Ok(crate::ply::read_soup(&args.input)?);
+    if is_gltf(&args.input) {
+        let (scene, time) = load_scene(args)?;
+        return Ok(scene.evaluate(time)?.soup);
     }
-    if ext == "gltf" || ext == "glb" {
-        let opts = LoadOptions {
-            scene: args.scene,
-            animation: args.animation.clone(),
-            fps: args.fps,
-            ..LoadOptions::default()
-        };
-        let scene = Scene::load(&args.input, &opts)?;
-        let frame = scene.evaluate(scene.time_of_frame(args.frame))?;
-        return Ok(frame.soup);
+    if extension(&args.input) == "ply" {
+        return Ok(crate::ply::read_soup(&args.input)?);
     }
     anyhow::bail!(
         "{}: unknown input type; soupray bvh reads .ply triangle meshes and .gltf/.glb scenes",
         args.input.display()
     )
+}
+
+fn is_gltf(p: &Path) -> bool {
+    matches!(extension(p).as_str(), "gltf" | "glb")
+}
+
+/// The glTF scene of INPUT and the time of --frame.
+fn load_scene(args: &BvhArgs) -> anyhow::Result<(Scene, f64)> {
+    let opts = LoadOptions {
+        scene: args.scene,
+        animation: args.animation.clone(),
+        fps: args.fps,
+        ..LoadOptions::default()
+    };
+    let scene = Scene::load(&args.input, &opts)?;
+    let time = scene.time_of_frame(args.frame);
+    Ok((scene, time))
 }
 
 fn extension(p: &Path) -> String {
@@ -192,26 +202,42 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
         leaf_size: args.leaf_size,
     };
     params.check().map_err(crate::UsageError)?;
-    let soup = load_soup(args)?;
     let repeat = args.repeat.max(1);
     let mut times = Vec::new();
     let mut stages = Vec::new();
     let mut device_name = None;
-    let tree = match args.builder {
+    let (soup, tree) = match args.builder {
         BuilderKind::Device => {
             let device = Device::open(args.device.as_deref())?;
             device_name = Some(device.info.name.clone());
             let mut builder = DeviceBuilder::new(&device, params)?;
+            // A glTF frame is evaluated on the device straight into the
+            // builder's input, as `render` does; a PLY is uploaded.
+            let mut device_soup = None;
+            let soup = if is_gltf(&args.input) {
+                let (scene, time) = load_scene(args)?;
+                let mut ds = DeviceSoup::new(&device, &scene)?;
+                ds.evaluate(&scene, time)?;
+                let soup = ds.read_back()?;
+                device_soup = Some(ds);
+                soup
+            } else {
+                load_soup(args)?
+            };
             let mut tree = None;
             for _ in 0..repeat {
-                let (t, s) = builder.build(&soup)?;
+                let (t, s) = match &device_soup {
+                    Some(ds) => builder.build_from_device(ds.positions(), ds.triangle_count())?,
+                    None => builder.build(&soup)?,
+                };
                 times.push(s.build_ms);
                 stages.push(s);
                 tree = Some(t);
             }
-            tree.expect("at least one build")
+            (soup, tree.expect("at least one build"))
         }
         kind => {
+            let soup = load_soup(args)?;
             let mut tree = None;
             for _ in 0..repeat {
                 let start = Instant::now();
@@ -222,7 +248,7 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
                 times.push(start.elapsed().as_secs_f64() * 1e3);
                 tree = Some(t);
             }
-            tree.expect("at least one build")
+            (soup, tree.expect("at least one build"))
         }
     };
     let build_ms = median(times);

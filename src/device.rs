@@ -32,6 +32,12 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
         "layout_probe.cl",
         include_str!("../kernels/layout_probe.cl"),
     ),
+    ("soup_types.h", include_str!("../kernels/soup_types.h")),
+    ("soup_eval.cl", include_str!("../kernels/soup_eval.cl")),
+    (
+        "soup_layout_probe.cl",
+        include_str!("../kernels/soup_layout_probe.cl"),
+    ),
 ];
 
 /// Why the device layer failed. Messages say what to do about it.

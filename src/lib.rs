@@ -13,7 +13,11 @@ pub mod bvh;
 pub mod cli_bvh;
 pub mod cli_scene;
 pub mod device;
+pub mod film;
+pub mod frames;
+pub mod output;
 pub mod ply;
+pub mod report;
 pub mod scene;
 pub mod soup;
 

@@ -33,6 +33,7 @@ enum Command {
     Bvh(cli_bvh::BvhArgs),
     Info(cli_scene::InfoArgs),
     Soup(cli_scene::SoupArgs),
+    Report(soupray::report::ReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +49,7 @@ fn main() -> ExitCode {
         Command::Bvh(a) => cli_bvh::run_bvh(a),
         Command::Info(a) => cli_scene::run_info(a),
         Command::Soup(a) => cli_scene::run_soup(a),
+        Command::Report(a) => soupray::report::run_report(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -71,6 +73,13 @@ fn exit_code(e: &anyhow::Error) -> u8 {
             return match b {
                 soupray::bvh::binned::BuildError::Device(_) => 3,
                 soupray::bvh::binned::BuildError::Params(_) => 2,
+                _ => 5,
+            };
+        }
+        if let Some(s) = cause.downcast_ref::<soupray::soup::device::SoupError>() {
+            return match s {
+                soupray::soup::device::SoupError::Device(_) => 3,
+                soupray::soup::device::SoupError::Scene(_) => 4,
                 _ => 5,
             };
         }

@@ -2,6 +2,11 @@
 //! and the tracer. Triangles share nothing; vertex `3*t + k` is corner `k` of
 //! triangle `t`. Positions are padded to four floats so the host array is the
 //! device buffer byte for byte (OpenCL `float4`).
+//!
+//! `device` evaluates the soup of a frame on the OpenCL device, straight
+//! into the buffers the BVH builder and the tracer read.
+
+pub mod device;
 
 use std::fmt;
 

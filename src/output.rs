@@ -1,0 +1,520 @@
+//! Writing a frame's files: the EXR (through the `exr` crate), the optional
+//! PNG preview, and the per-frame JSON build log; plus the checks
+//! `--skip-existing` uses to tell a finished frame from an interrupted one.
+//!
+//! Every file is written to `soup::temporary_sibling(path)` in the same
+//! directory, flushed and fsynced, then renamed over the final name (and the
+//! directory fsynced, so the rename survives a power cut). A killed run
+//! therefore never leaves a truncated file under a final name; on an error
+//! the temporary is removed. A run killed mid-write can leave a hidden
+//! `.NAME.PID.tmp`, which is never mistaken for a frame and may be deleted.
+//!
+//! **EXR layout.** One part, scan lines, ZIP (16 lines) compression,
+//! display window = data window = the frame, Rec.709 primaries with a D65
+//! white (glTF's linear sRGB). Channels: `R`, `G`, `B`, `A` (linear,
+//! premultiplied by coverage), and with the AOVs `Z` (camera distance),
+//! `N.X`, `N.Y`, `N.Z` (world-space normal) and `albedo.R`, `albedo.G`,
+//! `albedo.B`: the layer.channel names Nuke splits into layers and Blender
+//! reads. EXR stores channels sorted by name, so a reader lists them as
+//! `A, B, G, N.X, ..., R, Z, albedo.B, ...`. With `--half` every channel is
+//! f16 except `Z`, which stays f32: depths beyond 65504 (including the
+//! 1e10 background) do not fit a half float, as in Blender.
+//!
+//! **EXR metadata.** `software` = `soupray <version>` (a standard
+//! attribute), and custom attributes `frame` (int; double for frames
+//! outside ±2^31), `time` (double, seconds), `spp` (int) and `seed`
+//! (string: EXR has no 64-bit integer type).
+//!
+//! **PNG preview.** Exposure (`2^stops` multiplier), then the sRGB OETF
+//! (IEC 61966-2-1), clamped to [0, 1], 8 bits per channel, opaque: the
+//! premultiplied colour as composited over black. No filmic curve: the
+//! preview is for checking frames, not grading them.
+//!
+//! **Build log.** `FrameLog` below documents the JSON schema.
+
+use crate::film::Image;
+use exr::prelude::traits::*;
+use exr::prelude::{
+    f16, AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples,
+    Layer, LayerAttributes, LineOrder, SmallVec, Text, Vec2,
+};
+use serde::{Deserialize, Serialize};
+use std::fs::File;
+use std::io::{BufWriter, Write as _};
+use std::path::{Path, PathBuf};
+
+/// The soupray version written into every file.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// What the EXR header records about how the frame was made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameMetadata {
+    pub frame: i64,
+    /// Animation time of the frame, seconds.
+    pub time: f64,
+    pub spp: u32,
+    pub seed: u64,
+}
+
+/// Writing or reading an output file failed. Names the file and the fix.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{}: cannot {action}: {source}; check the output directory is writable and has space", path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: cannot encode the {format}: {message}", path.display())]
+    Encode {
+        path: PathBuf,
+        format: &'static str,
+        message: String,
+    },
+    #[error("{}: not a soupray frame log: {message}; delete or move it out of the directory", path.display())]
+    BadLog { path: PathBuf, message: String },
+}
+
+fn io_err<'a>(
+    path: &'a Path,
+    action: &'static str,
+) -> impl FnOnce(std::io::Error) -> OutputError + 'a {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        action,
+        source,
+    }
+}
+
+/// Writes `path` atomically: `write` fills a temporary file beside it,
+/// which is flushed, fsynced and renamed over `path`. On any error the
+/// temporary is removed and `path` is untouched.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&File>) -> Result<(), OutputError>,
+) -> Result<(), OutputError> {
+    let tmp = crate::soup::temporary_sibling(path);
+    let result = (|| {
+        let file = File::create(&tmp).map_err(io_err(path, "create a temporary file for"))?;
+        let mut out = BufWriter::new(&file);
+        write(&mut out)?;
+        out.flush().map_err(io_err(path, "write"))?;
+        drop(out);
+        file.sync_all().map_err(io_err(path, "flush to disk"))?;
+        drop(file);
+        std::fs::rename(&tmp, path).map_err(io_err(path, "rename the finished temporary file onto"))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+        return result;
+    }
+    // Persist the rename itself; best effort, as not every platform or
+    // file system lets a directory be opened and synced.
+    if let Some(dir) = path.parent() {
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
+}
+
+/// Encodes `image` as the EXR described in the module documentation and
+/// writes it atomically to `path`.
+pub fn write_exr(
+    path: &Path,
+    image: &Image,
+    meta: &FrameMetadata,
+    half: bool,
+) -> Result<(), OutputError> {
+    let n = image.width as usize * image.height as usize;
+    if image.rgba.len() != n {
+        return Err(OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "EXR",
+            message: format!("image buffer holds {} pixels, not {n}", image.rgba.len()),
+        });
+    }
+    let samples = |v: Vec<f32>, half: bool| {
+        if half {
+            FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
+        } else {
+            FlatSamples::F32(v)
+        }
+    };
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(11);
+    for (c, name) in ["R", "G", "B", "A"].into_iter().enumerate() {
+        let v = image.rgba.iter().map(|p| p[c]).collect();
+        channels.push(AnyChannel::new(name, samples(v, half)));
+    }
+    if let Some(z) = &image.depth {
+        channels.push(AnyChannel::new("Z", samples(z.clone(), false)));
+    }
+    for (buf, names) in [
+        (&image.normal, ["N.X", "N.Y", "N.Z"]),
+        (&image.albedo, ["albedo.R", "albedo.G", "albedo.B"]),
+    ] {
+        if let Some(buf) = buf {
+            for (c, name) in names.into_iter().enumerate() {
+                let v = buf.iter().map(|p| p[c]).collect();
+                channels.push(AnyChannel::new(name, samples(v, half)));
+            }
+        }
+    }
+
+    let mut attrs = LayerAttributes {
+        software_name: Some(Text::from(format!("soupray {VERSION}").as_str())),
+        ..LayerAttributes::default()
+    };
+    let mut put = |k: &str, v: AttributeValue| {
+        attrs.other.insert(Text::from(k), v);
+    };
+    put(
+        "frame",
+        i32::try_from(meta.frame)
+            .map_or(AttributeValue::F64(meta.frame as f64), AttributeValue::I32),
+    );
+    put("time", AttributeValue::F64(meta.time));
+    put(
+        "spp",
+        i32::try_from(meta.spp).map_or(AttributeValue::F64(meta.spp as f64), AttributeValue::I32),
+    );
+    put(
+        "seed",
+        AttributeValue::Text(Text::from(meta.seed.to_string().as_str())),
+    );
+
+    let size = (image.width as usize, image.height as usize);
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let layer = Layer::new(
+        size,
+        attrs,
+        encoding,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let mut exr_image = exr::image::Image::from_layer(layer);
+    exr_image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
+        red: Vec2(0.64, 0.33),
+        green: Vec2(0.30, 0.60),
+        blue: Vec2(0.15, 0.06),
+        white: Vec2(0.3127, 0.3290),
+    });
+    write_atomic(path, |out| {
+        exr_image.write().to_buffered(out).map_err(|e| match e {
+            exr::error::Error::Io(source) => OutputError::Io {
+                path: path.to_path_buf(),
+                action: "write",
+                source,
+            },
+            other => OutputError::Encode {
+                path: path.to_path_buf(),
+                format: "EXR",
+                message: other.to_string(),
+            },
+        })
+    })
+}
+
+/// Whether `path` is a complete, readable EXR: every block present and
+/// decodable (pedantic reading, so a truncated or corrupted file is caught
+/// whatever its header claims). Decoding costs about as much as a load in
+/// a compositor, far less than rendering the frame again.
+pub fn is_complete_exr(path: &Path) -> bool {
+    read()
+        .no_deep_data()
+        .all_resolution_levels()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .pedantic()
+        .from_file(path)
+        .is_ok()
+}
+
+/// Whether a frame can be skipped by `--skip-existing`: its EXR is complete
+/// and its build log parses. The log is written after the EXR, so a run
+/// killed between the two re-renders the frame rather than leaving it
+/// without a log.
+pub fn is_frame_done(exr: &Path, log: &Path) -> bool {
+    is_complete_exr(exr) && read_log(log).is_ok()
+}
+
+/// The 8-bit sRGB value of a linear value after `gain`.
+fn srgb8(linear: f32, gain: f32) -> u8 {
+    let v = linear * gain;
+    // NaN (a broken pixel) maps to black rather than poisoning the cast.
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let e = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (e * 255.0 + 0.5) as u8
+}
+
+/// Tonemaps `image` as described in the module documentation (exposure in
+/// stops) into 8-bit sRGB, row-major, 3 bytes per pixel.
+pub fn tonemap_srgb8(image: &Image, exposure: f32) -> Vec<u8> {
+    let gain = exposure.exp2();
+    image
+        .rgba
+        .iter()
+        .flat_map(|p| [srgb8(p[0], gain), srgb8(p[1], gain), srgb8(p[2], gain)])
+        .collect()
+}
+
+/// Writes the tonemapped preview of `image` as a PNG, atomically.
+pub fn write_png_preview(path: &Path, image: &Image, exposure: f32) -> Result<(), OutputError> {
+    use image::ImageEncoder as _;
+    let pixels = tonemap_srgb8(image, exposure);
+    write_atomic(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(
+                &pixels,
+                image.width,
+                image.height,
+                image::ExtendedColorType::Rgb8,
+            )
+            .map_err(|e| OutputError::Encode {
+                path: path.to_path_buf(),
+                format: "PNG",
+                message: e.to_string(),
+            })
+    })
+}
+
+/// Current version of the build-log schema, in `FrameLog::schema`.
+pub const LOG_SCHEMA: u32 = 1;
+
+/// The per-frame build log, `<stem>.####.json` beside the EXR. Times are
+/// milliseconds of wall-clock time unless noted; lengths are scene units.
+///
+/// ```json
+/// {
+///   "schema": 1, "soupray": "0.1.0",
+///   "frame": 12, "time": 0.5, "scene": "walk.glb", "device": "pthread-cpu (PoCL)",
+///   "triangles": 88000,
+///   "timings_ms": { "evaluate": 3.1, "build": 9.8, "trace": 1520.0, "write": 41.0, "total": 1574.2 },
+///   "build": { "builder": "device", "bins": 16, "leaf_size": 4, "nodes": 45000,
+///              "leaves": 22500, "max_depth": 24, "sah_cost": 61.2,
+///              "stages_ms": { "large": 2.0, "medium": 4.1, "small": 2.9 } },
+///   "render": { "width": 1920, "height": 1080, "spp": 64, "rays": 398000000, "mrays_per_s": 261.8 },
+///   "camera": { "projection": "perspective", "position": [0, 1, 5],
+///               "forward": [0, 0, -1], "up": [0, 1, 0], "yfov_deg": 39.6 },
+///   "output": { "exr": "out/walk/walk.0012.exr", "png": null, "half": false, "aovs": [] },
+///   "warnings": []
+/// }
+/// ```
+///
+/// Readers should ignore fields they do not know; fields are only added
+/// within one `schema` number.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FrameLog {
+    /// `LOG_SCHEMA` of the writer.
+    pub schema: u32,
+    /// soupray version of the writer.
+    pub soupray: String,
+    pub frame: i64,
+    /// Animation time of the frame, seconds.
+    pub time: f64,
+    /// The scene file as given on the command line.
+    pub scene: String,
+    /// The OpenCL device that built the BVH (and traced).
+    pub device: String,
+    /// Triangles in the frame's soup.
+    pub triangles: u64,
+    pub timings_ms: Timings,
+    pub build: BuildLog,
+    pub render: RenderLog,
+    pub camera: CameraLog,
+    pub output: OutputLog,
+    /// Anything the user should know about this frame (clamped or dropped
+    /// samples, a stepped range stopping short, fallbacks taken).
+    pub warnings: Vec<String>,
+}
+
+/// Wall-clock times of a frame's stages. `total` covers the frame from the
+/// start of evaluation to the end of writing its EXR (and PNG); it is at
+/// least the sum of the others.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Timings {
+    /// Animation evaluation into the triangle soup.
+    pub evaluate: f64,
+    /// BVH build, upload to readback, as `soupray bvh` measures it.
+    pub build: f64,
+    /// Tracing and film accumulation.
+    pub trace: f64,
+    /// Resolving the film and writing the EXR and preview.
+    pub write: f64,
+    pub total: f64,
+}
+
+/// The BVH build, as `soupray bvh --json` reports it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BuildLog {
+    /// `device`, `cpu-binned` or `cpu-sweep`.
+    pub builder: String,
+    pub bins: u32,
+    pub leaf_size: u32,
+    /// Inner nodes plus leaves.
+    pub nodes: u64,
+    pub leaves: u64,
+    /// Depth of the deepest leaf (root = 0).
+    pub max_depth: u32,
+    /// `bvh::sah_cost`: K_T = K_I = 1, normalised by the root box area.
+    pub sah_cost: f64,
+    /// Device kernel time per stage from profiling events (zero on CPU).
+    pub stages_ms: StageTimes,
+}
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct StageTimes {
+    pub large: f64,
+    pub medium: f64,
+    pub small: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RenderLog {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel.
+    pub spp: u32,
+    /// All rays traced for the frame (camera, bounce and shadow rays).
+    pub rays: u64,
+    /// `rays / trace time`, millions per second.
+    pub mrays_per_s: f64,
+}
+
+/// The camera of the frame, in world space. `projection` is `perspective`
+/// (with `yfov_deg`, the full vertical field of view) or `orthographic`
+/// (with `xmag`, `ymag`: glTF's half-extents of the view, scene units);
+/// the fields of the other projection are left out.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CameraLog {
+    pub projection: String,
+    pub position: [f64; 3],
+    pub forward: [f64; 3],
+    pub up: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yfov_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub xmag: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ymag: Option<f64>,
+}
+
+/// The frame's files, as paths relative to where soupray ran (or absolute).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct OutputLog {
+    pub exr: String,
+    /// The preview, when `--png` was given.
+    pub png: Option<String>,
+    /// Whether the EXR's colour channels are f16 (`--half`).
+    pub half: bool,
+    /// The AOVs in the EXR, as `--aov` names them.
+    pub aovs: Vec<String>,
+}
+
+impl FrameLog {
+    /// A log with `schema` and `soupray` filled in.
+    pub fn new() -> FrameLog {
+        FrameLog {
+            schema: LOG_SCHEMA,
+            soupray: VERSION.to_string(),
+            ..FrameLog::default()
+        }
+    }
+}
+
+/// Writes `log` as pretty JSON, atomically.
+pub fn write_log(path: &Path, log: &FrameLog) -> Result<(), OutputError> {
+    write_atomic(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, log).map_err(|e| OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "JSON log",
+            message: e.to_string(),
+        })?;
+        out.write_all(b"\n").map_err(io_err(path, "write"))
+    })
+}
+
+/// Reads a frame log. A JSON file without the `frame` and `timings_ms`
+/// fields is refused as not being a frame log.
+pub fn read_log(path: &Path) -> Result<FrameLog, OutputError> {
+    let text = std::fs::read_to_string(path).map_err(io_err(path, "read"))?;
+    let bad = |message: String| OutputError::BadLog {
+        path: path.to_path_buf(),
+        message,
+    };
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(format!("invalid JSON ({e})")))?;
+    for key in ["frame", "timings_ms"] {
+        if value.get(key).is_none() {
+            return Err(bad(format!("it has no \"{key}\" field")));
+        }
+    }
+    serde_json::from_value(value).map_err(|e| bad(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::{Aovs, Image};
+
+    #[test]
+    fn srgb_oetf_and_exposure() {
+        assert_eq!(srgb8(0.0, 1.0), 0);
+        assert_eq!(srgb8(1.0, 1.0), 255);
+        assert_eq!(srgb8(7.0, 1.0), 255, "clamped");
+        assert_eq!(srgb8(-1.0, 1.0), 0);
+        assert_eq!(srgb8(f32::NAN, 1.0), 0);
+        // Linear 0.18 is sRGB 0.4613 → 118.
+        assert_eq!(srgb8(0.18, 1.0), 118);
+        // One stop up: 0.36 → 0.6342 → 162.
+        assert_eq!(srgb8(0.18, 2f32.powf(1.0)), 162);
+        // The linear toe: 0.002 → 0.02584 → 7.
+        assert_eq!(srgb8(0.002, 1.0), 7);
+        let mut img = Image::new(2, 1, Aovs::NONE);
+        img.rgba[1] = [0.09, 0.18, 1.0, 1.0];
+        assert_eq!(tonemap_srgb8(&img, 1.0), vec![0, 0, 0, 118, 162, 255]);
+    }
+
+    #[test]
+    fn log_round_trip_and_rejection() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.0001.json");
+        let mut log = FrameLog::new();
+        log.frame = -3;
+        log.camera.yfov_deg = Some(40.0);
+        log.warnings.push("w".into());
+        write_log(&path, &log).unwrap();
+        assert_eq!(read_log(&path).unwrap(), log);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("\"yfov_deg\"") && !text.contains("\"xmag\""));
+        std::fs::write(&path, "{\"name\": \"package\"}").unwrap();
+        let e = read_log(&path).unwrap_err().to_string();
+        assert!(e.contains("x.0001.json") && e.contains("\"frame\""), "{e}");
+        std::fs::write(&path, "{\"frame\": 1, \"timings").unwrap();
+        assert!(read_log(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("invalid JSON"));
+    }
+}

@@ -1,0 +1,843 @@
+//! The soup stage on the OpenCL device: a [`DeviceSoup`] evaluates each
+//! frame's world-space triangle soup (morphs, skinning, rigid transforms,
+//! winding fix, normals, uvs, material ids) with `kernels/soup_eval.cl` and
+//! leaves it in device buffers laid out exactly as `Soup` is on the host, so
+//! `DeviceBuilder::build_from_device` and the tracer read it without a copy.
+//!
+//! Everything that does not depend on time is uploaded once per scene:
+//! every instanced primitive's vertex data (positions, normals, uvs, joint
+//! influences, morph deltas), the triangles' corner lists and the material
+//! ids. A frame uploads only its pose, which the CPU computes with the very
+//! code of the reference evaluator (`Scene::pose`, `deform::normal_matrix`):
+//! per instance a rigid transform, per skin its joint matrices, per instance
+//! its morph weights. The program is compiled for the scene's features only
+//! (`SoupFeatures`), so a static scene runs nothing but a rigid transform.
+//! The kernels mirror `scene::deform` and `Scene::evaluate` operation for
+//! operation; `tests/soup_device.rs` holds them to the CPU reference.
+
+use std::collections::HashMap;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+use opencl3::kernel::Kernel;
+use opencl3::memory::Buffer;
+
+use super::Soup;
+use crate::device::{build_options, Arg, Device, DeviceError};
+use crate::scene::deform::normal_matrix;
+use crate::scene::{FrameCamera, FrameLight, Pose, Scene, SceneError};
+
+/// Marks an absent base index in [`SoupSegment`] (no skin, no morphs).
+pub const SOUP_NONE: u32 = u32::MAX;
+/// [`SoupSegment::flags`]: the primitive has NORMAL (else flat normals).
+pub const SEG_NORMALS: u32 = 1;
+/// [`SoupSegment::flags`]: the primitive has TEXCOORD_0 (else 0, 0).
+pub const SEG_UVS: u32 = 2;
+/// [`SoupSegment::flags`]: skinned by its instance's skin (else rigid).
+pub const SEG_SKINNED: u32 = 4;
+
+/// Work-items per work-group of both kernels; they are independent per item.
+const WORK_GROUP: usize = 64;
+
+/// One primitive as placed by one mesh instance (`kernels/soup_types.h`
+/// documents each field).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SoupSegment {
+    pub src_vertex: u32,
+    pub dst_vertex: u32,
+    pub vertex_count: u32,
+    pub instance: u32,
+    pub influence_base: u32,
+    pub joint_base: u32,
+    pub morph_base: u32,
+    pub weight_base: u32,
+    pub target_count: u32,
+    pub flags: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// A mesh instance's rigid transform for one frame (`kernels/soup_types.h`).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SoupInstancePose {
+    pub world_from_mesh: [[f32; 4]; 4],
+    pub normal_matrix: [[f32; 4]; 3],
+    pub det: f32,
+    pub pad: [u32; 3],
+}
+
+const _: () = assert!(std::mem::size_of::<SoupSegment>() == 48);
+const _: () = assert!(std::mem::size_of::<SoupInstancePose>() == 128);
+
+/// The values `kernels/soup_layout_probe.cl` reports, in its order.
+pub fn host_layout() -> Vec<u32> {
+    use std::mem::{offset_of, size_of};
+    let v = |x: usize| x as u32;
+    vec![
+        v(size_of::<SoupSegment>()),
+        v(offset_of!(SoupSegment, src_vertex)),
+        v(offset_of!(SoupSegment, dst_vertex)),
+        v(offset_of!(SoupSegment, vertex_count)),
+        v(offset_of!(SoupSegment, instance)),
+        v(offset_of!(SoupSegment, influence_base)),
+        v(offset_of!(SoupSegment, joint_base)),
+        v(offset_of!(SoupSegment, morph_base)),
+        v(offset_of!(SoupSegment, weight_base)),
+        v(offset_of!(SoupSegment, target_count)),
+        v(offset_of!(SoupSegment, flags)),
+        v(size_of::<SoupInstancePose>()),
+        v(offset_of!(SoupInstancePose, world_from_mesh)),
+        v(offset_of!(SoupInstancePose, normal_matrix)),
+        v(offset_of!(SoupInstancePose, det)),
+        v(size_of::<[f32; 2]>()),
+        v(size_of::<[u32; 4]>()),
+        v(size_of::<[f32; 4]>()),
+    ]
+}
+
+/// What the soup program is compiled for: only what the scene uses.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SoupFeatures {
+    /// Some instance is skinned.
+    pub skin: bool,
+    /// JOINTS_n/WEIGHTS_n sets per skinned vertex (0 without skins).
+    pub influence_sets: usize,
+    /// The most morph targets of any instanced mesh (0: no morphing).
+    pub morph_targets: usize,
+    pub normals: bool,
+    pub uvs: bool,
+    /// `--sanitize`: non-finite triangles are collapsed, not an error.
+    pub sanitize: bool,
+}
+
+impl SoupFeatures {
+    pub fn of(scene: &Scene) -> SoupFeatures {
+        let skin = scene.has_skins();
+        SoupFeatures {
+            skin,
+            influence_sets: if skin { scene.max_influence_sets() } else { 0 },
+            morph_targets: scene.max_morph_targets(),
+            normals: scene.has_normals(),
+            uvs: scene.has_uvs(),
+            sanitize: scene.options().sanitize,
+        }
+    }
+
+    /// The program's defines, assembled here and nowhere else. Flags are
+    /// present only when set, so `#ifdef` removes every unused path.
+    pub fn defines(&self) -> Vec<(&'static str, String)> {
+        let mut d = Vec::new();
+        if self.skin {
+            d.push(("HAS_SKIN", "1".to_owned()));
+        }
+        d.push(("INFLUENCE_SETS", self.influence_sets.to_string()));
+        d.push(("MORPH_TARGETS", self.morph_targets.to_string()));
+        if self.normals {
+            d.push(("HAS_NORMALS", "1".to_owned()));
+        }
+        if self.uvs {
+            d.push(("HAS_UVS", "1".to_owned()));
+        }
+        if self.sanitize {
+            d.push(("SANITIZE", "1".to_owned()));
+        }
+        d
+    }
+}
+
+/// Why the device soup failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SoupError {
+    #[error(transparent)]
+    Device(#[from] DeviceError),
+    /// The scene cannot be evaluated (non-finite geometry, size limits).
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("{file}: this device soup was made for {expected} (with {triangles} triangles) and cannot evaluate another scene; make one DeviceSoup per scene")]
+    WrongScene {
+        file: String,
+        expected: String,
+        triangles: usize,
+    },
+}
+
+/// What a frame's evaluation gives besides the soup left on the device.
+#[derive(Debug, Clone)]
+pub struct FrameInfo {
+    pub time: f64,
+    pub camera: FrameCamera,
+    pub lights: Vec<FrameLight>,
+    /// Problems of this frame that `--sanitize` turned into warnings.
+    pub warnings: Vec<String>,
+    /// The pose equalled the previous frame's, so the soup on the device
+    /// was kept and no kernel ran.
+    pub reused: bool,
+}
+
+/// A mesh instance as the per-frame pose upload sees it.
+struct InstanceSlot {
+    node: usize,
+    /// Index into the frame's joint matrices of its skin's first joint.
+    skin: Option<(usize, u32)>,
+    /// Where its morph weights go in the frame's weight array, and how many.
+    weights: Option<(u32, usize)>,
+}
+
+/// Triangles of one segment, for naming a bad triangle in messages.
+struct TriangleRange {
+    first: usize,
+    instance: usize,
+    primitive: usize,
+}
+
+struct Kernels {
+    deform: Kernel,
+    assemble: Kernel,
+}
+
+/// Static data, uploaded once.
+struct StaticBuffers {
+    segments: Buffer<SoupSegment>,
+    vertex_segment: Buffer<u32>,
+    triangles: Buffer<[u32; 4]>,
+    base_positions: Buffer<[f32; 4]>,
+    base_normals: Option<Buffer<[f32; 4]>>,
+    base_uvs: Option<Buffer<[f32; 2]>>,
+    position_deltas: Option<Buffer<[f32; 4]>>,
+    normal_deltas: Option<Buffer<[f32; 4]>>,
+    influence_joints: Option<Buffer<[u32; 4]>>,
+    influence_weights: Option<Buffer<[f32; 4]>>,
+}
+
+/// The frame's pose on the device and the soup it produces.
+struct FrameBuffers {
+    instances: Buffer<SoupInstancePose>,
+    joint_matrices: Option<Buffer<[f32; 4]>>,
+    morph_weights: Option<Buffer<f32>>,
+    deformed_positions: Buffer<[f32; 4]>,
+    deformed_normals: Option<Buffer<[f32; 4]>>,
+    status: Buffer<u32>,
+    positions: Buffer<[f32; 4]>,
+    normals: Option<Buffer<[f32; 4]>>,
+    uvs: Option<Buffer<[f32; 2]>>,
+    material_ids: Buffer<u32>,
+}
+
+/// The host side of one frame's pose upload, kept to spot unchanged poses.
+#[derive(Default, PartialEq)]
+struct PoseUpload {
+    instances: Vec<SoupInstancePose>,
+    joints: Vec<[f32; 4]>,
+    weights: Vec<f32>,
+}
+
+/// A scene's soup evaluator on one device: compiled program, static data
+/// and every buffer, made once and reused for every frame.
+pub struct DeviceSoup<'d> {
+    device: &'d Device,
+    file: String,
+    features: SoupFeatures,
+    kernels: Kernels,
+    statics: StaticBuffers,
+    frame: FrameBuffers,
+    instances: Vec<InstanceSlot>,
+    ranges: Vec<TriangleRange>,
+    joint_count: usize,
+    weight_count: usize,
+    vertex_count: usize,
+    triangle_count: usize,
+    allocations: usize,
+    upload: PoseUpload,
+    /// The upload the device soup currently holds, or `None` when no frame
+    /// has completed (or the last one failed).
+    last: Option<PoseUpload>,
+    last_warnings: Vec<String>,
+}
+
+/// A count as a kernel's `uint`, or the scene is too large for the kernels.
+fn as_u32(file: &str, what: &str, n: usize) -> Result<u32, SceneError> {
+    u32::try_from(n).map_err(|_| SceneError::Invalid {
+        file: file.to_owned(),
+        detail: format!(
+            "the scene has {n} {what}, more than the device soup's 32-bit indices can address. \
+             Fix: render a smaller scene or split it."
+        ),
+    })
+}
+
+/// A device buffer of `len` elements, counted in `allocations`.
+fn allocate<T>(
+    device: &Device,
+    len: usize,
+    allocations: &mut usize,
+) -> Result<Buffer<T>, DeviceError> {
+    *allocations += 1;
+    device.buffer(len)
+}
+
+/// `allocate` when `present`.
+fn allocate_if<T>(
+    present: bool,
+    device: &Device,
+    len: usize,
+    allocations: &mut usize,
+) -> Result<Option<Buffer<T>>, DeviceError> {
+    present
+        .then(|| allocate(device, len, allocations))
+        .transpose()
+}
+
+/// A device buffer holding `data`, counted in `allocations`.
+fn upload<T>(
+    device: &Device,
+    data: &[T],
+    allocations: &mut usize,
+) -> Result<Buffer<T>, DeviceError> {
+    let mut b = allocate(device, data.len(), allocations)?;
+    device.write(&mut b, data)?;
+    Ok(b)
+}
+
+fn cols4(m: &Mat4) -> [[f32; 4]; 4] {
+    m.to_cols_array_2d()
+}
+
+impl<'d> DeviceSoup<'d> {
+    /// Compiles the soup program for `scene`'s features on `device`, uploads
+    /// the scene's static data and allocates every per-frame buffer.
+    pub fn new(device: &'d Device, scene: &Scene) -> Result<DeviceSoup<'d>, SoupError> {
+        let file = scene.file().to_owned();
+        let features = SoupFeatures::of(scene);
+        let program = device.build_program("soup_eval.cl", &features.defines())?;
+        let kernels = Kernels {
+            deform: device.kernel(&program, "deform_vertices")?,
+            assemble: device.kernel(&program, "assemble_triangles")?,
+        };
+
+        // Host copies of the static data, primitive by primitive. A mesh
+        // placed by several nodes stores its vertex data once.
+        let morphs = features.morph_targets > 0;
+        let sets = features.influence_sets;
+        let mut base_positions: Vec<[f32; 4]> = Vec::new();
+        let mut base_normals: Vec<[f32; 4]> = Vec::new();
+        let mut base_uvs: Vec<[f32; 2]> = Vec::new();
+        let mut position_deltas: Vec<[f32; 4]> = Vec::new();
+        let mut normal_deltas: Vec<[f32; 4]> = Vec::new();
+        let mut influence_joints: Vec<[u32; 4]> = Vec::new();
+        let mut influence_weights: Vec<[f32; 4]> = Vec::new();
+        let mut segments: Vec<SoupSegment> = Vec::new();
+        let mut vertex_segment: Vec<u32> = Vec::new();
+        let mut triangles: Vec<[u32; 4]> = Vec::new();
+        let mut material_ids: Vec<u32> = Vec::new();
+        let mut ranges = Vec::new();
+        let mut instances = Vec::new();
+        // (mesh, primitive) → (src_vertex, morph_base, influence_base)
+        let mut stored: HashMap<(usize, usize), (u32, u32, u32)> = HashMap::new();
+        let mut skin_base: HashMap<usize, u32> = HashMap::new();
+        let mut joint_count = 0usize;
+        let mut weight_count = 0usize;
+        let default_material = scene.materials().default_material.unwrap_or(0);
+        let v4 = |v: glam::Vec3| [v.x, v.y, v.z, 0.0];
+
+        for (ii, inst) in scene.instances().iter().enumerate() {
+            let mesh = &scene.meshes()[inst.mesh];
+            let skin = match inst.skin {
+                Some(s) => {
+                    let base = match skin_base.get(&s) {
+                        Some(&b) => b,
+                        None => {
+                            let b = as_u32(&file, "joint matrices", joint_count)?;
+                            joint_count += scene.skins()[s].joints.len();
+                            skin_base.insert(s, b);
+                            b
+                        }
+                    };
+                    Some((s, base))
+                }
+                None => None,
+            };
+            let weights = if morphs && mesh.target_count > 0 {
+                let base = as_u32(&file, "morph weights", weight_count)?;
+                weight_count += mesh.target_count;
+                Some((base, mesh.target_count))
+            } else {
+                None
+            };
+            instances.push(InstanceSlot {
+                node: inst.node,
+                skin,
+                weights,
+            });
+
+            for (pi, prim) in mesh.primitives.iter().enumerate() {
+                let n = prim.vertex_count();
+                // The loader guarantees this; the kernel's delta stride and
+                // weight count both rely on it.
+                if prim.targets.len() != mesh.target_count {
+                    return Err(SceneError::Invalid {
+                        file: file.clone(),
+                        detail: format!(
+                            "mesh {} primitive {} has {} morph targets but the mesh has {}. Fix: re-export the mesh.",
+                            inst.mesh,
+                            prim.index_in_mesh,
+                            prim.targets.len(),
+                            mesh.target_count
+                        ),
+                    }
+                    .into());
+                }
+                let entry = match stored.get(&(inst.mesh, pi)) {
+                    Some(&e) => e,
+                    None => {
+                        let src = as_u32(&file, "vertices", base_positions.len())?;
+                        base_positions.extend(prim.positions.iter().map(|&p| v4(p)));
+                        if features.normals {
+                            match &prim.normals {
+                                Some(nr) => base_normals.extend(nr.iter().map(|&p| v4(p))),
+                                None => base_normals.extend(std::iter::repeat_n([0.0; 4], n)),
+                            }
+                        }
+                        if features.uvs {
+                            match &prim.uvs {
+                                Some(uv) => base_uvs.extend_from_slice(uv),
+                                None => base_uvs.extend(std::iter::repeat_n([0.0; 2], n)),
+                            }
+                        }
+                        let mut morph_base = SOUP_NONE;
+                        if morphs && mesh.target_count > 0 {
+                            morph_base = as_u32(&file, "morph deltas", position_deltas.len())?;
+                            // Vertex-major, so one vertex's deltas are adjacent.
+                            for v in 0..n {
+                                for target in &prim.targets {
+                                    position_deltas.push(
+                                        target.positions.as_ref().map_or([0.0; 4], |d| v4(d[v])),
+                                    );
+                                    if features.normals {
+                                        normal_deltas.push(
+                                            target.normals.as_ref().map_or([0.0; 4], |d| v4(d[v])),
+                                        );
+                                    }
+                                }
+                            }
+                        }
+                        let e = (src, morph_base, SOUP_NONE);
+                        stored.insert((inst.mesh, pi), e);
+                        e
+                    }
+                };
+                let (src_vertex, morph_base, mut influence_base) = entry;
+                let skinned = skin.is_some() && prim.influences.is_some();
+                if let (true, Some(inf)) =
+                    (skinned && influence_base == SOUP_NONE, &prim.influences)
+                {
+                    // Stored the first time a skinned instance needs it, padded
+                    // to INFLUENCE_SETS with zero weights (which the blend
+                    // skips, as the CPU skips them).
+                    influence_base = as_u32(&file, "influence records", influence_joints.len())?;
+                    for v in 0..n {
+                        let (j, w) = inf.of_vertex(v);
+                        for s in 0..sets {
+                            if s < inf.sets {
+                                influence_joints.push([
+                                    j[4 * s],
+                                    j[4 * s + 1],
+                                    j[4 * s + 2],
+                                    j[4 * s + 3],
+                                ]);
+                                influence_weights.push([
+                                    w[4 * s],
+                                    w[4 * s + 1],
+                                    w[4 * s + 2],
+                                    w[4 * s + 3],
+                                ]);
+                            } else {
+                                influence_joints.push([0; 4]);
+                                influence_weights.push([0.0; 4]);
+                            }
+                        }
+                    }
+                    stored.insert((inst.mesh, pi), (src_vertex, morph_base, influence_base));
+                }
+
+                let seg = as_u32(&file, "primitive instances", segments.len())?;
+                let dst_vertex = as_u32(&file, "deformed vertices", vertex_segment.len())?;
+                let mut flags = 0;
+                if prim.normals.is_some() {
+                    flags |= SEG_NORMALS;
+                }
+                if prim.uvs.is_some() {
+                    flags |= SEG_UVS;
+                }
+                if skinned {
+                    flags |= SEG_SKINNED;
+                }
+                segments.push(SoupSegment {
+                    src_vertex,
+                    dst_vertex,
+                    vertex_count: as_u32(&file, "vertices", n)?,
+                    instance: as_u32(&file, "mesh instances", ii)?,
+                    influence_base: if skinned { influence_base } else { SOUP_NONE },
+                    joint_base: match (skinned, skin) {
+                        (true, Some((_, base))) => base,
+                        _ => SOUP_NONE,
+                    },
+                    morph_base,
+                    weight_base: weights.map_or(SOUP_NONE, |(b, _)| b),
+                    target_count: if morph_base == SOUP_NONE {
+                        0
+                    } else {
+                        mesh.target_count as u32
+                    },
+                    flags,
+                    pad0: 0,
+                    pad1: 0,
+                });
+                vertex_segment.extend(std::iter::repeat_n(seg, n));
+                ranges.push(TriangleRange {
+                    first: triangles.len(),
+                    instance: ii,
+                    primitive: pi,
+                });
+                let material = prim.material.map_or(default_material, |m| m as u32);
+                triangles.extend(prim.triangles.iter().map(|t| [t[0], t[1], t[2], seg]));
+                material_ids.extend(std::iter::repeat_n(material, prim.triangles.len()));
+            }
+        }
+        let triangle_count = triangles.len();
+        let vertex_count = vertex_segment.len();
+        // Corner slots 3t+k are computed in 32 bits on the device.
+        as_u32(&file, "triangle corners", 3 * triangle_count)?;
+        as_u32(&file, "deformed vertices", vertex_count)?;
+        as_u32(&file, "joint matrix columns", 4 * joint_count)?;
+
+        let mut allocations = 0usize;
+        let mut up = |present: bool, data: &[[f32; 4]]| -> Result<_, DeviceError> {
+            present
+                .then(|| upload(device, data, &mut allocations))
+                .transpose()
+        };
+        let base_normals = up(features.normals, &base_normals)?;
+        let position_deltas = up(morphs, &position_deltas)?;
+        let normal_deltas = up(morphs && features.normals, &normal_deltas)?;
+        let influence_weights = up(features.skin, &influence_weights)?;
+        let a = &mut allocations;
+        let statics = StaticBuffers {
+            segments: upload(device, &segments, a)?,
+            vertex_segment: upload(device, &vertex_segment, a)?,
+            triangles: upload(device, &triangles, a)?,
+            base_positions: upload(device, &base_positions, a)?,
+            base_normals,
+            base_uvs: features
+                .uvs
+                .then(|| upload(device, &base_uvs, a))
+                .transpose()?,
+            position_deltas,
+            normal_deltas,
+            influence_joints: features
+                .skin
+                .then(|| upload(device, &influence_joints, a))
+                .transpose()?,
+            influence_weights,
+        };
+        // Material ids do not depend on the frame (nor on the winding), so
+        // the soup's material buffer is filled here, once.
+        let material_ids = upload(device, &material_ids, a)?;
+        let frame = FrameBuffers {
+            joint_matrices: allocate_if(features.skin, device, 4 * joint_count, a)?,
+            morph_weights: allocate_if(morphs, device, weight_count, a)?,
+            deformed_normals: allocate_if(features.normals, device, vertex_count, a)?,
+            normals: allocate_if(features.normals, device, 3 * triangle_count, a)?,
+            uvs: allocate_if(features.uvs, device, 3 * triangle_count, a)?,
+            instances: allocate(device, instances.len(), a)?,
+            deformed_positions: allocate(device, vertex_count, a)?,
+            status: allocate(device, 2, a)?,
+            positions: allocate(device, 3 * triangle_count, a)?,
+            material_ids,
+        };
+
+        Ok(DeviceSoup {
+            device,
+            file,
+            features,
+            kernels,
+            statics,
+            frame,
+            instances,
+            ranges,
+            joint_count,
+            weight_count,
+            vertex_count,
+            triangle_count,
+            allocations,
+            upload: PoseUpload::default(),
+            last: None,
+            last_warnings: Vec::new(),
+        })
+    }
+
+    /// Evaluates the frame at `time` seconds into the device buffers and
+    /// returns its camera, lights and warnings. The kernels' device time is
+    /// recorded under the stage "soup" (`soup/deform`, `soup/assemble`); read
+    /// it with `Device::take_timings` before the BVH build, which restarts
+    /// the timings.
+    pub fn evaluate(&mut self, scene: &Scene, time: f64) -> Result<FrameInfo, SoupError> {
+        if scene.file() != self.file || scene.triangle_count() != self.triangle_count {
+            return Err(SoupError::WrongScene {
+                file: scene.file().to_owned(),
+                expected: self.file.clone(),
+                triangles: self.triangle_count,
+            });
+        }
+        let pose = scene.pose(time);
+        self.fill_upload(&pose);
+        let reused = self.last.as_ref() == Some(&self.upload);
+        let warnings = if reused {
+            self.last_warnings.clone()
+        } else {
+            // A failed frame leaves no soup to reuse.
+            let previous = self.last.take();
+            let warnings = self.run(&pose, scene)?;
+            // The previous upload's vectors become next frame's scratch.
+            let upload = std::mem::replace(&mut self.upload, previous.unwrap_or_default());
+            self.last = Some(upload);
+            self.last_warnings = warnings.clone();
+            warnings
+        };
+        Ok(FrameInfo {
+            time,
+            camera: scene.frame_camera(&pose)?,
+            lights: scene.frame_lights(&pose),
+            warnings,
+            reused,
+        })
+    }
+
+    /// The frame's pose in the kernels' form, computed with the CPU
+    /// reference's own functions so both start from identical numbers.
+    fn fill_upload(&mut self, pose: &Pose) {
+        let u = &mut self.upload;
+        u.instances.clear();
+        u.joints.clear();
+        u.weights.clear();
+        u.weights.resize(self.weight_count, 0.0);
+        u.joints.resize(4 * self.joint_count, [0.0; 4]);
+        for slot in &self.instances {
+            let m = &pose.world_from_node[slot.node];
+            let (n, det) = normal_matrix(m);
+            let n = n.to_cols_array_2d();
+            u.instances.push(SoupInstancePose {
+                world_from_mesh: cols4(m),
+                normal_matrix: [
+                    [n[0][0], n[0][1], n[0][2], 0.0],
+                    [n[1][0], n[1][1], n[1][2], 0.0],
+                    [n[2][0], n[2][1], n[2][2], 0.0],
+                ],
+                det,
+                pad: [0; 3],
+            });
+            if let Some((skin, base)) = slot.skin {
+                for (j, m) in pose.joint_matrices[skin].iter().enumerate() {
+                    let at = 4 * (base as usize + j);
+                    u.joints[at..at + 4].copy_from_slice(&cols4(m));
+                }
+            }
+            if let Some((base, count)) = slot.weights {
+                let w = &pose.morph_weights[slot.node];
+                let base = base as usize;
+                let k = count.min(w.len());
+                u.weights[base..base + k].copy_from_slice(&w[..k]);
+            }
+        }
+    }
+
+    /// Uploads the pose, runs both kernels and checks the result.
+    fn run(&mut self, pose: &Pose, scene: &Scene) -> Result<Vec<String>, SoupError> {
+        let d = self.device;
+        let f = &mut self.frame;
+        let s = &self.statics;
+        d.write(&mut f.instances, &self.upload.instances)?;
+        if let Some(b) = &mut f.joint_matrices {
+            d.write(b, &self.upload.joints)?;
+        }
+        if let Some(b) = &mut f.morph_weights {
+            d.write(b, &self.upload.weights)?;
+        }
+        d.write(&mut f.status, &[u32::MAX, 0])?;
+
+        let mut args = vec![
+            Arg::Buf(&s.segments),
+            Arg::Buf(&s.vertex_segment),
+            Arg::U32(self.vertex_count as u32),
+            Arg::Buf(&s.base_positions),
+        ];
+        if let Some(b) = &s.base_normals {
+            args.push(Arg::Buf(b));
+        }
+        if self.features.morph_targets > 0 {
+            args.extend(s.position_deltas.as_ref().map(|b| Arg::Buf(b)));
+            args.extend(s.normal_deltas.as_ref().map(|b| Arg::Buf(b)));
+            args.extend(f.morph_weights.as_ref().map(|b| Arg::Buf(b)));
+        }
+        if self.features.skin {
+            args.extend(s.influence_joints.as_ref().map(|b| Arg::Buf(b)));
+            args.extend(s.influence_weights.as_ref().map(|b| Arg::Buf(b)));
+            args.extend(f.joint_matrices.as_ref().map(|b| Arg::Buf(b)));
+        }
+        args.push(Arg::Buf(&f.instances));
+        args.push(Arg::Buf(&f.deformed_positions));
+        // The kernel always takes a normal output; without normals it is
+        // never written, and the position buffer stands in.
+        args.push(Arg::Buf(
+            f.deformed_normals.as_ref().unwrap_or(&f.deformed_positions),
+        ));
+        d.launch(
+            "soup/deform",
+            &self.kernels.deform,
+            self.vertex_count.div_ceil(WORK_GROUP),
+            WORK_GROUP,
+            &args,
+        )?;
+
+        let mut args = vec![
+            Arg::Buf(&s.segments),
+            Arg::Buf(&s.triangles),
+            Arg::U32(self.triangle_count as u32),
+            Arg::Buf(&f.deformed_positions),
+        ];
+        args.extend(f.deformed_normals.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(s.base_uvs.as_ref().map(|b| Arg::Buf(b)));
+        args.push(Arg::Buf(&f.positions));
+        args.extend(f.normals.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(f.uvs.as_ref().map(|b| Arg::Buf(b)));
+        args.push(Arg::Buf(&f.status));
+        d.launch(
+            "soup/assemble",
+            &self.kernels.assemble,
+            self.triangle_count.div_ceil(WORK_GROUP),
+            WORK_GROUP,
+            &args,
+        )?;
+
+        let mut status = [0u32; 2];
+        d.read(&f.status, &mut status)?;
+        d.finish()?;
+        let [first_bad, bad] = status;
+        if bad == 0 {
+            return Ok(Vec::new());
+        }
+        if self.features.sanitize {
+            return Ok(vec![format!(
+                "--sanitize collapsed {bad} triangle(s) with non-finite corners to points at t = {:.4} s \
+                 (the device soup keeps every triangle)",
+                pose.time
+            )]);
+        }
+        Err(self
+            .non_finite_error(scene, pose, first_bad as usize)
+            .into())
+    }
+
+    /// The CPU reference's message for a triangle with a non-finite corner.
+    fn non_finite_error(&self, scene: &Scene, pose: &Pose, t: usize) -> SceneError {
+        let at = self
+            .ranges
+            .partition_point(|r| r.first <= t)
+            .saturating_sub(1);
+        let detail = match self.ranges.get(at) {
+            Some(r) => {
+                let inst = &scene.instances()[r.instance];
+                let mesh = &scene.meshes()[inst.mesh];
+                format!(
+                    "at t = {:.4} s, triangle {} of mesh {}{} primitive {} (on {}) has a corner that is not \
+                     a finite number. Fix: repair the asset's vertex, skin or animation data, or pass \
+                     --sanitize to drop such triangles.",
+                    pose.time,
+                    t - r.first,
+                    inst.mesh,
+                    mesh.name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default(),
+                    mesh.primitives[r.primitive].index_in_mesh,
+                    scene.node_label(inst.node)
+                )
+            }
+            None => format!(
+                "at t = {:.4} s, triangle {t} has a corner that is not a finite number. Fix: repair the asset, \
+                 or pass --sanitize.",
+                pose.time
+            ),
+        };
+        SceneError::Evaluation {
+            file: self.file.clone(),
+            detail,
+        }
+    }
+
+    /// Corner positions, three `float4` per triangle (`w` = 0): the layout
+    /// `DeviceBuilder::build_from_device` reads. Consumers only read the
+    /// output buffers: an unchanged pose keeps them as they are.
+    pub fn positions(&self) -> &Buffer<[f32; 4]> {
+        &self.frame.positions
+    }
+
+    /// Unit shading normals, three `float4` per triangle, when the scene
+    /// has normals.
+    pub fn normals(&self) -> Option<&Buffer<[f32; 4]>> {
+        self.frame.normals.as_ref()
+    }
+
+    /// TEXCOORD_0, three `float2` per triangle, when the scene has uvs.
+    pub fn uvs(&self) -> Option<&Buffer<[f32; 2]>> {
+        self.frame.uvs.as_ref()
+    }
+
+    /// One material index per triangle, into `Scene::materials`.
+    pub fn material_ids(&self) -> &Buffer<u32> {
+        &self.frame.material_ids
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    /// What the program was compiled for.
+    pub fn features(&self) -> &SoupFeatures {
+        &self.features
+    }
+
+    /// The exact build options the program was compiled with.
+    pub fn build_options(&self) -> String {
+        build_options(&self.features.defines())
+    }
+
+    /// Device buffers allocated so far; all are made by `new`, so this never
+    /// changes from frame to frame.
+    pub fn allocations(&self) -> usize {
+        self.allocations
+    }
+
+    /// Reads the soup of the last evaluated frame back into a host `Soup`
+    /// (for tests and `soupray soup`).
+    pub fn read_back(&self) -> Result<Soup, SoupError> {
+        let d = self.device;
+        let n = self.triangle_count;
+        let f = &self.frame;
+        let mut soup = Soup {
+            positions: vec![[0.0; 4]; 3 * n],
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            material_ids: vec![0; n],
+        };
+        d.read(&f.positions, &mut soup.positions)?;
+        if let Some(b) = &f.normals {
+            soup.normals = vec![[0.0; 4]; 3 * n];
+            d.read(b, &mut soup.normals)?;
+        }
+        if let Some(b) = &f.uvs {
+            soup.uvs = vec![[0.0; 2]; 3 * n];
+            d.read(b, &mut soup.uvs)?;
+        }
+        d.read(&f.material_ids, &mut soup.material_ids)?;
+        Ok(soup)
+    }
+}
