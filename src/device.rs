@@ -181,7 +181,9 @@ impl Timings {
                         .is_some_and(|rest| rest.starts_with('/'))
             })
             .map(|(_, ms)| ms)
-            .sum()
+            .sum::<f64>()
+            // An empty float sum is -0.0, which would print as "-0.00".
+            + 0.0
     }
 }
 
