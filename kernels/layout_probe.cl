@@ -1,6 +1,7 @@
 // Reports sizeof/offsetof of every host-visible struct, so a test can hold
 // the Rust mirrors in src/bvh/layout.rs to the compiler's real layout.
 #include "bvh_types.h"
+#include "trace_types.h"
 
 #ifndef offsetof
 #define offsetof(T, field) __builtin_offsetof(T, field)
@@ -36,5 +37,22 @@ __kernel void layout_probe(__global uint* out) {
     PUT(offsetof(SplitResult, right_clo)); PUT(offsetof(SplitResult, right_chi));
     PUT(offsetof(SplitResult, axis)); PUT(offsetof(SplitResult, position));
     PUT(offsetof(SplitResult, left_count)); PUT(offsetof(SplitResult, right_count));
+    out[n] = 0xFFFFFFFFu;
+}
+
+// The trace stage's structs (kernels/trace_types.h), compared with
+// soupray::trace::trace_layout() by tests/trace_layout.rs.
+__kernel void trace_layout_probe(__global uint* out) {
+    if (get_global_id(0) != 0) return;
+    uint n = 0;
+    PUT(sizeof(Ray));
+    PUT(offsetof(Ray, org)); PUT(offsetof(Ray, tmin));
+    PUT(offsetof(Ray, dir)); PUT(offsetof(Ray, tmax));
+    PUT(sizeof(Hit));
+    PUT(offsetof(Hit, t)); PUT(offsetof(Hit, prim));
+    PUT(offsetof(Hit, u)); PUT(offsetof(Hit, v));
+    PUT(sizeof(StacklessNode));
+    PUT(offsetof(StacklessNode, lo)); PUT(offsetof(StacklessNode, escape));
+    PUT(offsetof(StacklessNode, hi)); PUT(offsetof(StacklessNode, leaf));
     out[n] = 0xFFFFFFFFu;
 }

@@ -38,6 +38,9 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
         "soup_layout_probe.cl",
         include_str!("../kernels/soup_layout_probe.cl"),
     ),
+    ("trace_types.h", include_str!("../kernels/trace_types.h")),
+    ("trace_common.h", include_str!("../kernels/trace_common.h")),
+    ("trace.cl", include_str!("../kernels/trace.cl")),
 ];
 
 /// Why the device layer failed. Messages say what to do about it.

@@ -20,6 +20,7 @@ pub mod ply;
 pub mod report;
 pub mod scene;
 pub mod soup;
+pub mod trace;
 
 /// A mistake in how soupray was invoked (exit code 2), as opposed to a
 /// failure while doing the work.

@@ -1,0 +1,348 @@
+// Ray-triangle intersection and BVH traversal, shared by the trace kernels
+// and (through #include) the later shading kernels. Every function here has a
+// line-for-line Rust twin in src/trace/intersect.rs and src/trace/traverse.rs:
+// the same float operations in the same order, with FMA contraction off, so
+// that the device agrees with the CPU reference bit for bit.
+//
+// Intersection: Woop, Benthin and Wald, "Watertight Ray/Triangle
+// Intersection" (JCGT 2013). The three 2D edge functions are computed in
+// float; rounding is monotonic, so a non-zero value always has the exact
+// sign, and an exact 0.0 is resolved with the products' FMA rounding errors
+// (no doubles needed, which not every GPU has). A ray through a shared edge
+// or vertex exactly is given to one triangle only, by a top-left rule on the
+// orientation-normalised edge: no cracks and no double hits.
+//
+// Boxes: the slab test with near/far planes chosen by the direction's sign
+// bit (so -0 and +0 both work, and 0 * inf = NaN from a ray lying in a slab
+// plane is ignored by fmax/fmin), and the far distance scaled by 1 + 2*gamma(3)
+// (Ize, "Robust BVH Ray Traversal", JCGT 2013) so a box is never missed by
+// rounding.
+#ifndef SOUPRAY_TRACE_COMMON_H
+#define SOUPRAY_TRACE_COMMON_H
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "bvh_types.h"
+#include "trace_types.h"
+
+#ifndef STACK_SIZE
+#define STACK_SIZE 96
+#endif
+
+// 1 + 2 * gamma(3), gamma(n) = n u / (1 - n u), u = 2^-24, rounded up to a
+// float: 2 gamma(3) is a little over 3 * 2^-23, so 1 + 4 * 2^-23 (exact).
+#define BOX_FAR_SCALE (1.0f + 4.0f * FLT_EPSILON)
+// A box is culled only when it starts clearly beyond the closest hit so far:
+// the margin (2^-16 relative) covers the rounding of both the box's entry
+// distance and the triangle's t, so a triangle at the same t with a smaller
+// index is never culled away and ties resolve the same in every tree.
+#define CULL_SCALE (1.0f + 1.0f / 65536.0f)
+#define NO_NODE 0xFFFFFFFFu
+
+// A ray prepared for traversal: the box test's reciprocals and near-plane
+// choice, and the watertight test's axis permutation and shear.
+typedef struct {
+    float ox, oy, oz;
+    float ix, iy, iz;
+    int nx, ny, nz;      // 1 when that direction component's sign bit is set
+    int kx, ky, kz;      // kz: the dominant axis; (kx, ky) keep the winding
+    float okx, oky, okz; // the origin, permuted
+    float sx, sy, sz;    // the shear
+    float tmin, tmax;
+} RayPre;
+
+// Prepares `ray`; false for an all-zero (or NaN) direction, which hits nothing.
+inline bool ray_prepare(RayPre* r, Ray ray) {
+    float d[3] = {ray.dir[0], ray.dir[1], ray.dir[2]};
+    float o[3] = {ray.org[0], ray.org[1], ray.org[2]};
+    float ax = fabs(d[0]), ay = fabs(d[1]), az = fabs(d[2]);
+    int kz = (ax >= ay && ax >= az) ? 0 : (ay >= az ? 1 : 2);
+    if (d[kz] == 0.0f || isnan(d[kz])) return false;
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    if (d[kz] < 0.0f) { int s = kx; kx = ky; ky = s; }
+    r->ox = o[0]; r->oy = o[1]; r->oz = o[2];
+    r->ix = 1.0f / d[0]; r->iy = 1.0f / d[1]; r->iz = 1.0f / d[2];
+    r->nx = signbit(d[0]) ? 1 : 0;
+    r->ny = signbit(d[1]) ? 1 : 0;
+    r->nz = signbit(d[2]) ? 1 : 0;
+    r->kx = kx; r->ky = ky; r->kz = kz;
+    r->okx = o[kx]; r->oky = o[ky]; r->okz = o[kz];
+    r->sx = d[kx] / d[kz];
+    r->sy = d[ky] / d[kz];
+    r->sz = 1.0f / d[kz];
+    r->tmin = ray.tmin;
+    r->tmax = ray.tmax;
+    return true;
+}
+
+// The entry distance of the box [lo, hi], or INFINITY when the ray misses it
+// or enters it beyond `best` (the closest hit so far).
+inline float box_entry(const RayPre* r, float lo0, float lo1, float lo2,
+                       float hi0, float hi1, float hi2, float best) {
+    float tnx = ((r->nx ? hi0 : lo0) - r->ox) * r->ix;
+    float tny = ((r->ny ? hi1 : lo1) - r->oy) * r->iy;
+    float tnz = ((r->nz ? hi2 : lo2) - r->oz) * r->iz;
+    float tfx = ((r->nx ? lo0 : hi0) - r->ox) * r->ix;
+    float tfy = ((r->ny ? lo1 : hi1) - r->oy) * r->iy;
+    float tfz = ((r->nz ? lo2 : hi2) - r->oz) * r->iz;
+    float tn = fmax(fmax(tnx, tny), fmax(tnz, r->tmin));
+    float tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;
+    return (tn <= tf && tn <= best * CULL_SCALE) ? tn : INFINITY;
+}
+
+// The 2D edge function of the directed edge P->Q at the origin,
+// qx*py - qy*px, with an exact 0.0 resolved from the products' rounding
+// errors: its sign is then exact, and it is 0.0 only when the origin lies
+// exactly on the edge's line.
+inline float edge_function(float px, float py, float qx, float qy) {
+    float a = qx * py;
+    float b = qy * px;
+    float e = a - b;
+    if (e == 0.0f) {
+        float ea = fma(qx, py, -a);
+        float eb = fma(qy, px, -b);
+        e = ea - eb;
+    }
+    return e;
+}
+
+// The top-left rule for an edge the ray passes through exactly: with the
+// triangle's orientation normalised (det > 0), the edge is owned when it
+// points up, or right when horizontal. Two triangles on either side of a
+// shared edge see it in opposite directions, so exactly one owns it.
+inline bool owns_edge(float px, float py, float qx, float qy, float det) {
+    if (det < 0.0f) {
+        float tx = px, ty = py;
+        px = qx; py = qy; qx = tx; qy = ty;
+    }
+    return qy > py || (qy == py && qx > px);
+}
+
+// Intersects triangle `prim` (corners at positions[12*prim + 4*k], xyz).
+// Returns true with t, u, v when it is hit within (tmin, tmax); degenerate
+// triangles (exactly zero geometric normal) are never hit.
+inline bool intersect_triangle(const RayPre* r, const __global float* positions,
+                               uint prim, float* t_out, float* u_out, float* v_out) {
+    const __global float* p = positions + (size_t)prim * 12u;
+    int kx = r->kx, ky = r->ky, kz = r->kz;
+    float az_ = p[kz] - r->okz;
+    float bz_ = p[4 + kz] - r->okz;
+    float cz_ = p[8 + kz] - r->okz;
+    float ax = (p[kx] - r->okx) - r->sx * az_;
+    float ay = (p[ky] - r->oky) - r->sy * az_;
+    float bx = (p[4 + kx] - r->okx) - r->sx * bz_;
+    float by = (p[4 + ky] - r->oky) - r->sy * bz_;
+    float cx = (p[8 + kx] - r->okx) - r->sx * cz_;
+    float cy = (p[8 + ky] - r->oky) - r->sy * cz_;
+    float u = edge_function(bx, by, cx, cy);
+    float v = edge_function(cx, cy, ax, ay);
+    float w = edge_function(ax, ay, bx, by);
+    if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f))
+        return false;
+    float det = u + v + w;
+    if (det == 0.0f) return false;
+    if (u == 0.0f && !owns_edge(bx, by, cx, cy, det)) return false;
+    if (v == 0.0f && !owns_edge(cx, cy, ax, ay, det)) return false;
+    if (w == 0.0f && !owns_edge(ax, ay, bx, by, det)) return false;
+    float az = r->sz * az_;
+    float bz = r->sz * bz_;
+    float cz = r->sz * cz_;
+    float tt = u * az + v * bz + w * cz;
+    float rcp = 1.0f / det;
+    float t = tt * rcp;
+    if (!(t > r->tmin && t < r->tmax)) return false;
+    // Degenerate triangles: their projected area may round to non-zero, so
+    // they are recognised in 3D, only for the few candidates that get here.
+    float e1x = p[4] - p[0], e1y = p[5] - p[1], e1z = p[6] - p[2];
+    float e2x = p[8] - p[0], e2y = p[9] - p[1], e2z = p[10] - p[2];
+    float nx = e1y * e2z - e1z * e2y;
+    float ny = e1z * e2x - e1x * e2z;
+    float nz = e1x * e2y - e1y * e2x;
+    if (nx == 0.0f && ny == 0.0f && nz == 0.0f) return false;
+    *t_out = t;
+    *u_out = v * rcp;
+    *v_out = w * rcp;
+    return true;
+}
+
+// Keeps the closest hit; at equal t the smaller triangle index wins, so the
+// result is the same whatever order the tree visits triangles in.
+inline void closest_update(Hit* best, uint prim, float t, float u, float v) {
+    if (t < best->t || (t == best->t && prim < best->prim)) {
+        best->t = t;
+        best->prim = prim;
+        best->u = u;
+        best->v = v;
+    }
+}
+
+inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
+                         const __global float* positions, uint first, uint count, Hit* best) {
+    for (uint s = first; s < first + count; ++s) {
+        uint prim = prim_ids[s];
+        float t, u, v;
+        if (intersect_triangle(r, positions, prim, &t, &u, &v))
+            closest_update(best, prim, t, u, v);
+    }
+}
+
+inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
+                     const __global float* positions, uint first, uint count, Hit* best) {
+    for (uint s = first; s < first + count; ++s) {
+        uint prim = prim_ids[s];
+        float t, u, v;
+        if (intersect_triangle(r, positions, prim, &t, &u, &v)) {
+            best->t = t; best->prim = prim; best->u = u; best->v = v;
+            return true;
+        }
+    }
+    return false;
+}
+
+// Front-to-back stack traversal of the BVH2 (node 0 = root). Leaf children
+// are intersected as soon as their box is hit; of the inner children the
+// nearer is entered and the farther pushed with its entry distance, and
+// skipped on pop if a closer hit has been found since. `ANY` stops at the
+// first hit (shadow rays). The stack holds at most one entry per tree level,
+// and the host refuses trees deeper than STACK_SIZE.
+#define TRAVERSE_BODY(ANY)                                                        \
+    Hit best;                                                                     \
+    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;            \
+    RayPre r;                                                                     \
+    if (!ray_prepare(&r, ray)) return best;                                       \
+    uint stack_node[STACK_SIZE];                                                  \
+    float stack_t[STACK_SIZE];                                                    \
+    int sp = 0;                                                                   \
+    uint node = 0;                                                                \
+    for (;;) {                                                                    \
+        const __global BvhNode* n = nodes + node;                                 \
+        float tl = box_entry(&r, n->left_min[0], n->left_min[1], n->left_min[2],  \
+                             n->left_max[0], n->left_max[1], n->left_max[2],      \
+                             best.t);                                             \
+        float tr = box_entry(&r, n->right_min[0], n->right_min[1], n->right_min[2], \
+                             n->right_max[0], n->right_max[1], n->right_max[2],   \
+                             best.t);                                             \
+        uint c0 = n->left_child, n0 = n->left_count;                              \
+        uint c1 = n->right_child, n1 = n->right_count;                            \
+        if (tr < tl) {                                                            \
+            float ts = tl; tl = tr; tr = ts;                                      \
+            uint cs = c0; c0 = c1; c1 = cs;                                       \
+            uint ns = n0; n0 = n1; n1 = ns;                                       \
+        }                                                                         \
+        uint next = NO_NODE;                                                      \
+        if (tl != INFINITY) {                                                     \
+            if (n0 > 0) {                                                         \
+                if (ANY) {                                                        \
+                    if (any_leaf(&r, prim_ids, positions, c0, n0, &best)) return best; \
+                } else {                                                          \
+                    closest_leaf(&r, prim_ids, positions, c0, n0, &best);         \
+                }                                                                 \
+            } else {                                                              \
+                next = c0;                                                        \
+            }                                                                     \
+        }                                                                         \
+        if (tr != INFINITY && tr <= best.t * CULL_SCALE) {                        \
+            if (n1 > 0) {                                                         \
+                if (ANY) {                                                        \
+                    if (any_leaf(&r, prim_ids, positions, c1, n1, &best)) return best; \
+                } else {                                                          \
+                    closest_leaf(&r, prim_ids, positions, c1, n1, &best);         \
+                }                                                                 \
+            } else if (next == NO_NODE) {                                         \
+                next = c1;                                                        \
+            } else {                                                              \
+                stack_node[sp] = c1;                                              \
+                stack_t[sp] = tr;                                                 \
+                sp++;                                                             \
+            }                                                                     \
+        }                                                                         \
+        if (next != NO_NODE) {                                                    \
+            node = next;                                                          \
+            continue;                                                             \
+        }                                                                         \
+        for (;;) {                                                                \
+            if (sp == 0) return best;                                             \
+            sp--;                                                                 \
+            if (stack_t[sp] <= best.t * CULL_SCALE) break;                        \
+        }                                                                         \
+        node = stack_node[sp];                                                    \
+    }
+
+// The closest hit of `ray` (prim == MISS when none).
+inline Hit trace_closest_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
+                             const __global float* positions, Ray ray) {
+    TRAVERSE_BODY(0)
+}
+
+// Any hit of `ray` within (tmin, tmax): prim != MISS means occluded.
+inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
+                         const __global float* positions, Ray ray) {
+    TRAVERSE_BODY(1)
+}
+
+// The closest hit by stackless traversal of the escape-index layout: entries
+// in depth-first preorder, a hit inner entry continues with its first child
+// (the next entry), a missed or finished one jumps to its escape index. The
+// order is fixed (left first), not front to back.
+inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uint entries,
+                                       const __global uint* prim_ids,
+                                       const __global float* positions, Ray ray) {
+    Hit best;
+    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;
+    RayPre r;
+    if (!ray_prepare(&r, ray)) return best;
+    uint i = 0;
+    while (i < entries) {
+        const __global StacklessNode* e = snodes + i;
+        float t = box_entry(&r, e->lo[0], e->lo[1], e->lo[2], e->hi[0], e->hi[1], e->hi[2],
+                            best.t);
+        if (t == INFINITY) {
+            i = e->escape;
+        } else if (e->leaf != 0u) {
+            closest_leaf(&r, prim_ids, positions, e->leaf >> LEAF_COUNT_BITS,
+                         e->leaf & ((1u << LEAF_COUNT_BITS) - 1u), &best);
+            i = e->escape;
+        } else {
+            i = i + 1u;
+        }
+    }
+    return best;
+}
+
+// Wächter and Binder, "A Fast and Robust Method for Avoiding
+// Self-Intersection" (Ray Tracing Gems, ch. 6): moves a hit point off its
+// surface along the unit normal `n` (flip it to the side the new ray leaves
+// from) by a fixed number of ulps, so the offset scales with the point's
+// magnitude; near the origin, where ulps vanish, by a small fixed distance.
+inline float offset_component(float p, float n) {
+    const float origin = 1.0f / 32.0f;
+    const float float_scale = 1.0f / 65536.0f;
+    const float int_scale = 256.0f;
+    int of_i = (int)(int_scale * n);
+    float p_i = as_float(as_int(p) + (p < 0.0f ? -of_i : of_i));
+    return fabs(p) < origin ? p + float_scale * n : p_i;
+}
+
+inline float3 offset_ray_origin(float3 p, float3 n) {
+    return (float3)(offset_component(p.x, n.x), offset_component(p.y, n.y),
+                    offset_component(p.z, n.z));
+}
+
+// The hit point from the barycentrics (more precise than org + t * dir far
+// from the origin) and the unit geometric normal (p1 - p0) x (p2 - p0).
+inline float3 hit_point(const __global float* positions, uint prim, float u, float v) {
+    const __global float* p = positions + (size_t)prim * 12u;
+    float w = 1.0f - u - v;
+    return (float3)(w * p[0] + u * p[4] + v * p[8], w * p[1] + u * p[5] + v * p[9],
+                    w * p[2] + u * p[6] + v * p[10]);
+}
+
+inline float3 geometric_normal(const __global float* positions, uint prim) {
+    const __global float* p = positions + (size_t)prim * 12u;
+    float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
+    float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
+    return normalize(cross(e1, e2));
+}
+
+#endif

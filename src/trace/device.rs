@@ -1,0 +1,318 @@
+//! The device tracer: compiles `kernels/trace.cl` once per device (with
+//! `STACK_SIZE` derived from the BVH depth limit), takes each frame's tree
+//! into reused device buffers, and runs one work-item per ray over a ray
+//! buffer, writing a hit buffer. Every launch is named and timed by the
+//! device layer's profiling events ("trace/closest", "trace/any",
+//! "trace/stackless", "trace/primary").
+//!
+//! The renderer's frame loop: `DeviceBuilder::build_from_device` →
+//! `upload_bvh(&bvh)` (and `upload_stackless` for `--traversal stackless`) →
+//! `generate_primary` / `trace(kind, positions, builder.device_prim_ids(),
+//! rays, hits, n)` as often as the bounces need, all on the device.
+
+use super::escape::{stackless_layout_into, StacklessNode};
+use super::traverse::check_depth;
+use super::{Hit, PinholeCamera, Ray, TraceError};
+use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
+use crate::device::{Arg, Device};
+use opencl3::kernel::Kernel;
+use opencl3::memory::Buffer;
+use std::time::Instant;
+
+/// Which traversal a `trace` launch runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum TraceKind {
+    /// Closest hit, front-to-back stack traversal.
+    Closest,
+    /// Any hit (shadow rays): stops at the first hit.
+    Any,
+    /// Closest hit, stackless escape-index traversal (needs
+    /// `upload_stackless` after each build).
+    ClosestStackless,
+}
+
+/// The cost of making the stackless layout for one tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct EscapeStats {
+    /// Host time to compute the escape indices and the preorder layout.
+    pub layout_ms: f64,
+    /// Wall time of the upload.
+    pub upload_ms: f64,
+    pub entries: usize,
+}
+
+/// A device buffer that grows to the largest size asked for and is then
+/// reused, frame after frame.
+struct Grow<T> {
+    buffer: Option<Buffer<T>>,
+    capacity: usize,
+}
+
+impl<T> Grow<T> {
+    fn new() -> Grow<T> {
+        Grow {
+            buffer: None,
+            capacity: 0,
+        }
+    }
+
+    fn ensure(
+        &mut self,
+        device: &Device,
+        n: usize,
+        allocations: &mut usize,
+    ) -> Result<&mut Buffer<T>, TraceError> {
+        if self.buffer.is_none() || self.capacity < n {
+            // Some headroom, so a slowly growing animation does not
+            // reallocate every frame.
+            let cap = n.max(1) + n / 8;
+            self.buffer = Some(device.buffer(cap)?);
+            self.capacity = cap;
+            *allocations += 1;
+        }
+        Ok(self.buffer.as_mut().expect("allocated above"))
+    }
+}
+
+/// The trace kernels and the current tree, on one device.
+pub struct DeviceTracer<'d> {
+    device: &'d Device,
+    closest: Kernel,
+    any: Kernel,
+    stackless: Kernel,
+    primary: Kernel,
+    nodes: Grow<BvhNode>,
+    snodes: Grow<StacklessNode>,
+    snode_host: Vec<StacklessNode>,
+    snode_count: usize,
+    depth: Option<u32>,
+    /// Scratch for `trace_rays` (tests, tools).
+    rays: Grow<Ray>,
+    hits: Grow<Hit>,
+    allocations: usize,
+    /// Work-items per work-group of the trace launches.
+    pub local_size: usize,
+}
+
+impl<'d> DeviceTracer<'d> {
+    /// Compiles the trace kernels. The traversal stack holds one entry per
+    /// inner-node level: `STACK_SIZE = MAX_DEPTH + 1`, and `upload_bvh`
+    /// refuses deeper trees.
+    pub fn new(device: &'d Device) -> Result<DeviceTracer<'d>, TraceError> {
+        let defines = [("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
+        let program = device.build_program("trace.cl", &defines)?;
+        let k = |name| device.kernel(&program, name);
+        Ok(DeviceTracer {
+            device,
+            closest: k("trace_closest")?,
+            any: k("trace_any")?,
+            stackless: k("trace_closest_stackless")?,
+            primary: k("generate_primary")?,
+            nodes: Grow::new(),
+            snodes: Grow::new(),
+            snode_host: Vec::new(),
+            snode_count: 0,
+            depth: None,
+            rays: Grow::new(),
+            hits: Grow::new(),
+            allocations: 0,
+            local_size: 64,
+        })
+    }
+
+    /// Device buffer (re)allocations so far: only when a frame outgrows the
+    /// buffers, never every frame.
+    pub fn allocations(&self) -> usize {
+        self.allocations
+    }
+
+    /// Checks the tree's depth against the stack and uploads its nodes into
+    /// the reused node buffer. Returns the depth. The primitive-index array
+    /// stays where the builder left it (`DeviceBuilder::device_prim_ids`).
+    pub fn upload_bvh(&mut self, bvh: &Bvh) -> Result<u32, TraceError> {
+        self.depth = None;
+        let depth = check_depth(bvh)?;
+        let buf = self
+            .nodes
+            .ensure(self.device, bvh.nodes.len(), &mut self.allocations)?;
+        self.device.write(buf, &bvh.nodes)?;
+        self.depth = Some(depth);
+        Ok(depth)
+    }
+
+    /// Computes the tree's escape-index layout on the host and uploads it:
+    /// needed after every build before `TraceKind::ClosestStackless`.
+    pub fn upload_stackless(&mut self, bvh: &Bvh) -> Result<EscapeStats, TraceError> {
+        self.snode_count = 0;
+        let start = Instant::now();
+        stackless_layout_into(bvh, &mut self.snode_host)?;
+        let layout_ms = start.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
+        let n = self.snode_host.len();
+        let buf = self.snodes.ensure(self.device, n, &mut self.allocations)?;
+        self.device.write(buf, &self.snode_host)?;
+        self.snode_count = n;
+        Ok(EscapeStats {
+            layout_ms,
+            upload_ms: start.elapsed().as_secs_f64() * 1e3,
+            entries: n,
+        })
+    }
+
+    /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
+    /// `positions` is the frame's soup (three `float4` per triangle) and
+    /// `prim_ids` the tree's primitive-index array, both on the device.
+    /// Nothing waits: `Device::finish` (or a blocking read) does.
+    pub fn trace(
+        &self,
+        kind: TraceKind,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+        rays: &Buffer<Ray>,
+        hits: &Buffer<Hit>,
+        n: usize,
+    ) -> Result<(), TraceError> {
+        if n == 0 {
+            return Ok(());
+        }
+        let count = u32::try_from(n)
+            .map_err(|_| TraceError::Unsupported(format!("{n} rays in one launch")))?;
+        let groups = n.div_ceil(self.local_size);
+        match kind {
+            TraceKind::Closest | TraceKind::Any => {
+                let nodes = match (&self.nodes.buffer, self.depth) {
+                    (Some(b), Some(_)) => b,
+                    _ => {
+                        return Err(TraceError::Malformed(
+                            "no tree uploaded (upload_bvh)".into(),
+                        ))
+                    }
+                };
+                let (stage, kernel) = if kind == TraceKind::Closest {
+                    ("trace/closest", &self.closest)
+                } else {
+                    ("trace/any", &self.any)
+                };
+                self.device.launch(
+                    stage,
+                    kernel,
+                    groups,
+                    self.local_size,
+                    &[
+                        Arg::Buf(nodes),
+                        Arg::Buf(prim_ids),
+                        Arg::Buf(positions),
+                        Arg::Buf(rays),
+                        Arg::Buf(hits),
+                        Arg::U32(count),
+                    ],
+                )?;
+            }
+            TraceKind::ClosestStackless => {
+                let snodes = match &self.snodes.buffer {
+                    Some(b) if self.snode_count > 0 => b,
+                    _ => {
+                        return Err(TraceError::Malformed(
+                            "no stackless layout uploaded (upload_stackless)".into(),
+                        ))
+                    }
+                };
+                self.device.launch(
+                    "trace/stackless",
+                    &self.stackless,
+                    groups,
+                    self.local_size,
+                    &[
+                        Arg::Buf(snodes),
+                        Arg::U32(self.snode_count as u32),
+                        Arg::Buf(prim_ids),
+                        Arg::Buf(positions),
+                        Arg::Buf(rays),
+                        Arg::Buf(hits),
+                        Arg::U32(count),
+                    ],
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Queues the generation of `camera`'s primary rays (row-major, one per
+    /// pixel) into `rays`, which must hold `width * height` rays.
+    pub fn generate_primary(
+        &self,
+        camera: &PinholeCamera,
+        rays: &Buffer<Ray>,
+    ) -> Result<(), TraceError> {
+        let n = camera.width as usize * camera.height as usize;
+        let [ox, oy, oz] = camera.origin;
+        let [p0x, p0y, p0z] = camera.p00;
+        let [dux, duy, duz] = camera.du;
+        let [dvx, dvy, dvz] = camera.dv;
+        self.device.launch(
+            "trace/primary",
+            &self.primary,
+            n.div_ceil(self.local_size),
+            self.local_size,
+            &[
+                Arg::Buf(rays),
+                Arg::U32(camera.width),
+                Arg::U32(camera.height),
+                Arg::F32(ox),
+                Arg::F32(oy),
+                Arg::F32(oz),
+                Arg::F32(p0x),
+                Arg::F32(p0y),
+                Arg::F32(p0z),
+                Arg::F32(dux),
+                Arg::F32(duy),
+                Arg::F32(duz),
+                Arg::F32(dvx),
+                Arg::F32(dvy),
+                Arg::F32(dvz),
+            ],
+        )?;
+        Ok(())
+    }
+
+    /// Uploads host rays, traces them and reads the hits back (blocking),
+    /// through scratch buffers kept from call to call. For tests and tools;
+    /// the renderer keeps rays and hits on the device with `trace`.
+    pub fn trace_rays(
+        &mut self,
+        kind: TraceKind,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+        rays: &[Ray],
+    ) -> Result<Vec<Hit>, TraceError> {
+        let n = rays.len();
+        let mut hits = vec![Hit::miss(0.0); n];
+        if n == 0 {
+            return Ok(hits);
+        }
+        let mut ray_buf = self.rays.buffer.take();
+        let mut hit_buf = self.hits.buffer.take();
+        // Put them back whatever happens, so a failure does not leak them.
+        let result = (|| {
+            if ray_buf.is_none() || self.rays.capacity < n {
+                ray_buf = Some(self.device.buffer(n)?);
+                self.rays.capacity = n;
+                self.allocations += 1;
+            }
+            if hit_buf.is_none() || self.hits.capacity < n {
+                hit_buf = Some(self.device.buffer(n)?);
+                self.hits.capacity = n;
+                self.allocations += 1;
+            }
+            let (rb, hb) = (ray_buf.as_mut().unwrap(), hit_buf.as_ref().unwrap());
+            self.device.write(rb, rays)?;
+            self.trace(kind, positions, prim_ids, rb, hb, n)?;
+            self.device.read(hb, &mut hits)?;
+            self.device.finish()?;
+            Ok::<(), TraceError>(())
+        })();
+        self.rays.buffer = ray_buf;
+        self.hits.buffer = hit_buf;
+        result.map(|()| hits)
+    }
+}

@@ -1,0 +1,139 @@
+//! The trace stage's core: rays against the frame's BVH and soup, on the
+//! OpenCL device, with a plain Rust reference that agrees hit for hit.
+//!
+//! * `intersect`: the watertight ray-triangle test (Woop, Benthin, Wald 2013)
+//!   and the robust ray-origin offset (Wächter, Binder 2019), on the CPU.
+//! * `traverse`: the CPU reference traversals: closest hit and any hit by
+//!   front-to-back stack traversal, closest hit by stackless escape indices.
+//! * `escape`: the stackless (escape-index) layout of a `Bvh`, recomputed
+//!   after every build.
+//! * `device`: `DeviceTracer`, which runs `kernels/trace.cl` over ray buffers.
+//! * `camera`: a pinhole camera for primary rays (tests and benchmarks).
+//!
+//! The kernels share `kernels/trace_common.h`, whose functions mirror the
+//! Rust ones operation for operation, so device and CPU results are bit for
+//! bit equal on a device with correctly rounded division (PoCL).
+//! Closest-hit ties at equal t go to the smaller triangle index, so the
+//! result never depends on the tree's shape or the traversal order.
+
+pub mod camera;
+pub mod device;
+#[cfg(feature = "embree")]
+pub mod embree;
+pub mod escape;
+pub mod intersect;
+pub mod traverse;
+
+pub use camera::PinholeCamera;
+pub use device::{DeviceTracer, TraceKind};
+pub use escape::{stackless_layout, StacklessNode};
+pub use traverse::{check_depth, trace_any, trace_closest, trace_closest_stackless};
+
+use bytemuck::{Pod, Zeroable};
+
+/// `Hit::prim` of a ray that hit nothing.
+pub const MISS: u32 = u32::MAX;
+
+/// One ray (`Ray` in `kernels/trace_types.h`): hits count when
+/// `tmin < t < tmax`, with `tmin >= 0`. The direction need not be unit
+/// length (t is measured in it); an all-zero direction hits nothing.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Ray {
+    pub org: [f32; 3],
+    pub tmin: f32,
+    pub dir: [f32; 3],
+    pub tmax: f32,
+}
+
+impl Ray {
+    /// A ray over `(0, ∞)`.
+    pub fn new(org: [f32; 3], dir: [f32; 3]) -> Ray {
+        Ray {
+            org,
+            tmin: 0.0,
+            dir,
+            tmax: f32::INFINITY,
+        }
+    }
+}
+
+/// A hit record (`Hit` in `kernels/trace_types.h`): distance, triangle
+/// index in the soup, and the barycentrics of corners 1 and 2, so the hit
+/// point is `(1 - u - v) p0 + u p1 + v p2`. `prim == MISS` (and `t = tmax`)
+/// when nothing was hit. The geometric normal is recomputed by the shader
+/// from the triangle; it is never zero, as degenerate triangles are never hit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+impl Hit {
+    pub fn miss(tmax: f32) -> Hit {
+        Hit {
+            t: tmax,
+            prim: MISS,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
+
+    pub fn is_hit(&self) -> bool {
+        self.prim != MISS
+    }
+
+    /// Equality of every bit, for comparing device and CPU results.
+    pub fn bits(&self) -> [u32; 4] {
+        [
+            self.t.to_bits(),
+            self.prim,
+            self.u.to_bits(),
+            self.v.to_bits(),
+        ]
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<Ray>() == 32);
+const _: () = assert!(std::mem::size_of::<Hit>() == 16);
+const _: () = assert!(std::mem::size_of::<StacklessNode>() == 32);
+
+/// Why tracing failed.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceError {
+    #[error("the BVH is {depth} levels deep, beyond the traversal stack of {max}; the builder must refuse such trees")]
+    TooDeep { depth: u32, max: u32 },
+    #[error("the BVH is malformed: {0}")]
+    Malformed(String),
+    #[error("{0}")]
+    Unsupported(String),
+    #[error(transparent)]
+    Device(#[from] crate::device::DeviceError),
+}
+
+/// The values the `trace_layout_probe` kernel of `kernels/layout_probe.cl`
+/// reports, in its order, for the Rust side.
+pub fn trace_layout() -> Vec<u32> {
+    use std::mem::{offset_of, size_of};
+    let v = |x: usize| x as u32;
+    vec![
+        v(size_of::<Ray>()),
+        v(offset_of!(Ray, org)),
+        v(offset_of!(Ray, tmin)),
+        v(offset_of!(Ray, dir)),
+        v(offset_of!(Ray, tmax)),
+        v(size_of::<Hit>()),
+        v(offset_of!(Hit, t)),
+        v(offset_of!(Hit, prim)),
+        v(offset_of!(Hit, u)),
+        v(offset_of!(Hit, v)),
+        v(size_of::<StacklessNode>()),
+        v(offset_of!(StacklessNode, lo)),
+        v(offset_of!(StacklessNode, escape)),
+        v(offset_of!(StacklessNode, hi)),
+        v(offset_of!(StacklessNode, leaf)),
+    ]
+}
