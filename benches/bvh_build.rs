@@ -63,8 +63,67 @@ fn peak_mib() -> f64 {
         .map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
+/// Peak memory of one builder on one scene, measured in a child process of
+/// this benchmark (`--peak-of BUILDER SCENE`), so builders do not inherit
+/// each other's high-water marks.
+fn peak_of(builder: &str, scene: usize, quick: bool) -> f64 {
+    let mut cmd = std::process::Command::new(std::env::current_exe().expect("own path"));
+    cmd.args(["--peak-of", builder, &scene.to_string()]);
+    if quick {
+        cmd.arg("--quick");
+    }
+    let out = cmd.output().expect("run the peak-memory child");
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .unwrap_or(f64::NAN)
+}
+
+/// The benchmark's scenes: (name, how to make it). Made one at a time, so
+/// a memory child holds only the scene it measures.
+type MakeScene = (&'static str, fn() -> Soup);
+
+fn scene_list(quick: bool) -> Vec<MakeScene> {
+    let mut list: Vec<MakeScene> = vec![
+        ("beast (real)", || mesh("beast.ply")),
+        ("4 x beast", || arrangement(&mesh("beast.ply"), 4)),
+    ];
+    if !quick {
+        list.push(("10 x nefertiti", || arrangement(&mesh("nefertiti.ply"), 10)));
+        list.push(("25 x nefertiti", || arrangement(&mesh("nefertiti.ply"), 25)));
+    }
+    list
+}
+
+/// The child side of `peak_of`: loads the scene, builds once, prints VmHWM.
+fn run_peak_child(builder: &str, scene: usize, quick: bool) {
+    let soup = (scene_list(quick)[scene].1)();
+    let params = BuildParams::default();
+    match builder {
+        "device" | "paper" => {
+            let device = Device::open(None).expect("an OpenCL device");
+            let mapping = if builder == "paper" {
+                Mapping::Paper
+            } else {
+                Mapping::SingleLane
+            };
+            let mut b = DeviceBuilder::with_mapping(&device, params, mapping).unwrap();
+            b.build(&soup).unwrap();
+        }
+        "cpu-binned" => {
+            binned::build(&soup, params).unwrap();
+        }
+        "cpu-sweep" => {
+            sweep::build(&soup, params);
+        }
+        _ => {
+            let mut shapes: Vec<Tri> = (0..soup.triangle_count())
+                .map(|t| Tri(std::array::from_fn(|k| soup.corner(t, k)), 0))
+                .collect();
+            let _ = <bvh::bvh::Bvh<f32, 3> as bvh::bounding_hierarchy::BoundingHierarchy<f32, 3>>::build_par(&mut shapes);
+        }
+    }
+    println!("{}", peak_mib());
 }
 
 struct Tri([[f32; 3]; 3], usize);
@@ -141,17 +200,13 @@ struct Row {
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
-    let beast = mesh("beast.ply");
-    let nefertiti = mesh("nefertiti.ply");
-    let mut scenes = vec![
-        ("beast (real)".to_string(), beast.clone()),
-        ("4 x beast".to_string(), arrangement(&beast, 4)),
-    ];
-    if !quick {
-        scenes.push(("10 x nefertiti".to_string(), arrangement(&nefertiti, 10)));
-        scenes.push(("25 x nefertiti".to_string(), arrangement(&nefertiti, 25)));
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    if let Some(i) = args.iter().position(|a| a == "--peak-of") {
+        run_peak_child(&args[i + 1], args[i + 2].parse().unwrap(), quick);
+        return;
     }
+    let scenes = scene_list(quick);
     let device = Device::open(None).expect("an OpenCL device");
     let params = BuildParams::default();
     let mut builder = DeviceBuilder::with_mapping(&device, params, Mapping::SingleLane).unwrap();
@@ -159,12 +214,12 @@ fn main() {
     // single-lane mapping replaces on CPUs.
     let mut paper = DeviceBuilder::with_mapping(&device, params, Mapping::Paper).unwrap();
     let mut rows = Vec::new();
-    for (name, soup) in &scenes {
+    for (scene_index, (name, make)) in scenes.iter().enumerate() {
+        let soup = &make();
         let n = soup.triangle_count();
         let label = format!("{name}, {:.0}K", n as f64 / 1e3);
         let reps = if n > 500_000 { 3 } else { 5 };
         eprintln!("{label}: sweep");
-        reset_peak();
         let t = Instant::now();
         let sweep_tree = sweep::build(soup, params);
         let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -178,11 +233,10 @@ fn main() {
             stages: String::new(),
             sah: sweep_sah,
             sah_vs_sweep: 1.0,
-            peak: peak_mib(),
+            peak: peak_of("cpu-sweep", scene_index, quick),
         });
 
         eprintln!("{label}: device");
-        reset_peak();
         builder.build(soup).unwrap(); // warm-up: buffers and caches
         let mut times = Vec::new();
         let mut stats = Vec::new();
@@ -217,11 +271,10 @@ fn main() {
             stages,
             sah,
             sah_vs_sweep: sah / sweep_sah,
-            peak: peak_mib(),
+            peak: peak_of("device", scene_index, quick),
         });
 
         eprintln!("{label}: device, paper mapping");
-        reset_peak();
         paper.build(soup).unwrap();
         let mut times = Vec::new();
         let mut sah = 0.0;
@@ -239,11 +292,10 @@ fn main() {
             stages: String::new(),
             sah,
             sah_vs_sweep: sah / sweep_sah,
-            peak: peak_mib(),
+            peak: peak_of("paper", scene_index, quick),
         });
 
         eprintln!("{label}: cpu-binned");
-        reset_peak();
         let mut times = Vec::new();
         let mut sah = 0.0;
         for _ in 0..reps.min(3) {
@@ -261,11 +313,10 @@ fn main() {
             stages: String::new(),
             sah,
             sah_vs_sweep: sah / sweep_sah,
-            peak: peak_mib(),
+            peak: peak_of("cpu-binned", scene_index, quick),
         });
 
         eprintln!("{label}: bvh crate");
-        reset_peak();
         let mut times = Vec::new();
         let mut sah = 0.0;
         for _ in 0..reps.min(3) {
@@ -289,7 +340,7 @@ fn main() {
             stages: String::new(),
             sah,
             sah_vs_sweep: sah / sweep_sah,
-            peak: peak_mib(),
+            peak: peak_of("bvh", scene_index, quick),
         });
     }
     println!("| scene | builder | build ms (median) | Mtris/s | device stages ms | SAH cost | SAH / sweep | peak host MiB |");
