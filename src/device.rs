@@ -41,6 +41,20 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     ("trace_types.h", include_str!("../kernels/trace_types.h")),
     ("trace_common.h", include_str!("../kernels/trace_common.h")),
     ("trace.cl", include_str!("../kernels/trace.cl")),
+    (
+        "texture_types.h",
+        include_str!("../kernels/texture_types.h"),
+    ),
+    ("texture.h", include_str!("../kernels/texture.h")),
+    (
+        "texture_layout_probe.cl",
+        include_str!("../kernels/texture_layout_probe.cl"),
+    ),
+    ("sampling.h", include_str!("../kernels/sampling.h")),
+    ("bsdf.h", include_str!("../kernels/bsdf.h")),
+    ("lights.h", include_str!("../kernels/lights.h")),
+    ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
+    ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
 ];
 
 /// Why the device layer failed. Messages say what to do about it.

@@ -9,14 +9,17 @@
 // iterator zips would hide the math the kernels mirror line for line.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bench;
 pub mod bvh;
 pub mod cli_bvh;
 pub mod cli_scene;
+pub mod compare;
 pub mod device;
 pub mod film;
 pub mod frames;
 pub mod output;
 pub mod ply;
+pub mod render;
 pub mod report;
 pub mod scene;
 pub mod soup;

@@ -12,7 +12,8 @@ Exit codes:
   2    usage error (bad flags or values)
   3    OpenCL device set-up failed (no platform, no matching device, kernel build)
   4    the input could not be read (missing, malformed or unsupported scene or mesh)
-  5    a frame failed
+  5    a frame failed (with --keep-going: at least one frame failed)
+  6    the output directory cannot be created or written
   130  interrupted (SIGINT); 143 terminated (SIGTERM)";
 
 /// soupray: an offline path tracer for glTF animations.
@@ -33,6 +34,8 @@ enum Command {
     Bvh(cli_bvh::BvhArgs),
     Info(cli_scene::InfoArgs),
     Soup(cli_scene::SoupArgs),
+    Render(Box<soupray::render::RenderArgs>),
+    Bench(soupray::bench::BenchArgs),
     Report(soupray::report::ReportArgs),
 }
 
@@ -49,6 +52,8 @@ fn main() -> ExitCode {
         Command::Bvh(a) => cli_bvh::run_bvh(a),
         Command::Info(a) => cli_scene::run_info(a),
         Command::Soup(a) => cli_scene::run_soup(a),
+        Command::Render(a) => soupray::render::run_render(a),
+        Command::Bench(a) => soupray::bench::run_bench(a),
         Command::Report(a) => soupray::report::run_report(a),
     };
     match result {
@@ -63,6 +68,18 @@ fn main() -> ExitCode {
 /// The exit code for an error, from the kind of failure in its chain.
 fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if let Some(j) = cause.downcast_ref::<soupray::render::JobError>() {
+            return match j {
+                soupray::render::JobError::Interrupted { signal, .. } => (128 + signal) as u8,
+                soupray::render::JobError::FramesFailed { .. } => 5,
+            };
+        }
+        if cause.is::<soupray::render::FrameError>() {
+            return 5;
+        }
+        if cause.is::<soupray::frames::OutputDirError>() {
+            return 6;
+        }
         if cause.is::<soupray::UsageError>() {
             return 2;
         }

@@ -205,7 +205,7 @@ pub const CHART_SIZE: (u32, u32) = (1200, 800);
 
 static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
 
-fn register_font() -> anyhow::Result<()> {
+pub(crate) fn register_font() -> anyhow::Result<()> {
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT)
@@ -320,7 +320,7 @@ pub fn render_chart(rows: &[Row]) -> anyhow::Result<Vec<u8>> {
     Ok(buf)
 }
 
-fn format_axis(v: f64) -> String {
+pub(crate) fn format_axis(v: f64) -> String {
     let a = v.abs();
     if !v.is_finite() {
         "-".into()
@@ -335,18 +335,23 @@ fn format_axis(v: f64) -> String {
     }
 }
 
-fn plot_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error {
+pub(crate) fn plot_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error {
     anyhow::anyhow!("drawing the chart failed: {e}")
 }
 
 /// Writes the chart as a PNG, atomically.
 pub fn write_chart(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
-    use image::ImageEncoder as _;
     let pixels = render_chart(rows)?;
     let (w, h) = CHART_SIZE;
+    write_rgb_png(path, &pixels, w, h)
+}
+
+/// Writes 8-bit RGB pixels as a PNG, atomically.
+pub(crate) fn write_rgb_png(path: &Path, pixels: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
+    use image::ImageEncoder as _;
     write_atomic(path, |out| {
         image::codecs::png::PngEncoder::new(out)
-            .write_image(&pixels, w, h, image::ExtendedColorType::Rgb8)
+            .write_image(pixels, w, h, image::ExtendedColorType::Rgb8)
             .map_err(|e| OutputError::Encode {
                 path: path.to_path_buf(),
                 format: "PNG chart",

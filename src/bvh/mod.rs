@@ -206,6 +206,38 @@ pub struct TreeShape {
 }
 
 impl Bvh {
+    /// The tree's node count, leaf count and depth (what `validate` reports
+    /// for a valid tree), without checking it against a soup.
+    pub fn shape(&self) -> TreeShape {
+        let mut shape = TreeShape::default();
+        if self.nodes.is_empty() {
+            return shape;
+        }
+        shape.nodes = 1;
+        shape.inner_nodes = 1;
+        let mut stack = vec![(0u32, 0u32)];
+        while let Some((index, depth)) = stack.pop() {
+            let node = &self.nodes[index as usize];
+            for (child, _) in [node.left(), node.right()] {
+                match child {
+                    Child::Empty => {}
+                    Child::Inner(c) if (c as usize) < self.nodes.len() && depth < MAX_DEPTH => {
+                        shape.nodes += 1;
+                        shape.inner_nodes += 1;
+                        stack.push((c, depth + 1));
+                    }
+                    Child::Inner(_) => {}
+                    Child::Leaf { .. } => {
+                        shape.nodes += 1;
+                        shape.leaves += 1;
+                        shape.max_depth = shape.max_depth.max(depth + 1);
+                    }
+                }
+            }
+        }
+        shape
+    }
+
     /// The box of everything in the tree: the union of the root's children.
     pub fn root_bounds(&self) -> Aabb {
         match self.nodes.first() {

@@ -7,8 +7,6 @@
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-use glam::Mat3;
-
 use super::error::{Result, SceneError};
 use super::source::{decode_base64, resolve_uri, Source};
 
@@ -21,34 +19,15 @@ pub enum AlphaMode {
 
 /// KHR_texture_transform: `uv' = T(offset) * R(rotation) * S(scale) * uv`.
 #[derive(Debug, Clone, Copy, PartialEq)]
+/// The KHR_texture_transform of a texture use. The device applies it as
+/// `trace::texture::transform_matrix` (whose rotation follows the extension's
+/// worked example and the sample viewer; its GLSL listing has it transposed).
 pub struct TextureTransform {
     pub offset: [f32; 2],
     pub rotation: f32,
     pub scale: [f32; 2],
     /// Overrides the reference's `texCoord` when present.
     pub tex_coord: Option<u32>,
-}
-
-impl TextureTransform {
-    /// The 3x3 matrix the extension specifies, applied to `(u, v, 1)`.
-    pub fn matrix(&self) -> Mat3 {
-        let (s, c) = self.rotation.sin_cos();
-        let translation = Mat3::from_cols_array(&[
-            1.0,
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-            0.0,
-            self.offset[0],
-            self.offset[1],
-            1.0,
-        ]);
-        // Column by column, as the extension's GLSL `mat3(c, s, 0, -s, c, 0, 0, 0, 1)`.
-        let rotation = Mat3::from_cols_array(&[c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0]);
-        let scale = Mat3::from_diagonal(glam::Vec3::new(self.scale[0], self.scale[1], 1.0));
-        translation * rotation * scale
-    }
 }
 
 /// A material's use of a texture.
@@ -428,27 +407,4 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
         images,
         default_material: None,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn texture_transform_matches_extension_example() {
-        // By hand from the extension's GLSL (column-major mat3 constructors):
-        // (1, 0) scaled by 2 is (2, 0); rotated by pi/2 it is 2 * first
-        // column (cos, sin) = (0, 2); offset (0.5, 0) gives (0.5, 2).
-        let t = TextureTransform {
-            offset: [0.5, 0.0],
-            rotation: std::f32::consts::FRAC_PI_2,
-            scale: [2.0, 2.0],
-            tex_coord: None,
-        };
-        let uv = t.matrix() * glam::Vec3::new(1.0, 0.0, 1.0);
-        assert!(
-            (uv.x - 0.5).abs() < 1e-6 && (uv.y - 2.0).abs() < 1e-6,
-            "{uv:?}"
-        );
-    }
 }

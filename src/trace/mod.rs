@@ -22,6 +22,11 @@ pub mod device;
 pub mod embree;
 pub mod escape;
 pub mod intersect;
+pub mod lights;
+pub mod material;
+pub mod render;
+pub mod sampling;
+pub mod texture;
 pub mod traverse;
 
 pub use camera::PinholeCamera;

@@ -1,0 +1,167 @@
+// The glTF 2.0 metallic-roughness BSDF (the specification's Appendix B):
+//   f = (1 - m) * [ (1 - Fd) * base / pi + Fd * S ] + m * Fm * S
+// with S = D * G2 / (4 |n.l| |n.v|) the GGX (Trowbridge-Reitz) specular lobe
+// with height-correlated Smith masking, alpha = roughness^2, Fd the Schlick
+// Fresnel of a 4 % dielectric and Fm = base + (1 - base) (1 - v.h)^5 the
+// conductor's. Sampling picks the diffuse lobe (cosine) or the specular lobe
+// (visible normals, Heitz 2018) with a probability from the lobes' albedo
+// estimate and returns the pdf of the whole mixture, for MIS.
+//
+// Directions are in the local shading frame (z = normal), both pointing
+// away from the surface. Every function mirrors src/trace/material.rs
+// (`bsdf_eval`, `bsdf_sample`, `bsdf_pdf`); kernels/bsdf_probe.cl holds the
+// two to each other.
+#ifndef SOUPRAY_BSDF_H
+#define SOUPRAY_BSDF_H
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "sampling.h"
+
+// Material flags (PtMaterial.flags).
+#define MAT_DOUBLE_SIDED 1u
+#define MAT_ALPHA_MASK 2u
+#define MAT_ALPHA_BLEND 4u
+#define MAT_EMISSIVE 8u
+
+// One material as the device shades it (mirrored by `DeviceMaterial` in
+// src/trace/material.rs; `pt_layout_probe` compares the layouts). Texture
+// slots index the texture bindings, -1 for none.
+typedef struct {
+    float base_color[4];
+    float emissive[4];
+    float metallic;
+    float roughness;
+    float alpha_cutoff;
+    float normal_scale;
+    uint flags;
+    int base_color_tex;
+    int metallic_roughness_tex;
+    int normal_tex;
+    int emissive_tex;
+    uint pad[3];
+} PtMaterial;
+
+// The material's parameters at one surface point, after textures.
+typedef struct {
+    float3 base;
+    float metallic;
+    float alpha; // GGX alpha = roughness^2, clamped away from 0
+    // Scales the dielectric's Fresnel reflectance: 1 for glTF materials,
+    // 0 for the pure Lambertian of --clay.
+    float specular;
+} BsdfParams;
+
+#define MIN_GGX_ALPHA 1.0e-3f
+
+inline float ggx_alpha(float roughness) {
+    float r = clamp(roughness, 0.0f, 1.0f);
+    return fmax(r * r, MIN_GGX_ALPHA);
+}
+
+inline float ggx_d(float a, float cos_h) {
+    float a2 = a * a;
+    float c2 = cos_h * cos_h;
+    float k = c2 * (a2 - 1.0f) + 1.0f;
+    return a2 / ((PT_PI * k) * k);
+}
+
+// Smith's Lambda for GGX at a direction with cosine c to the normal.
+inline float ggx_lambda(float a, float c) {
+    float c2 = c * c;
+    float t2 = fmax(0.0f, 1.0f - c2) / c2;
+    return (sqrt(1.0f + (a * a) * t2) - 1.0f) * 0.5f;
+}
+
+inline float schlick_weight(float c) {
+    float m = clamp(1.0f - c, 0.0f, 1.0f);
+    float m2 = m * m;
+    return (m2 * m2) * m;
+}
+
+// The probability of sampling the specular lobe, for outgoing cosine `cos_o`.
+inline float bsdf_spec_probability(BsdfParams p, float cos_o) {
+    float fd = p.specular * (0.04f + 0.96f * schlick_weight(cos_o));
+    float ws = p.metallic + (1.0f - p.metallic) * fd;
+    float wd = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fd);
+    float sum = ws + wd;
+    return sum > 0.0f ? ws / sum : 0.0f;
+}
+
+// The BSDF value (without the cosine) for wo, wi in the local frame.
+inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+    if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
+    float3 hv = wo + wi;
+    float hl = length(hv);
+    if (hl == 0.0f) return (float3)(0.0f);
+    float3 h = hv / hl;
+    float voh = fmax(dot(wo, h), 0.0f);
+    float d = ggx_d(p.alpha, h.z);
+    float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+    float s = (d * g2) / ((4.0f * wo.z) * wi.z);
+    float w = schlick_weight(voh);
+    float fd = p.specular * (0.04f + 0.96f * w);
+    float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s);
+    float3 metal = fm * s;
+    return dielectric * (1.0f - p.metallic) + metal * p.metallic;
+}
+
+// The pdf of the visible-normal sampling of the specular lobe, per solid
+// angle of wi: G1(wo) D(h) / (4 wo.z).
+inline float ggx_vndf_pdf(float a, float3 wo, float3 wi) {
+    float3 hv = wo + wi;
+    float hl = length(hv);
+    if (hl == 0.0f) return 0.0f;
+    float3 h = hv / hl;
+    float g1 = 1.0f / (1.0f + ggx_lambda(a, wo.z));
+    return (g1 * ggx_d(a, h.z)) / (4.0f * wo.z);
+}
+
+inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
+    if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
+    float ps = bsdf_spec_probability(p, wo.z);
+    float spec = ps > 0.0f ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+    return ps * spec + (1.0f - ps) * (wi.z * PT_INV_PI);
+}
+
+// Heitz, "Sampling the GGX Distribution of Visible Normals" (JCGT 2018).
+inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
+    float3 vh = normalize((float3)(a * wo.x, a * wo.y, wo.z));
+    float lensq = vh.x * vh.x + vh.y * vh.y;
+    float3 t1 = lensq > 0.0f ? (float3)(-vh.y, vh.x, 0.0f) / sqrt(lensq)
+                             : (float3)(1.0f, 0.0f, 0.0f);
+    float3 t2 = cross(vh, t1);
+    float r = sqrt(u1);
+    float phi = PT_TWO_PI * u2;
+    float p1 = r * cos(phi);
+    float p2 = r * sin(phi);
+    float s = 0.5f * (1.0f + vh.z);
+    p2 = (1.0f - s) * sqrt(fmax(0.0f, 1.0f - p1 * p1)) + s * p2;
+    float3 nh = (t1 * p1 + t2 * p2) + vh * sqrt(fmax(0.0f, (1.0f - p1 * p1) - p2 * p2));
+    return normalize((float3)(a * nh.x, a * nh.y, fmax(0.0f, nh.z)));
+}
+
+// Samples wi for wo: returns false when no direction is produced (it
+// would lie below the surface). `lobe_u` picks the lobe.
+inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                        float3* wi_out, float3* f_out, float* pdf_out) {
+    if (wo.z <= 0.0f) return false;
+    float ps = bsdf_spec_probability(p, wo.z);
+    float3 wi;
+    if (lobe_u < ps) {
+        float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+        wi = h * (2.0f * dot(wo, h)) - wo;
+    } else {
+        wi = sample_cosine_hemisphere(u1, u2);
+    }
+    if (wi.z <= 0.0f) return false;
+    float pdf = bsdf_pdf(p, wo, wi);
+    if (!(pdf > 0.0f)) return false;
+    *wi_out = wi;
+    *f_out = bsdf_eval(p, wo, wi);
+    *pdf_out = pdf;
+    return true;
+}
+
+#endif

@@ -1,0 +1,665 @@
+// The path tracing integrator: unidirectional path tracing with
+// next-event estimation and multiple importance sampling (power heuristic)
+// over punctual lights, emissive triangles and the environment, Russian
+// roulette, and a per-pixel accumulator.
+//
+// Scheduling: one launch is one sample pass over one tile; a work-item owns
+// one pixel and adds that pass's samples to the pixel's sums in sample
+// order. Every random number is keyed by (seed, frame, pixel, sample,
+// dimension) and nothing is shared between work-items, so the sums — and the
+// image — are the same bit for bit whatever the tiling, the pass sizes and
+// the work-group size. FP contraction is off and no fast-math is used.
+//
+// Surfaces: single-sided materials are invisible from behind (the glTF
+// back-face culling), MASK materials above the cutoff are holes and BLEND
+// materials are crossed with probability 1 - alpha (stochastic coverage),
+// for camera, bounce and shadow rays alike. Compiled with STACK_SIZE, and
+// TRAVERSAL_STACKLESS for the escape-index traversal, HAS_TEXTURES when some
+// material is textured.
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "trace_common.h"
+#include "sampling.h"
+#include "bsdf.h"
+#include "lights.h"
+#ifdef HAS_TEXTURES
+#include "texture.h"
+#endif
+
+// Crossings of cut-out or culled surfaces allowed per ray segment before
+// the segment counts as blocked (camera rays: the path ends).
+#define MAX_CROSSINGS 64u
+
+// PtFrame.flags
+#define FRAME_NORMALS 1u
+#define FRAME_UVS 2u
+#define FRAME_CLAY 4u
+
+// The camera (mirrored by `DeviceCamera` in src/trace/render.rs). For a
+// perspective camera `right` and `up` are scaled by the half extents of the
+// image plane at distance 1; for an orthographic one by xmag and ymag.
+typedef struct {
+    float origin[4];
+    float right[4];
+    float up[4];
+    float forward[4];
+    uint ortho;
+    float znear;
+    uint pad[2];
+} PtCamera;
+
+// Per-frame constants (mirrored by `DeviceFrame`).
+typedef struct {
+    uint seed_lo, seed_hi, frame_lo, frame_hi;
+    uint width, height, max_depth, flags;
+    uint light_count, emit_count, material_count, select_count;
+} PtFrame;
+
+// Everything a path needs, gathered once per work-item.
+typedef struct {
+    const __global BvhNode* nodes;
+    const __global StacklessNode* snodes;
+    uint snode_count;
+    const __global uint* prim_ids;
+    const __global float* positions;
+    const __global float* normals;
+    const __global float* uvs;
+    const __global uint* material_ids;
+    const __global PtMaterial* materials;
+    const __global PtLight* lights;
+    const __global uint* emit_prims;
+    const __global float* emit_cdf;
+    const __global float* emit_pmf;
+    PtEnv env;
+    const __global float4* env_texels;
+    const __global float* env_marginal;
+    const __global float* env_conditional;
+    PtFrame frame;
+    uint rays;
+} PtScene;
+
+#ifdef HAS_TEXTURES
+// The texture set's buffers plus the bindings: four per material (base
+// colour, metallic-roughness, normal, emissive) at 4 * material + slot.
+#define TEX_DECL , TEXTURE_PARAMS, __global const TextureBinding* tex_bindings
+#define TEX_PASS , TEXTURE_ARGS, tex_bindings
+#else
+#define TEX_DECL
+#define TEX_PASS
+#endif
+
+inline Hit pt_trace_closest(PtScene* s, Ray ray) {
+    s->rays += 1u;
+#ifdef TRAVERSAL_STACKLESS
+    return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, s->positions, ray);
+#else
+    return trace_closest_bvh(s->nodes, s->prim_ids, s->positions, ray);
+#endif
+}
+
+inline PtMaterial pt_material(const PtScene* s, uint prim) {
+    uint id = s->material_ids[prim];
+    uint last = s->frame.material_count - 1u;
+    return s->materials[min(id, last)];
+}
+
+inline float2 pt_uv(const PtScene* s, uint prim, float u, float v) {
+    if ((s->frame.flags & FRAME_UVS) == 0u) return (float2)(0.0f);
+    const __global float* t = s->uvs + (size_t)prim * 6u;
+    float w = 1.0f - u - v;
+    return (float2)((w * t[0] + u * t[2]) + v * t[4], (w * t[1] + u * t[3]) + v * t[5]);
+}
+
+// The material's base colour (linear RGBA) at a point: the factor times the
+// base colour texture. Every texture lookup of the integrator goes through
+// pt_texture, which compiles to nothing without HAS_TEXTURES.
+inline float4 pt_texture(int binding, float2 uv TEX_DECL) {
+#ifdef HAS_TEXTURES
+    // The soup carries TEXCOORD_0 only, so set 1 reads it too (the host
+    // warns when a material asks for set 1).
+    if (binding >= 0) {
+        TextureBinding b = tex_bindings[binding];
+        return sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
+    }
+#endif
+    return (float4)(1.0f);
+}
+
+inline float4 pt_base_color(PtMaterial m, float2 uv TEX_DECL) {
+    float4 f = (float4)(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
+    return f * pt_texture(m.base_color_tex, uv TEX_PASS);
+}
+
+// Whether a ray crossing `prim` from `dir` passes through it: a culled back
+// face, a MASK hole, or a BLEND crossing drawn with probability 1 - alpha.
+inline bool pt_passes(const PtScene* s, PtMaterial m, uint prim, float u, float v, float3 dir,
+                      SampleRng rng, uint dim TEX_DECL) {
+    if ((m.flags & MAT_DOUBLE_SIDED) == 0u) {
+        if (dot(dir, geometric_normal(s->positions, prim)) >= 0.0f) return true;
+    }
+    if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u) return false;
+    float alpha = pt_base_color(m, pt_uv(s, prim, u, v) TEX_PASS).w;
+    if ((m.flags & MAT_ALPHA_MASK) != 0u) return alpha < m.alpha_cutoff;
+    return rng_1d(rng, dim) >= alpha;
+}
+
+// The first surface along `ray` that is not crossed. `kind`: 0 path ray,
+// 1 shadow ray (for the crossing decisions' dimensions). Returns false when
+// the ray escapes; `blocked` is set when the crossing budget ran out.
+inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uint kind,
+                            Hit* out, float* travelled, bool* blocked TEX_DECL) {
+    *blocked = false;
+    *travelled = 0.0f;
+    for (uint c = 0u; c < MAX_CROSSINGS; ++c) {
+        Hit h = pt_trace_closest(s, ray);
+        if (h.prim == MISS) return false;
+        float3 dir = (float3)(ray.dir[0], ray.dir[1], ray.dir[2]);
+        PtMaterial m = pt_material(s, h.prim);
+        if (!pt_passes(s, m, h.prim, h.u, h.v, dir, rng, dim_pass(bounce, kind, c) TEX_PASS)) {
+            *travelled = *travelled + h.t;
+            *out = h;
+            return true;
+        }
+        // Continue just beyond the crossed surface.
+        float3 p = hit_point(s->positions, h.prim, h.u, h.v);
+        float3 ng = geometric_normal(s->positions, h.prim);
+        float3 n = dot(dir, ng) > 0.0f ? ng : -ng;
+        float3 o = offset_ray_origin(p, n);
+        ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
+        *travelled = *travelled + h.t;
+        ray.tmin = 0.0f;
+        ray.tmax = ray.tmax - h.t;
+        if (!(ray.tmax > 0.0f)) return false;
+    }
+    *blocked = true;
+    return false;
+}
+
+// Whether the segment org + t dir, t in (0, tmax), is blocked.
+inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRng rng,
+                        uint bounce TEX_DECL) {
+    Ray r;
+    r.org[0] = org.x; r.org[1] = org.y; r.org[2] = org.z;
+    r.dir[0] = dir.x; r.dir[1] = dir.y; r.dir[2] = dir.z;
+    r.tmin = 0.0f;
+    r.tmax = tmax;
+#ifndef TRAVERSAL_STACKLESS
+    // The common case first: any hit on a surface that blocks for certain
+    // (opaque, and double-sided or facing the ray) settles it. Otherwise
+    // the exact answer above; both give the same result, so the stack and
+    // stackless traversals agree.
+    s->rays += 1u;
+    Hit a = trace_any_bvh(s->nodes, s->prim_ids, s->positions, r);
+    if (a.prim == MISS) return false;
+    PtMaterial m = pt_material(s, a.prim);
+    if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
+        ((m.flags & MAT_DOUBLE_SIDED) != 0u ||
+         dot(dir, geometric_normal(s->positions, a.prim)) < 0.0f))
+        return true;
+#endif
+    Hit h;
+    float travelled;
+    bool blocked;
+    bool found = pt_find_surface(s, r, rng, bounce, 1u, &h, &travelled, &blocked TEX_PASS);
+    return found || blocked;
+}
+
+inline float3 pt_emission(PtMaterial m, float2 uv TEX_DECL) {
+    float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
+#ifdef HAS_TEXTURES
+    if (m.emissive_tex >= 0) e = e * pt_texture(m.emissive_tex, uv TEX_PASS).xyz;
+#endif
+    return e;
+}
+
+inline float pt_triangle_area(const __global float* positions, uint prim) {
+    const __global float* p = positions + (size_t)prim * 12u;
+    float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
+    float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
+    return 0.5f * length(cross(e1, e2));
+}
+
+// The light-sampling pdf (solid angle, selection included) of reaching
+// emissive triangle `prim` at distance `dist` with cosine `cos_l` there.
+inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_l) {
+    float pmf = s->emit_pmf[prim];
+    if (!(pmf > 0.0f) || !(cos_l > 0.0f)) return 0.0f;
+    float area = pt_triangle_area(s->positions, prim);
+    return ((pmf / (float)s->frame.select_count) * (dist * dist)) / (area * cos_l);
+}
+
+#ifdef HAS_TEXTURES
+// glTF normal mapping: the tangent is dP/du of the triangle in the normal
+// texture's (transformed) uv space, made orthogonal to the front-side
+// shading normal n, the bitangent is n x t, and on a back face all three
+// flip (as the Khronos sample viewer does). Degenerate uvs keep n.
+inline float3 pt_normal_map(const PtScene* s, PtMaterial m, uint prim, float3 n, bool front,
+                            float2 uv TEX_DECL) {
+    TextureBinding b = tex_bindings[m.normal_tex];
+    const __global float* p = s->positions + (size_t)prim * 12u;
+    const __global float* t = s->uvs + (size_t)prim * 6u;
+    float2 t0 = texture_uv(b, (float2)(t[0], t[1]), (float2)(t[0], t[1]));
+    float2 t1 = texture_uv(b, (float2)(t[2], t[3]), (float2)(t[2], t[3]));
+    float2 t2 = texture_uv(b, (float2)(t[4], t[5]), (float2)(t[4], t[5]));
+    float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
+    float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
+    float2 d1 = t1 - t0;
+    float2 d2 = t2 - t0;
+    float r = d1.x * d2.y - d2.x * d1.y;
+    float3 sn = front ? n : -n;
+    if (r == 0.0f || !isfinite(r)) return sn;
+    float3 tg = (e1 * d2.y - e2 * d1.y) / r;
+    tg = tg - n * dot(n, tg);
+    float tl = length(tg);
+    if (!(tl > 0.0f)) return sn;
+    tg = tg / tl;
+    float3 bt = cross(n, tg);
+    float4 c = sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
+    float3 tn = (float3)((c.x * 2.0f - 1.0f) * m.normal_scale, (c.y * 2.0f - 1.0f) * m.normal_scale,
+                         c.z * 2.0f - 1.0f);
+    float3 mapped = (tg * tn.x + bt * tn.y) + n * tn.z;
+    float ml = length(mapped);
+    if (!(ml > 0.0f)) return sn;
+    mapped = mapped / ml;
+    return front ? mapped : -mapped;
+}
+#endif
+
+// The shading frame at a hit: geometric normal facing the incoming ray,
+// shading normal on the same side and on the viewer's side.
+typedef struct {
+    float3 p;
+    float3 ng;
+    float3 ns;
+    float2 uv;
+    bool front;
+} PtSurface;
+
+inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TEX_DECL) {
+    PtSurface sf;
+    sf.p = hit_point(s->positions, h.prim, h.u, h.v);
+    float3 ng = geometric_normal(s->positions, h.prim);
+    sf.front = dot(dir, ng) < 0.0f;
+    if (!sf.front) ng = -ng;
+    sf.ng = ng;
+    sf.uv = pt_uv(s, h.prim, h.u, h.v);
+    float3 ns = ng;
+    if ((s->frame.flags & FRAME_NORMALS) != 0u) {
+        const __global float* n = s->normals + (size_t)h.prim * 12u;
+        float w = 1.0f - h.u - h.v;
+        float3 si = (float3)((w * n[0] + h.u * n[4]) + h.v * n[8],
+                             (w * n[1] + h.u * n[5]) + h.v * n[9],
+                             (w * n[2] + h.u * n[6]) + h.v * n[10]);
+        float l = length(si);
+        if (l > 0.0f) {
+            si = si / l;
+            ns = sf.front ? si : -si;
+        }
+    }
+#ifdef HAS_TEXTURES
+    if (m.normal_tex >= 0 && (s->frame.flags & FRAME_CLAY) == 0u &&
+        (s->frame.flags & FRAME_UVS) != 0u)
+        ns = pt_normal_map(s, m, h.prim, sf.front ? ns : -ns, sf.front, sf.uv TEX_PASS);
+#endif
+    // A shading normal facing away from the viewer would make the surface
+    // black; the geometric normal is used there instead.
+    if (dot(ns, -dir) <= 0.0f || dot(ns, ng) <= 0.0f) ns = ng;
+    sf.ns = ns;
+    return sf;
+}
+
+inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, float3* albedo TEX_DECL) {
+    BsdfParams p;
+    if ((s->frame.flags & FRAME_CLAY) != 0u) {
+        p.base = (float3)(0.8f);
+        p.metallic = 0.0f;
+        p.alpha = 1.0f;
+        p.specular = 0.0f;
+        *albedo = p.base;
+        return p;
+    }
+    float4 bc = pt_base_color(m, uv TEX_PASS);
+    float metallic = m.metallic;
+    float roughness = m.roughness;
+#ifdef HAS_TEXTURES
+    if (m.metallic_roughness_tex >= 0) {
+        float4 mr = pt_texture(m.metallic_roughness_tex, uv TEX_PASS);
+        roughness = roughness * mr.y;
+        metallic = metallic * mr.z;
+    }
+#endif
+    p.base = bc.xyz;
+    p.metallic = clamp(metallic, 0.0f, 1.0f);
+    p.alpha = ggx_alpha(roughness);
+    p.specular = 1.0f;
+    *albedo = p.base;
+    return p;
+}
+
+// Results of one camera sample.
+typedef struct {
+    float3 radiance;
+    float alpha;
+    float depth;
+    float3 normal;
+    float3 albedo;
+} PtSample;
+
+inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const float* filter,
+                        uint px, uint py, uint sample TEX_DECL) {
+    PtSample out;
+    out.radiance = (float3)(0.0f);
+    out.alpha = 0.0f;
+    out.depth = 0.0f;
+    out.normal = (float3)(0.0f);
+    out.albedo = (float3)(0.0f);
+    uint pixel = py * s->frame.width + px;
+    SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
+                                   s->frame.frame_hi, pixel, sample);
+
+    // Filter importance sampling: the offset from the pixel centre follows
+    // the film's filter (the table of film::FilterSampler, same arithmetic).
+    float ox, oy;
+    {
+        float n = 1024.0f;
+        float fu = rng_1d(rng, DIM_FILTER_X) * n;
+        uint i = min((uint)floor(fu), 1023u);
+        ox = filter[i] + (fu - (float)i) * (filter[i + 1u] - filter[i]);
+        float fv = rng_1d(rng, DIM_FILTER_Y) * n;
+        uint j = min((uint)floor(fv), 1023u);
+        oy = filter[j] + (fv - (float)j) * (filter[j + 1u] - filter[j]);
+    }
+    float sx = (((float)px + 0.5f + ox) / (float)s->frame.width) * 2.0f - 1.0f;
+    float sy = 1.0f - (((float)py + 0.5f + oy) / (float)s->frame.height) * 2.0f;
+    float3 c_org = (float3)(cam->origin[0], cam->origin[1], cam->origin[2]);
+    float3 c_right = (float3)(cam->right[0], cam->right[1], cam->right[2]);
+    float3 c_up = (float3)(cam->up[0], cam->up[1], cam->up[2]);
+    float3 c_fwd = (float3)(cam->forward[0], cam->forward[1], cam->forward[2]);
+    float3 org, dir;
+    float tmin;
+    if (cam->ortho != 0u) {
+        org = (c_org + c_right * sx) + c_up * sy;
+        dir = c_fwd;
+        tmin = cam->znear;
+    } else {
+        float3 d = (c_fwd + c_right * sx) + c_up * sy;
+        float l = length(d);
+        org = c_org;
+        dir = d / l;
+        tmin = cam->znear * l;
+    }
+    Ray ray;
+    ray.org[0] = org.x; ray.org[1] = org.y; ray.org[2] = org.z;
+    ray.dir[0] = dir.x; ray.dir[1] = dir.y; ray.dir[2] = dir.z;
+    ray.tmin = tmin;
+    ray.tmax = INFINITY;
+
+    float3 beta = (float3)(1.0f);
+    float prev_pdf = 0.0f;
+    uint max_depth = s->frame.max_depth;
+    float n_select = (float)s->frame.select_count;
+    for (uint bounce = 0u;; ++bounce) {
+        Hit h;
+        float travelled;
+        bool blocked;
+        bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked TEX_PASS);
+        if (!found) {
+            if (!blocked && s->env.kind != ENV_NONE) {
+                float3 le = env_radiance(s->env, s->env_texels, dir);
+                float w = 1.0f;
+                if (bounce > 0u) {
+                    float pl = env_pdf(s->env, s->env_marginal, s->env_conditional, dir) / n_select;
+                    w = power_heuristic(prev_pdf, pl);
+                }
+                out.radiance += beta * le * w;
+            }
+            break;
+        }
+        PtMaterial m = pt_material(s, h.prim);
+        PtSurface sf = pt_surface(s, m, h, dir TEX_PASS);
+        float3 albedo;
+        BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
+        if (bounce == 0u) {
+            out.alpha = 1.0f;
+            out.depth = travelled;
+            out.normal = sf.ns;
+            out.albedo = albedo;
+        }
+        if ((m.flags & MAT_EMISSIVE) != 0u) {
+            float3 le = pt_emission(m, sf.uv TEX_PASS);
+            float w = 1.0f;
+            if (bounce > 0u) {
+                float cos_l = dot(-dir, sf.ng);
+                w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, travelled, cos_l));
+            }
+            out.radiance += beta * le * w;
+        }
+        if (bounce >= max_depth) break;
+
+        float3 wo_w = -dir;
+        float3 t, b;
+        onb(sf.ns, &t, &b);
+        float3 wo = to_local(wo_w, t, b, sf.ns);
+        float3 above = offset_ray_origin(sf.p, sf.ng);
+
+        // Next-event estimation: one light, chosen uniformly among the
+        // punctual lights, the emissive triangles (as one entry) and the
+        // environment.
+        if (s->frame.select_count > 0u) {
+            uint pick = min((uint)(rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_PICK)) * n_select),
+                            s->frame.select_count - 1u);
+            float u1 = rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_U));
+            float u2 = rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_V));
+            float3 wi_w = (float3)(0.0f);
+            float3 contrib = (float3)(0.0f);
+            float light_pdf = 0.0f; // 0: a delta light (no MIS)
+            float shadow_t = 0.0f;
+            float3 shadow_dir = (float3)(0.0f);
+            bool have = false;
+            if (pick < s->frame.light_count) {
+                float dist;
+                float3 e;
+                if (punctual_incident(s->lights[pick], sf.p, &wi_w, &dist, &e)) {
+                    contrib = e * n_select;
+                    have = true;
+                    if (isinf(dist)) {
+                        shadow_dir = wi_w;
+                        shadow_t = INFINITY;
+                    } else {
+                        float3 lp = (float3)(s->lights[pick].position[0], s->lights[pick].position[1],
+                                             s->lights[pick].position[2]);
+                        shadow_dir = lp - above;
+                        shadow_t = 1.0f;
+                    }
+                }
+            } else if (pick == s->frame.light_count && s->frame.emit_count > 0u) {
+                uint k = cdf_search(s->emit_cdf, s->frame.emit_count, u1);
+                float c0 = s->emit_cdf[k], c1 = s->emit_cdf[k + 1u];
+                float ur = (u1 - c0) / (c1 - c0);
+                uint prim = s->emit_prims[k];
+                float2 bc = sample_triangle(ur, u2);
+                float3 q = hit_point(s->positions, prim, bc.x, bc.y);
+                float3 to = q - sf.p;
+                float d2 = dot(to, to);
+                float d = sqrt(d2);
+                if (d > 0.0f) {
+                    wi_w = to / d;
+                    PtMaterial lm = pt_material(s, prim);
+                    float3 nl = geometric_normal(s->positions, prim);
+                    float cos_l = -dot(wi_w, nl);
+                    if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
+                    float pdf = pt_emissive_pdf(s, prim, d, cos_l);
+                    if (pdf > 0.0f) {
+                        float2 luv = pt_uv(s, prim, bc.x, bc.y);
+                        contrib = pt_emission(lm, luv TEX_PASS) / pdf;
+                        light_pdf = pdf;
+                        have = true;
+                        // Stop just short of the emitter itself.
+                        shadow_dir = q - above;
+                        shadow_t = 1.0f - 1.0e-4f;
+                    }
+                }
+            } else if (s->env.kind != ENV_NONE) {
+                float pdf;
+                float3 le = env_sample(s->env, s->env_texels, s->env_marginal, s->env_conditional,
+                                       u1, u2, &wi_w, &pdf);
+                if (pdf > 0.0f) {
+                    light_pdf = pdf / n_select;
+                    contrib = le / light_pdf;
+                    have = true;
+                    shadow_dir = wi_w;
+                    shadow_t = INFINITY;
+                }
+            }
+            if (have && dot(wi_w, sf.ng) > 0.0f) {
+                float3 wi = to_local(wi_w, t, b, sf.ns);
+                float3 f = bsdf_eval(bp, wo, wi);
+                if (wi.z > 0.0f && (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) {
+                    float w = 1.0f;
+                    if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
+                    float3 c = beta * f * (wi.z * w) * contrib;
+                    if ((c.x > 0.0f || c.y > 0.0f || c.z > 0.0f) &&
+                        !pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS))
+                        out.radiance += c;
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        float3 wi, f;
+        float pdf;
+        if (!bsdf_sample(bp, wo, rng_1d(rng, dim_bounce(bounce, DIM_LOBE)),
+                         rng_1d(rng, dim_bounce(bounce, DIM_BSDF_U)),
+                         rng_1d(rng, dim_bounce(bounce, DIM_BSDF_V)), &wi, &f, &pdf))
+            break;
+        float3 wi_w = to_world(wi, t, b, sf.ns);
+        float wl = length(wi_w);
+        wi_w = wi_w / wl;
+        if (dot(wi_w, sf.ng) <= 0.0f) break;
+        beta = beta * f * (wi.z / pdf);
+        prev_pdf = pdf;
+        // Russian roulette from the fourth vertex on, keeping throughput
+        // near 1 where it survives.
+        if (bounce >= 2u) {
+            float q = fmin(fmax(fmax(beta.x, beta.y), beta.z), 1.0f);
+            if (!(q > 0.0f)) break;
+            if (q < 1.0f) {
+                if (rng_1d(rng, dim_bounce(bounce, DIM_RR)) >= q) break;
+                beta = beta / q;
+            }
+        }
+        dir = wi_w;
+        ray.org[0] = above.x; ray.org[1] = above.y; ray.org[2] = above.z;
+        ray.dir[0] = dir.x; ray.dir[1] = dir.y; ray.dir[2] = dir.z;
+        ray.tmin = 0.0f;
+        ray.tmax = INFINITY;
+    }
+    return out;
+}
+
+// One sample pass over one tile: samples [sample_begin, sample_end) of
+// every pixel of the tile, added to the pixel's sums in sample order.
+// accum_color: rgb, alpha; accum_normal / accum_albedo: rgb; accum_aux:
+// depth sum over hits, hit count, dropped samples, unused.
+__kernel void pt_render(__global const BvhNode* nodes, __global const StacklessNode* snodes,
+                        uint snode_count, __global const uint* prim_ids,
+                        __global const float* positions, __global const float* normals,
+                        __global const float* uvs, __global const uint* material_ids,
+                        __global const PtMaterial* materials, __global const PtLight* lights,
+                        __global const uint* emit_prims, __global const float* emit_cdf,
+                        __global const float* emit_pmf, __global const PtEnv* env,
+                        __global const float4* env_texels, __global const float* env_marginal,
+                        __global const float* env_conditional, __global const float* filter,
+                        __global const PtCamera* camera, __global const PtFrame* frame,
+                        __global float4* accum_color, __global float4* accum_normal,
+                        __global float4* accum_albedo, __global float4* accum_aux,
+                        __global uint* ray_counts, uint tile_x, uint tile_y, uint tile_w,
+                        uint tile_h, uint sample_begin, uint sample_end TEX_DECL) {
+    uint gid = get_global_id(0);
+    if (gid >= tile_w * tile_h) return;
+    uint px = tile_x + gid % tile_w;
+    uint py = tile_y + gid / tile_w;
+    PtScene s;
+    s.nodes = nodes;
+    s.snodes = snodes;
+    s.snode_count = snode_count;
+    s.prim_ids = prim_ids;
+    s.positions = positions;
+    s.normals = normals;
+    s.uvs = uvs;
+    s.material_ids = material_ids;
+    s.materials = materials;
+    s.lights = lights;
+    s.emit_prims = emit_prims;
+    s.emit_cdf = emit_cdf;
+    s.emit_pmf = emit_pmf;
+    s.env = env[0];
+    s.env_texels = env_texels;
+    s.env_marginal = env_marginal;
+    s.env_conditional = env_conditional;
+    s.frame = frame[0];
+    s.rays = 0u;
+    if (px >= s.frame.width || py >= s.frame.height) return;
+    uint i = py * s.frame.width + px;
+    float4 color = accum_color[i];
+    float4 nrm = accum_normal[i];
+    float4 alb = accum_albedo[i];
+    float4 aux = accum_aux[i];
+    for (uint k = sample_begin; k < sample_end; ++k) {
+        PtSample r = pt_path(&s, camera, filter, px, py, k TEX_PASS);
+        bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
+                      isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
+                      isfinite(r.normal.y) && isfinite(r.normal.z);
+        if (!finite) {
+            // Counted and dropped as a whole, as the film does.
+            aux.z += 1.0f;
+            continue;
+        }
+        color += (float4)(r.radiance, r.alpha);
+        nrm += (float4)(r.normal, 0.0f);
+        alb += (float4)(r.albedo, 0.0f);
+        if (r.alpha > 0.0f) {
+            aux.x += r.depth;
+            aux.y += 1.0f;
+        }
+    }
+    accum_color[i] = color;
+    accum_normal[i] = nrm;
+    accum_albedo[i] = alb;
+    accum_aux[i] = aux;
+    ray_counts[i] += s.rays;
+}
+
+// Clears the sums of a frame.
+__kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
+                       __global float4* accum_albedo, __global float4* accum_aux,
+                       __global uint* ray_counts, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    accum_color[i] = (float4)(0.0f);
+    accum_normal[i] = (float4)(0.0f);
+    accum_albedo[i] = (float4)(0.0f);
+    accum_aux[i] = (float4)(0.0f);
+    ray_counts[i] = 0u;
+}
+
+// Each triangle's emitted power up to a constant factor (luminance of the
+// emissive factor times the area; twice that when double-sided), 0 for
+// triangles whose material does not emit. The host turns it into the
+// emissive triangles' sampling distribution.
+__kernel void pt_emissive_power(__global const float* positions,
+                                __global const uint* material_ids,
+                                __global const PtMaterial* materials, uint material_count,
+                                uint n, __global float* power) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    PtMaterial m = materials[min(material_ids[i], material_count - 1u)];
+    float p = 0.0f;
+    if ((m.flags & MAT_EMISSIVE) != 0u) {
+        float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
+        p = luminance(e) * pt_triangle_area(positions, i);
+        if ((m.flags & MAT_DOUBLE_SIDED) != 0u) p = p * 2.0f;
+        if (!isfinite(p)) p = 0.0f;
+    }
+    power[i] = p;
+}

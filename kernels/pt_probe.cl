@@ -1,0 +1,112 @@
+// Probes for the path tracer's device functions, for the tests that hold
+// them to their Rust references (src/trace/material.rs, lights.rs,
+// sampling.rs): the struct layouts, the BSDF (eval, pdf, sample), the
+// punctual lights, the environment map and the random numbers, each on
+// arrays of inputs the host makes.
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "sampling.h"
+#include "bsdf.h"
+#include "lights.h"
+
+#ifndef offsetof
+#define offsetof(T, field) __builtin_offsetof(T, field)
+#endif
+
+// The layouts: sizes and offsets of PtMaterial, PtLight, PtEnv, ended by
+// 0xFFFFFFFF.
+__kernel void pt_layout_probe(__global uint* out) {
+    uint i = 0;
+    out[i++] = (uint)sizeof(PtMaterial);
+    out[i++] = (uint)offsetof(PtMaterial, emissive);
+    out[i++] = (uint)offsetof(PtMaterial, metallic);
+    out[i++] = (uint)offsetof(PtMaterial, flags);
+    out[i++] = (uint)offsetof(PtMaterial, base_color_tex);
+    out[i++] = (uint)offsetof(PtMaterial, emissive_tex);
+    out[i++] = (uint)sizeof(PtLight);
+    out[i++] = (uint)offsetof(PtLight, kind);
+    out[i++] = (uint)offsetof(PtLight, direction);
+    out[i++] = (uint)offsetof(PtLight, range);
+    out[i++] = (uint)offsetof(PtLight, intensity);
+    out[i++] = (uint)offsetof(PtLight, angle_scale);
+    out[i++] = (uint)offsetof(PtLight, angle_offset);
+    out[i++] = (uint)sizeof(PtEnv);
+    out[i++] = (uint)offsetof(PtEnv, kind);
+    out[i++] = (uint)offsetof(PtEnv, width);
+    out[i++] = (uint)offsetof(PtEnv, height);
+    out[i++] = 0xFFFFFFFFu;
+}
+
+// Per case: params (base rgb, metallic, alpha, specular, 0, 0), wo (xyz,
+// 0), wi (xyz, 0), u (lobe, u1, u2, 0): 20 floats. Out per case: eval rgb,
+// pdf, sampled (ok, wi xyz), sampled f rgb, sampled pdf: 12 floats.
+__kernel void bsdf_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 20u;
+    BsdfParams p;
+    p.base = (float3)(c[0], c[1], c[2]);
+    p.metallic = c[3];
+    p.alpha = c[4];
+    p.specular = c[5];
+    float3 wo = (float3)(c[8], c[9], c[10]);
+    float3 wi = (float3)(c[12], c[13], c[14]);
+    __global float* o = out + (size_t)i * 12u;
+    float3 f = bsdf_eval(p, wo, wi);
+    o[0] = f.x; o[1] = f.y; o[2] = f.z;
+    o[3] = bsdf_pdf(p, wo, wi);
+    float3 swi, sf;
+    float spdf;
+    bool ok = bsdf_sample(p, wo, c[16], c[17], c[18], &swi, &sf, &spdf);
+    o[4] = ok ? 1.0f : 0.0f;
+    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
+    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
+    o[11] = ok ? spdf : 0.0f;
+}
+
+// Per case: light index, point (xyz). Out: ok, wi xyz, dist, e rgb (8).
+__kernel void light_probe(__global const PtLight* lights, __global const float* in,
+                          __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 4u;
+    float3 wi, e;
+    float dist;
+    bool ok = punctual_incident(lights[(uint)c[0]], (float3)(c[1], c[2], c[3]), &wi, &dist, &e);
+    __global float* o = out + (size_t)i * 8u;
+    o[0] = ok ? 1.0f : 0.0f;
+    o[1] = ok ? wi.x : 0.0f; o[2] = ok ? wi.y : 0.0f; o[3] = ok ? wi.z : 0.0f;
+    o[4] = ok ? dist : 0.0f;
+    o[5] = ok ? e.x : 0.0f; o[6] = ok ? e.y : 0.0f; o[7] = ok ? e.z : 0.0f;
+}
+
+// Per case: u1, u2, and a direction (xyz). Out: sampled wi xyz, radiance
+// rgb, pdf, then the radiance rgb and pdf of the given direction (11).
+__kernel void env_probe(__global const PtEnv* env, __global const float4* texels,
+                        __global const float* marginal, __global const float* conditional,
+                        __global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 5u;
+    float3 wi = (float3)(0.0f);
+    float pdf;
+    float3 l = env_sample(env[0], texels, marginal, conditional, c[0], c[1], &wi, &pdf);
+    __global float* o = out + (size_t)i * 11u;
+    o[0] = wi.x; o[1] = wi.y; o[2] = wi.z;
+    o[3] = l.x; o[4] = l.y; o[5] = l.z;
+    o[6] = pdf;
+    float3 d = normalize((float3)(c[2], c[3], c[4]));
+    float3 r = env_radiance(env[0], texels, d);
+    o[7] = r.x; o[8] = r.y; o[9] = r.z;
+    o[10] = env_pdf(env[0], marginal, conditional, d);
+}
+
+// Random numbers: per case (seed lo, seed hi, frame lo, frame hi, pixel,
+// sample, dim) → the uniform.
+__kernel void rng_probe(__global const uint* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global uint* c = in + (size_t)i * 7u;
+    SampleRng r = rng_for_sample(c[0], c[1], c[2], c[3], c[4], c[5]);
+    out[i] = rng_1d(r, c[6]);
+}

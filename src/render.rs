@@ -1,0 +1,869 @@
+//! `soupray render`: the batch job users run on workstations and render
+//! nodes. It resolves the job once (scene, frames, output names, device)
+//! before any work starts, then runs each frame through the pipeline's
+//! stages in order: evaluate (the soup on the device) → build (the BVH) →
+//! trace (the path tracer) → write (EXR, preview, log). Writing happens on
+//! a second thread so the next frame's evaluation overlaps it.
+//!
+//! Files are only ever written through `output::write_atomic` (temporary
+//! beside the target, fsync, rename), so a killed run never leaves a
+//! truncated frame under its final name, and `--skip-existing` can resume a
+//! re-queued chunk. SIGINT/SIGTERM stop the job at the next stage boundary;
+//! the frame in flight is not written and the exit code is 130/143.
+
+use crate::bvh::device_builder::{BuildStats, DeviceBuilder};
+use crate::bvh::{self, BuildParams};
+use crate::device::Device;
+use crate::film::{Aovs, Image};
+use crate::frames::{self, FrameArgs, FramePaths, NamePattern};
+use crate::output::{self, CameraLog, FrameLog, FrameMetadata};
+use crate::scene::{LoadOptions, Projection, Scene};
+use crate::soup::device::DeviceSoup;
+use crate::trace::render::{
+    Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
+};
+use crate::UsageError;
+use anyhow::Context as _;
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::Instant;
+
+/// The animation `soupray render` renders when no SCENE is given.
+pub const DEFAULT_SCENE: &str = "animations/CesiumMan/CesiumMan.glb";
+
+/// Render frames of a glTF animation to EXR, with a JSON log per frame.
+///
+/// Examples:
+///
+///   soupray render                                  # the shipped animation
+///   soupray render walk.glb --frames 1-48 --spp 64 --png
+///   soupray render walk.glb --start 1 --end 100 --step 1 --out /shots/walk
+///   soupray render walk.glb --frame 12 --aov depth,normal,albedo --half
+///
+/// Each frame N is written as OUT/NAME with #### replaced by N (zero-padded),
+/// plus NAME.json with timings, BVH statistics and warnings. Files appear
+/// only when complete (written to a temporary file, then renamed).
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// The glTF 2.0 animation (.glb, or .gltf with its files). Default: the
+    /// animation shipped in animations/.
+    #[arg(value_name = "SCENE")]
+    pub scene: Option<PathBuf>,
+
+    /// Frames to render: a list of N, A-B (inclusive) and A-B:STEP items,
+    /// e.g. 1-10,15,20-30:2. Default: the whole animation.
+    #[arg(
+        long,
+        value_name = "SPEC",
+        allow_hyphen_values = true,
+        help_heading = "Frames"
+    )]
+    pub frames: Option<String>,
+    /// One frame.
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Frames"
+    )]
+    pub frame: Option<i64>,
+    /// First frame of a chunk (farm templates: --start <first> --end <last>).
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Frames"
+    )]
+    pub start: Option<i64>,
+    /// Last frame of a chunk, inclusive; never rendered past.
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        help_heading = "Frames"
+    )]
+    pub end: Option<i64>,
+    /// Step between frames of a chunk.
+    #[arg(long, value_name = "N", help_heading = "Frames")]
+    pub step: Option<i64>,
+    /// Frames per second: frame N is at time N / FPS.
+    #[arg(
+        long,
+        default_value_t = 24.0,
+        value_name = "FPS",
+        help_heading = "Frames"
+    )]
+    pub fps: f64,
+
+    /// Output directory, created as needed. Default: out/<scene stem>/.
+    #[arg(long, value_name = "DIR", help_heading = "Output")]
+    pub out: Option<PathBuf>,
+    /// File name pattern; the last run of # is the zero-padded frame number.
+    /// Default: <stem>.####.exr.
+    #[arg(long, value_name = "PATTERN", help_heading = "Output")]
+    pub name: Option<String>,
+    /// Skip frames whose EXR and log are already complete (resume a chunk).
+    #[arg(long, help_heading = "Output")]
+    pub skip_existing: bool,
+    /// Write half-float (f16) colour channels instead of f32.
+    #[arg(long, help_heading = "Output")]
+    pub half: bool,
+    /// Extra EXR channels, comma-separated: depth (Z), normal (N.X N.Y N.Z),
+    /// albedo (albedo.R albedo.G albedo.B).
+    #[arg(long, value_name = "LIST", help_heading = "Output")]
+    pub aov: Option<String>,
+    /// Also write a tonemapped sRGB PNG preview beside each EXR.
+    #[arg(long, help_heading = "Output")]
+    pub png: bool,
+
+    /// Image width in pixels. Default 640.
+    #[arg(long, value_name = "PX", help_heading = "Image")]
+    pub width: Option<u32>,
+    /// Image height in pixels. Default: 360, or from the width and the
+    /// camera's aspect ratio when the file gives one.
+    #[arg(long, value_name = "PX", help_heading = "Image")]
+    pub height: Option<u32>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
+    pub spp: u32,
+    /// Random seed; the same seed, frame and device give the same image.
+    #[arg(long, default_value_t = 0, value_name = "N", help_heading = "Image")]
+    pub seed: u64,
+    /// Longest light path, in bounces.
+    #[arg(long, default_value_t = 8, value_name = "N", help_heading = "Image")]
+    pub max_depth: u32,
+    /// Camera, by name or index (default: the file's first camera, else one
+    /// that frames the whole animation).
+    #[arg(long, value_name = "NAME|INDEX", help_heading = "Image")]
+    pub camera: Option<String>,
+    /// Replace every material with white clay (albedo 0.8), for lookdev.
+    #[arg(long, help_heading = "Image")]
+    pub clay: bool,
+    /// Constant environment radiance, linear RGB (e.g. 0.5,0.6,1.0).
+    #[arg(long, value_name = "R,G,B", help_heading = "Image")]
+    pub env_color: Option<String>,
+    /// Equirectangular environment map (.exr), importance sampled.
+    #[arg(long, value_name = "FILE.exr", help_heading = "Image")]
+    pub env: Option<PathBuf>,
+
+    /// Animation to play, by name or index (default: the first).
+    #[arg(long, value_name = "NAME|INDEX", help_heading = "Scene")]
+    pub animation: Option<String>,
+    /// Which of the file's scenes to render (index; default: its default scene).
+    #[arg(long = "gltf-scene", value_name = "N", help_heading = "Scene")]
+    pub gltf_scene: Option<usize>,
+    /// Drop triangles with NaN or infinite vertices (counted in the log's
+    /// warnings) instead of failing the frame.
+    #[arg(long, help_heading = "Scene")]
+    pub sanitize: bool,
+
+    /// OpenCL device, by index or name substring (see `soupray devices`).
+    #[arg(long, value_name = "INDEX|NAME", help_heading = "Device")]
+    pub device: Option<String>,
+    /// BVH traversal: `stack` (front to back, the default) or `stackless`
+    /// (escape indices, for comparison).
+    #[arg(
+        long,
+        default_value = "stack",
+        value_name = "KIND",
+        help_heading = "Device"
+    )]
+    pub traversal: String,
+    /// SAH bins per axis for the BVH (power of two, 2 to 64).
+    #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Device")]
+    pub bins: u32,
+    /// Largest BVH leaf, in triangles.
+    #[arg(
+        long = "leaf",
+        default_value_t = 4,
+        value_name = "N",
+        help_heading = "Device"
+    )]
+    pub leaf_size: u32,
+
+    /// Keep rendering the other frames when one fails (exit code 5 at the end).
+    #[arg(long, help_heading = "Job")]
+    pub keep_going: bool,
+    /// Print only errors.
+    #[arg(long, short, conflicts_with = "verbose", help_heading = "Job")]
+    pub quiet: bool,
+    /// Print each stage's timings and every kernel's device time.
+    #[arg(long, short, help_heading = "Job")]
+    pub verbose: bool,
+}
+
+/// Why a render job stopped short. Frame failures carry the frames.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error("{} of {total} frames failed: {}", failed.len(), list(failed))]
+    FramesFailed { failed: Vec<i64>, total: usize },
+    #[error("interrupted by {name}; the frame in flight was not written")]
+    Interrupted { signal: i32, name: &'static str },
+}
+
+fn list(frames: &[i64]) -> String {
+    let shown: Vec<String> = frames.iter().take(20).map(i64::to_string).collect();
+    let more = frames.len().saturating_sub(20);
+    if more > 0 {
+        format!("{} and {more} more", shown.join(", "))
+    } else {
+        shown.join(", ")
+    }
+}
+
+/// A frame that failed; its message names the frame and the stage.
+#[derive(Debug, thiserror::Error)]
+#[error("frame {frame}: {stage}: {message}")]
+pub struct FrameError {
+    pub frame: i64,
+    pub stage: &'static str,
+    pub message: String,
+}
+
+/// The job, resolved from the flags before anything is rendered.
+struct Job {
+    scene_path: PathBuf,
+    frames: Vec<i64>,
+    notes: Vec<String>,
+    out_dir: PathBuf,
+    pattern: NamePattern,
+    settings: RenderSettings,
+    params: BuildParams,
+    aov_names: Vec<String>,
+}
+
+fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let values: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok()).collect();
+    match values.as_deref() {
+        Some([r, g, b]) if [r, g, b].iter().all(|v| v.is_finite() && **v >= 0.0) => {
+            Ok([*r, *g, *b])
+        }
+        _ => Err(UsageError(format!(
+            "--env-color {s:?}: expected three non-negative numbers R,G,B (e.g. 0.5,0.6,1.0)"
+        ))),
+    }
+}
+
+/// The image size: the flags, else 640 wide and the camera's aspect ratio
+/// (or 16:9 when the file gives none).
+fn image_size(args: &RenderArgs, scene: &Scene) -> Result<(u32, u32), UsageError> {
+    let camera_aspect =
+        scene
+            .camera_instance()
+            .and_then(|(_, c)| match scene.cameras()[c].projection {
+                Projection::Perspective { aspect, .. } => aspect,
+                Projection::Orthographic { xmag, ymag, .. } => Some(xmag / ymag),
+            });
+    let aspect = match camera_aspect {
+        Some(a) if a.is_finite() && a > 0.0 => a,
+        _ => 16.0 / 9.0,
+    };
+    let (w, h) = match (args.width, args.height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, ((w as f32 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (((h as f32 * aspect).round() as u32).max(1), h),
+        (None, None) if camera_aspect.is_some() => (640, ((640.0 / aspect).round() as u32).max(1)),
+        (None, None) => (640, 360),
+    };
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(UsageError(format!(
+            "image size {w}x{h} is out of range: use 1 to 16384 pixels per side"
+        )));
+    }
+    Ok((w, h))
+}
+
+fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::Result<Job> {
+    let params = BuildParams {
+        bins: args.bins,
+        leaf_size: args.leaf_size,
+    };
+    params.check().map_err(UsageError)?;
+    if args.spp == 0 {
+        return Err(UsageError("--spp 0: render at least one sample per pixel".into()).into());
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
+    }
+    let traversal = match args.traversal.as_str() {
+        "stack" => Traversal::Stack,
+        "stackless" => Traversal::Stackless,
+        other => {
+            return Err(UsageError(format!(
+                "--traversal {other:?}: use `stack` (the default) or `stackless`"
+            ))
+            .into())
+        }
+    };
+    let environment = match (&args.env_color, &args.env) {
+        (Some(_), Some(_)) => {
+            return Err(UsageError("--env-color and --env exclude each other".into()).into())
+        }
+        (Some(c), None) => Environment::Color(parse_env_color(c)?),
+        (None, Some(p)) => Environment::Map(p.clone()),
+        (None, None) => Environment::Default,
+    };
+    let aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
+    let (width, height) = image_size(args, scene)?;
+    let frame_args = FrameArgs {
+        frames: args.frames.clone(),
+        frame: args.frame,
+        start: args.start,
+        end: args.end,
+        step: args.step,
+    };
+    let list = frames::resolve_frames(&frame_args, scene.frame_range())?;
+    let pattern_text = args
+        .name
+        .clone()
+        .unwrap_or_else(|| frames::default_name_pattern(scene_path));
+    let pattern = NamePattern::new(&pattern_text, list.frames.len())?;
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| frames::default_out_dir(scene_path));
+    Ok(Job {
+        scene_path: scene_path.to_path_buf(),
+        frames: list.frames,
+        notes: list.notes,
+        out_dir,
+        pattern,
+        settings: RenderSettings {
+            width,
+            height,
+            spp: args.spp,
+            seed: args.seed,
+            max_depth: args.max_depth,
+            clay: args.clay,
+            traversal,
+            environment,
+            aovs,
+        },
+        params,
+        aov_names: aovs.names().iter().map(|s| s.to_string()).collect(),
+    })
+}
+
+/// How the job talks to the person or the farm watching it.
+struct Progress {
+    bars: Option<(
+        indicatif::MultiProgress,
+        indicatif::ProgressBar,
+        indicatif::ProgressBar,
+    )>,
+    quiet: bool,
+    verbose: bool,
+}
+
+impl Progress {
+    fn new(frames: usize, spp: u32, args: &RenderArgs) -> Progress {
+        let bars = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+            let multi = indicatif::MultiProgress::new();
+            let style = indicatif::ProgressStyle::with_template(
+                "{prefix:>8} [{bar:40}] {pos}/{len} {msg} ETA {eta}",
+            )
+            .expect("a valid template")
+            .progress_chars("=> ");
+            let frames_bar = multi.add(indicatif::ProgressBar::new(frames as u64));
+            frames_bar.set_style(style.clone());
+            frames_bar.set_prefix("frames");
+            let samples = multi.add(indicatif::ProgressBar::new(spp as u64));
+            samples.set_style(style);
+            samples.set_prefix("samples");
+            (multi, frames_bar, samples)
+        });
+        Progress {
+            bars,
+            quiet: args.quiet,
+            verbose: args.verbose,
+        }
+    }
+
+    /// A line for the person or the farm log, above the bars on a terminal.
+    fn line(&self, text: &str) {
+        if self.quiet {
+            return;
+        }
+        match &self.bars {
+            Some((multi, _, _)) => {
+                let _ = multi.println(text);
+            }
+            None => eprintln!("{text}"),
+        }
+    }
+
+    fn warn(&self, text: &str) {
+        match &self.bars {
+            Some((multi, _, _)) => {
+                let _ = multi.println(format!("warning: {text}"));
+            }
+            None => eprintln!("warning: {text}"),
+        }
+    }
+
+    fn frame_started(&self, frame: i64) {
+        if let Some((_, frames, samples)) = &self.bars {
+            frames.set_message(format!("frame {frame}"));
+            samples.set_position(0);
+        }
+    }
+
+    fn samples(&self, done: u32) {
+        if let Some((_, _, samples)) = &self.bars {
+            samples.set_position(done as u64);
+        }
+    }
+
+    fn frame_finished(&self) {
+        if let Some((_, frames, _)) = &self.bars {
+            frames.inc(1);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some((_, frames, samples)) = &self.bars {
+            samples.finish_and_clear();
+            frames.finish();
+        }
+    }
+}
+
+/// SIGINT/SIGTERM, recorded by the handler and checked between stages. A
+/// second signal of either kind ends the process at once.
+struct Signals {
+    received: Arc<AtomicUsize>,
+}
+
+impl Signals {
+    fn install() -> Signals {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        let received = Arc::new(AtomicUsize::new(0));
+        for sig in [SIGINT, SIGTERM] {
+            // A second signal exits at once (with 128 + signal, as a shell would).
+            let _ = signal_hook::flag::register_conditional_shutdown(
+                sig,
+                128 + sig,
+                Arc::new(std::sync::atomic::AtomicBool::from(false)),
+            );
+            let flag = Arc::clone(&received);
+            // SAFETY: the handler only stores to an atomic.
+            let _ = unsafe {
+                signal_hook::low_level::register(sig, move || {
+                    flag.store(sig as usize, Ordering::SeqCst);
+                })
+            };
+        }
+        Signals { received }
+    }
+
+    fn check(&self) -> Result<(), JobError> {
+        match self.received.load(Ordering::SeqCst) as i32 {
+            0 => Ok(()),
+            signal => Err(JobError::Interrupted {
+                signal,
+                name: if signal == signal_hook::consts::SIGTERM {
+                    "SIGTERM"
+                } else {
+                    "SIGINT"
+                },
+            }),
+        }
+    }
+}
+
+/// Everything that lives across frames: the device, the compiled stages and
+/// their buffers.
+struct Pipeline<'d> {
+    device: &'d Device,
+    scene: &'d Scene,
+    soup: DeviceSoup<'d>,
+    builder: DeviceBuilder<'d>,
+    tracer: PathTracer<'d>,
+}
+
+/// What one frame's stages produced, handed to the writer.
+struct FrameResult {
+    frame: i64,
+    paths: FramePaths,
+    image: Image,
+    log: FrameLog,
+    started: Instant,
+}
+
+impl<'d> Pipeline<'d> {
+    fn evaluate(&mut self, time: f64) -> Result<crate::soup::device::FrameInfo, anyhow::Error> {
+        Ok(self.soup.evaluate(self.scene, time)?)
+    }
+
+    fn build(&mut self) -> Result<(bvh::Bvh, BuildStats), anyhow::Error> {
+        Ok(self
+            .builder
+            .build_from_device(self.soup.positions(), self.soup.triangle_count())?)
+    }
+
+    fn trace(
+        &mut self,
+        frame: i64,
+        info: &crate::soup::device::FrameInfo,
+        tree: &bvh::Bvh,
+        progress: &Progress,
+    ) -> Result<RenderOutput, anyhow::Error> {
+        let prim_ids = self
+            .builder
+            .device_prim_ids()
+            .context("the BVH builder has no primitive buffer")?;
+        let input = FrameInput {
+            frame,
+            soup: &self.soup,
+            bvh: tree,
+            prim_ids,
+            camera: &info.camera,
+            lights: &info.lights,
+        };
+        Ok(self
+            .tracer
+            .render(&input, &mut |done| progress.samples(done))?)
+    }
+}
+
+fn camera_log(camera: &crate::scene::FrameCamera) -> CameraLog {
+    let m = camera.world_from_camera;
+    let v = |x: glam::Vec3| [x.x as f64, x.y as f64, x.z as f64];
+    let mut log = CameraLog {
+        position: v(camera.position()),
+        forward: v(camera.forward()),
+        up: v(m.y_axis.truncate().normalize_or_zero()),
+        ..CameraLog::default()
+    };
+    match camera.projection {
+        Projection::Perspective { yfov, .. } => {
+            log.projection = "perspective".into();
+            log.yfov_deg = Some(yfov.to_degrees() as f64);
+        }
+        Projection::Orthographic { xmag, ymag, .. } => {
+            log.projection = "orthographic".into();
+            log.xmag = Some(xmag as f64);
+            log.ymag = Some(ymag as f64);
+        }
+    }
+    log
+}
+
+/// Runs evaluate → build → trace for one frame and fills in its log.
+fn render_frame(
+    pipe: &mut Pipeline,
+    job: &Job,
+    frame: i64,
+    progress: &Progress,
+    signals: &Signals,
+) -> Result<FrameResult, anyhow::Error> {
+    let started = Instant::now();
+    let fail = |stage: &'static str| {
+        move |e: anyhow::Error| {
+            anyhow::Error::new(FrameError {
+                frame,
+                stage,
+                message: format!("{e:#}"),
+            })
+        }
+    };
+    let time = pipe.scene.time_of_frame(frame);
+
+    let t = Instant::now();
+    let info = pipe.evaluate(time).map_err(fail("evaluate"))?;
+    let evaluate_ms = ms(t);
+    signals.check()?;
+
+    let t = Instant::now();
+    let (tree, build) = pipe.build().map_err(fail("build"))?;
+    let build_ms = ms(t);
+    signals.check()?;
+
+    let t = Instant::now();
+    let traced = pipe
+        .trace(frame, &info, &tree, progress)
+        .map_err(fail("trace"))?;
+    let trace_ms = ms(t);
+    signals.check()?;
+
+    let shape = tree.shape();
+    let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
+    let mut log = FrameLog::new();
+    log.frame = frame;
+    log.time = time;
+    log.scene = job.scene_path.display().to_string();
+    log.device = pipe.device.info.name.clone();
+    log.triangles = pipe.soup.triangle_count() as u64;
+    log.timings_ms.evaluate = evaluate_ms;
+    log.timings_ms.build = build_ms;
+    log.timings_ms.trace = trace_ms;
+    log.build = output::BuildLog {
+        builder: "device".into(),
+        bins: job.params.bins,
+        leaf_size: job.params.leaf_size,
+        nodes: shape.nodes as u64,
+        leaves: shape.leaves as u64,
+        max_depth: shape.max_depth,
+        sah_cost: bvh::sah_cost(&tree),
+        stages_ms: output::StageTimes {
+            large: build.stages_ms.large,
+            medium: build.stages_ms.medium,
+            small: build.stages_ms.small,
+        },
+    };
+    log.render = output::RenderLog {
+        width: job.settings.width,
+        height: job.settings.height,
+        spp: job.settings.spp,
+        rays: traced.rays,
+        mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
+    };
+    log.camera = camera_log(&info.camera);
+    log.output = output::OutputLog {
+        exr: paths.exr.display().to_string(),
+        png: None,
+        half: false,
+        aovs: job.aov_names.clone(),
+    };
+    log.warnings = info.warnings.clone();
+    log.warnings.extend(traced.warnings.iter().cloned());
+    if progress.verbose {
+        progress.line(&format!(
+            "frame {frame}: evaluate {evaluate_ms:.1} ms, build {build_ms:.1} ms \
+             (large {:.1} / medium {:.1} / small {:.1} device, host {:.1}), trace {trace_ms:.1} ms, \
+             {} rays",
+            build.stages_ms.large, build.stages_ms.medium, build.stages_ms.small, build.host_ms, traced.rays
+        ));
+    }
+    Ok(FrameResult {
+        frame,
+        paths,
+        image: traced.image,
+        log,
+        started,
+    })
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// A frame the writer finished: its farm-log line, or why it failed.
+type Written = (i64, Result<String, String>);
+
+/// Writes finished frames on its own thread, in order: EXR, preview, then
+/// the log (which records the write time), each atomically. The log comes
+/// last, so a frame counts as done only when everything is on disk.
+fn spawn_writer(
+    half: bool,
+    png: bool,
+    spp: u32,
+    seed: u64,
+) -> (
+    mpsc::SyncSender<FrameResult>,
+    std::thread::JoinHandle<Vec<Written>>,
+) {
+    // One frame in the queue at most: evaluation of the next frame overlaps
+    // the write of this one, without piling images up in memory.
+    let (send, receive) = mpsc::sync_channel::<FrameResult>(1);
+    let handle = std::thread::spawn(move || {
+        let mut results = Vec::new();
+        for mut done in receive {
+            let t = Instant::now();
+            let meta = FrameMetadata {
+                frame: done.frame,
+                time: done.log.time,
+                spp,
+                seed,
+            };
+            let written =
+                output::write_exr(&done.paths.exr, &done.image, &meta, half).and_then(|()| {
+                    if png {
+                        output::write_png_preview(&done.paths.png, &done.image, 0.0)?;
+                        done.log.output.png = Some(done.paths.png.display().to_string());
+                    }
+                    done.log.output.half = half;
+                    done.log.timings_ms.write = ms(t);
+                    done.log.timings_ms.total = ms(done.started);
+                    output::write_log(&done.paths.log, &done.log)
+                });
+            let line = format!(
+                "frame {} done build_ms={:.1} trace_ms={:.1} write_ms={:.1} total_ms={:.1} triangles={} out={}",
+                done.frame,
+                done.log.timings_ms.build,
+                done.log.timings_ms.trace,
+                done.log.timings_ms.write,
+                done.log.timings_ms.total,
+                done.log.triangles,
+                done.paths.exr.display()
+            );
+            results.push((
+                done.frame,
+                written.map(|()| line).map_err(|e| format!("{e}")),
+            ));
+        }
+        results
+    });
+    (send, handle)
+}
+
+/// Removes the temporaries a killed run left for this job's frames: files
+/// named `.<frame file>.<pid>.tmp` (see `soup::temporary_sibling`) whose
+/// process is gone. Only this job's frames are touched, and only when the
+/// writer is not running on this machine, so a chunk still writing on
+/// another node sharing the directory keeps its files.
+fn remove_stale_temporaries(job: &Job) -> usize {
+    let Ok(entries) = std::fs::read_dir(&job.out_dir) else {
+        return 0;
+    };
+    let mut targets = std::collections::HashSet::new();
+    for &frame in &job.frames {
+        let p = frames::frame_paths(&job.out_dir, &job.pattern, frame);
+        for f in [p.exr, p.png, p.log] {
+            if let Some(name) = f.file_name() {
+                targets.insert(name.to_string_lossy().into_owned());
+            }
+        }
+    }
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
+            continue;
+        };
+        let Some((target, pid)) = inner.rsplit_once('.') else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();
+        if targets.contains(target) && !alive && std::fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
+    // First, before anything touches OpenCL: the OpenCL compiler (LLVM in
+    // PoCL) installs SIGINT/SIGTERM handlers that re-raise the signal with
+    // its default action. Installed after them, ours would chain to theirs
+    // and the process would die mid-frame; installed first, theirs restore
+    // ours before re-raising, and the job stops cleanly.
+    let signals = Signals::install();
+    let scene_path = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_SCENE));
+    if args.scene.is_none() && !scene_path.exists() {
+        return Err(UsageError(format!(
+            "no SCENE given and the default animation {DEFAULT_SCENE} is not here; \
+             run from the soupray repository or name a .glb/.gltf file"
+        ))
+        .into());
+    }
+    let opts = LoadOptions {
+        scene: args.gltf_scene,
+        animation: args.animation.clone(),
+        camera: args.camera.clone(),
+        fps: args.fps,
+        sanitize: args.sanitize,
+    };
+    let scene = Scene::load(&scene_path, &opts)?;
+    let job = resolve_job(args, &scene, &scene_path)?;
+    // Fail on an unusable output directory before any rendering starts.
+    frames::check_output_dir(&job.out_dir)?;
+    let device = Device::open(args.device.as_deref())?;
+    let progress = Progress::new(job.frames.len(), job.settings.spp, args);
+    let stale = remove_stale_temporaries(&job);
+    if stale > 0 {
+        progress.line(&format!(
+            "removed {stale} temporary file(s) left by a killed run"
+        ));
+    }
+    for note in job.notes.iter().chain(scene.warnings()) {
+        progress.warn(note);
+    }
+    progress.line(&format!(
+        "soupray {}: {} frame(s) of {} at {}x{}, {} spp, on {}",
+        output::VERSION,
+        job.frames.len(),
+        scene_path.display(),
+        job.settings.width,
+        job.settings.height,
+        job.settings.spp,
+        device.info.name
+    ));
+    let mut pipe = Pipeline {
+        device: &device,
+        scene: &scene,
+        soup: DeviceSoup::new(&device, &scene)?,
+        builder: DeviceBuilder::new(&device, job.params)?,
+        tracer: PathTracer::new(&device, &scene, &job.settings)?,
+    };
+    let (writer, writer_done) =
+        spawn_writer(args.half, args.png, job.settings.spp, job.settings.seed);
+    let mut failed = Vec::new();
+    let mut interrupted = None;
+    for &frame in &job.frames {
+        let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
+        if args.skip_existing && output::is_frame_done(&paths.exr, &paths.log) {
+            progress.line(&format!(
+                "frame {frame} skipped (complete) out={}",
+                paths.exr.display()
+            ));
+            progress.frame_finished();
+            continue;
+        }
+        progress.frame_started(frame);
+        match render_frame(&mut pipe, &job, frame, &progress, &signals) {
+            Ok(result) => {
+                if writer.send(result).is_err() {
+                    break;
+                }
+            }
+            Err(e) => {
+                if let Some(j) = e.downcast_ref::<JobError>() {
+                    if let JobError::Interrupted { signal, name } = j {
+                        interrupted = Some((*signal, *name));
+                    }
+                    break;
+                }
+                progress.warn(&format!("{e:#}"));
+                failed.push(frame);
+                if !args.keep_going {
+                    break;
+                }
+            }
+        }
+        progress.frame_finished();
+    }
+    drop(writer);
+    let written = writer_done.join().unwrap_or_default();
+    for (frame, result) in &written {
+        match result {
+            Ok(line) => progress.line(line),
+            Err(e) => {
+                progress.warn(&format!("frame {frame}: write: {e}"));
+                failed.push(*frame);
+            }
+        }
+    }
+    progress.finish();
+    if let Some((signal, name)) = interrupted {
+        return Err(JobError::Interrupted { signal, name }.into());
+    }
+    if !failed.is_empty() {
+        failed.sort_unstable();
+        return Err(JobError::FramesFailed {
+            failed,
+            total: job.frames.len(),
+        }
+        .into());
+    }
+    Ok(())
+}

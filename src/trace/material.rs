@@ -1,0 +1,272 @@
+//! The materials as the path tracer shades them: the device table
+//! (`DeviceMaterial`, mirrored by `PtMaterial` in `kernels/bsdf.h`) made
+//! from the scene's `MaterialTable`, and the plain Rust reference of the
+//! glTF metallic-roughness BSDF (`bsdf_eval`, `bsdf_pdf`, `bsdf_sample`)
+//! that `kernels/bsdf.h` mirrors operation for operation.
+//!
+//! The model is the specification's Appendix B: Lambert diffuse and GGX
+//! specular with height-correlated Smith masking, the dielectric weighted by
+//! a 4 % Schlick Fresnel and blended by `metallic` towards a conductor whose
+//! Schlick Fresnel starts at the base colour. `--clay` replaces it with a
+//! pure Lambertian of albedo 0.8.
+
+// `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::sampling::{luminance, sample_cosine_hemisphere, INV_PI, PI, TWO_PI};
+use crate::scene::{AlphaMode, Material, MaterialTable};
+
+pub const MAT_DOUBLE_SIDED: u32 = 1;
+pub const MAT_ALPHA_MASK: u32 = 2;
+pub const MAT_ALPHA_BLEND: u32 = 4;
+pub const MAT_EMISSIVE: u32 = 8;
+
+/// `PtMaterial` of `kernels/bsdf.h`: factors, flags and texture binding
+/// indices (-1: none).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DeviceMaterial {
+    pub base_color: [f32; 4],
+    pub emissive: [f32; 4],
+    pub metallic: f32,
+    pub roughness: f32,
+    pub alpha_cutoff: f32,
+    pub normal_scale: f32,
+    pub flags: u32,
+    pub base_color_tex: i32,
+    pub metallic_roughness_tex: i32,
+    pub normal_tex: i32,
+    pub emissive_tex: i32,
+    pub pad: [u32; 3],
+}
+
+const _: () = assert!(std::mem::size_of::<DeviceMaterial>() == 80);
+
+impl DeviceMaterial {
+    /// A material's factors and flags, with no texture bound (the caller
+    /// fills the texture slots when textures are compiled in).
+    pub fn from_material(m: &Material) -> DeviceMaterial {
+        let e = m.emissive_factor;
+        let s = m.emissive_strength;
+        let emissive = [e[0] * s, e[1] * s, e[2] * s, 0.0];
+        let emits = emissive[..3].iter().any(|&c| c > 0.0 && c.is_finite());
+        let mut flags = 0;
+        if m.double_sided {
+            flags |= MAT_DOUBLE_SIDED;
+        }
+        match m.alpha_mode {
+            AlphaMode::Opaque => {}
+            AlphaMode::Mask => flags |= MAT_ALPHA_MASK,
+            AlphaMode::Blend => flags |= MAT_ALPHA_BLEND,
+        }
+        if emits {
+            flags |= MAT_EMISSIVE;
+        }
+        DeviceMaterial {
+            base_color: m.base_color_factor,
+            emissive,
+            metallic: m.metallic_factor,
+            roughness: m.roughness_factor,
+            alpha_cutoff: m.alpha_cutoff,
+            normal_scale: m.normal_scale,
+            flags,
+            base_color_tex: -1,
+            metallic_roughness_tex: -1,
+            normal_tex: -1,
+            emissive_tex: -1,
+            pad: [0; 3],
+        }
+    }
+
+    pub fn emits(&self) -> bool {
+        self.flags & MAT_EMISSIVE != 0
+    }
+}
+
+/// The device table for `table`: one entry per material, then the glTF
+/// default material, which out-of-range ids (and soups without material
+/// ids) fall back to.
+pub fn device_materials(table: &MaterialTable) -> Vec<DeviceMaterial> {
+    let mut v: Vec<DeviceMaterial> = table
+        .materials
+        .iter()
+        .map(DeviceMaterial::from_material)
+        .collect();
+    v.push(DeviceMaterial::from_material(&Material::default()));
+    v
+}
+
+/// The BSDF's parameters at one point (`BsdfParams`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfParams {
+    pub base: Vec3,
+    pub metallic: f32,
+    /// GGX alpha (roughness squared, at least `MIN_GGX_ALPHA`).
+    pub alpha: f32,
+    /// 1 for glTF materials, 0 for the pure Lambertian of `--clay`.
+    pub specular: f32,
+}
+
+pub const MIN_GGX_ALPHA: f32 = 1.0e-3;
+
+impl BsdfParams {
+    pub fn new(base: [f32; 3], metallic: f32, roughness: f32) -> BsdfParams {
+        BsdfParams {
+            base: Vec3::from(base),
+            metallic: metallic.clamp(0.0, 1.0),
+            alpha: ggx_alpha(roughness),
+            specular: 1.0,
+        }
+    }
+
+    /// `--clay`: white Lambertian of albedo 0.8.
+    pub fn clay() -> BsdfParams {
+        BsdfParams {
+            base: Vec3::splat(0.8),
+            metallic: 0.0,
+            alpha: 1.0,
+            specular: 0.0,
+        }
+    }
+}
+
+pub fn ggx_alpha(roughness: f32) -> f32 {
+    let r = roughness.clamp(0.0, 1.0);
+    (r * r).max(MIN_GGX_ALPHA)
+}
+
+fn ggx_d(a: f32, cos_h: f32) -> f32 {
+    let a2 = a * a;
+    let c2 = cos_h * cos_h;
+    let k = c2 * (a2 - 1.0) + 1.0;
+    a2 / ((PI * k) * k)
+}
+
+fn ggx_lambda(a: f32, c: f32) -> f32 {
+    let c2 = c * c;
+    let t2 = (1.0 - c2).max(0.0) / c2;
+    ((1.0 + (a * a) * t2).sqrt() - 1.0) * 0.5
+}
+
+fn schlick_weight(c: f32) -> f32 {
+    let m = (1.0 - c).clamp(0.0, 1.0);
+    let m2 = m * m;
+    (m2 * m2) * m
+}
+
+/// The probability of sampling the specular lobe.
+pub fn spec_probability(p: &BsdfParams, cos_o: f32) -> f32 {
+    let fd = p.specular * (0.04 + 0.96 * schlick_weight(cos_o));
+    let ws = p.metallic + (1.0 - p.metallic) * fd;
+    let wd = ((1.0 - p.metallic) * luminance(p.base)) * (1.0 - fd);
+    let sum = ws + wd;
+    if sum > 0.0 {
+        ws / sum
+    } else {
+        0.0
+    }
+}
+
+/// The BSDF (without the cosine) for local directions wo, wi (z = normal).
+pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let hv = wo + wi;
+    let hl = hv.length();
+    if hl == 0.0 {
+        return Vec3::ZERO;
+    }
+    let h = hv / hl;
+    let voh = wo.dot(h).max(0.0);
+    let d = ggx_d(p.alpha, h.z);
+    let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+    let s = (d * g2) / ((4.0 * wo.z) * wi.z);
+    let w = schlick_weight(voh);
+    let fd = p.specular * (0.04 + 0.96 * w);
+    let fm = p.base + (Vec3::ONE - p.base) * w;
+    let dielectric = p.base * ((1.0 - fd) * INV_PI) + Vec3::splat(fd * s);
+    let metal = fm * s;
+    dielectric * (1.0 - p.metallic) + metal * p.metallic
+}
+
+fn ggx_vndf_pdf(a: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let hv = wo + wi;
+    let hl = hv.length();
+    if hl == 0.0 {
+        return 0.0;
+    }
+    let h = hv / hl;
+    let g1 = 1.0 / (1.0 + ggx_lambda(a, wo.z));
+    (g1 * ggx_d(a, h.z)) / (4.0 * wo.z)
+}
+
+/// The solid-angle pdf of `bsdf_sample` producing wi.
+pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return 0.0;
+    }
+    let ps = spec_probability(p, wo.z);
+    let spec = if ps > 0.0 {
+        ggx_vndf_pdf(p.alpha, wo, wi)
+    } else {
+        0.0
+    };
+    ps * spec + (1.0 - ps) * (wi.z * INV_PI)
+}
+
+fn ggx_sample_vndf(a: f32, wo: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let vh = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize();
+    let lensq = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if lensq > 0.0 {
+        Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
+    } else {
+        Vec3::X
+    };
+    let t2 = vh.cross(t1);
+    let r = u1.sqrt();
+    let phi = TWO_PI * u2;
+    let p1 = r * phi.cos();
+    let mut p2 = r * phi.sin();
+    let s = 0.5 * (1.0 + vh.z);
+    p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2;
+    let nh = (t1 * p1 + t2 * p2) + vh * ((1.0 - p1 * p1) - p2 * p2).max(0.0).sqrt();
+    Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).normalize()
+}
+
+/// A sampled direction: wi, the BSDF value and the mixture pdf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub f: Vec3,
+    pub pdf: f32,
+}
+
+/// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.
+pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+    if wo.z <= 0.0 {
+        return None;
+    }
+    let ps = spec_probability(p, wo.z);
+    let wi = if lobe_u < ps {
+        let h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+        h * (2.0 * wo.dot(h)) - wo
+    } else {
+        sample_cosine_hemisphere(u1, u2)
+    };
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let pdf = bsdf_pdf(p, wo, wi);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    Some(BsdfSample {
+        wi,
+        f: bsdf_eval(p, wo, wi),
+        pdf,
+    })
+}

@@ -1,0 +1,961 @@
+//! The frame renderer: `PathTracer` runs `kernels/pathtrace.cl` (path
+//! tracing with next-event estimation and MIS, Russian roulette) over a
+//! frame's device soup and BVH and returns the resolved image with its
+//! AOVs, the number of rays traced and the device time.
+//!
+//! Made once per scene (`PathTracer::new`): the program, compiled for what
+//! the scene needs (traversal kind, textures or none), the material table,
+//! the textures, the environment map and the film's filter table. Per frame
+//! (`render`): the tree, camera, punctual lights and — when some material
+//! emits — the emissive triangles' power distribution, computed on the
+//! device and turned into a CDF on the host. Buffers are reused from frame
+//! to frame and only grow.
+//!
+//! Scheduling and determinism: the samples of a frame are split into sample
+//! passes and the image into tiles; one launch runs one pass over one tile,
+//! a work-item per pixel, adding that pass's samples to the pixel's sums in
+//! sample order. Random numbers are keyed by (seed, frame, pixel, sample,
+//! dimension). So the image is the same bit for bit on one device whatever
+//! the tiles and pass sizes (`set_schedule`), and whichever frames a run
+//! renders. Passes are queued ahead so the device never waits for the host;
+//! `progress` is called as each pass completes.
+//!
+//! `render_soup` renders a host `Soup` with a material table, camera and
+//! lights without a glTF file (tests, analytic scenes).
+
+use std::path::PathBuf;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use opencl3::kernel::Kernel;
+use opencl3::memory::Buffer;
+use opencl3::program::Program;
+
+use super::escape::{stackless_layout_into, StacklessNode};
+use super::lights::{
+    DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap, ENV_CONSTANT, ENV_MAP, ENV_NONE,
+};
+use super::material::{device_materials, DeviceMaterial};
+use super::texture::{Slot, TextureBinding, TextureSet};
+use super::traverse::check_depth;
+use super::TraceError;
+use crate::bvh::device_builder::DeviceBuilder;
+use crate::bvh::{BuildParams, Bvh, BvhNode, MAX_DEPTH};
+use crate::device::{Arg, Device};
+use crate::film::{self, Aovs, Image, BACKGROUND_DEPTH};
+use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
+use crate::soup::device::DeviceSoup;
+use crate::soup::Soup;
+
+/// Which closest-hit traversal the integrator compiles in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Traversal {
+    /// Front-to-back stack traversal; shadow rays use any-hit traversal.
+    #[default]
+    Stack,
+    /// Escape-index traversal for every ray (no stack).
+    Stackless,
+}
+
+/// Where light comes from when rays leave the scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Environment {
+    /// None when the scene has lights of its own (punctual or emissive);
+    /// otherwise a constant white environment of radiance 1, with a warning.
+    #[default]
+    Default,
+    /// `--env-color R,G,B`: constant linear radiance.
+    Color([f32; 3]),
+    /// `--env FILE.exr`: an equirectangular map, importance sampled.
+    Map(PathBuf),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    /// Scattering events per path (1: direct lighting only).
+    pub max_depth: u32,
+    /// `--clay`: every material becomes a white Lambertian of albedo 0.8
+    /// (emission, alpha cut-outs and sidedness are kept).
+    pub clay: bool,
+    pub traversal: Traversal,
+    pub environment: Environment,
+    pub aovs: Aovs,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 640,
+            height: 360,
+            spp: 16,
+            seed: 0,
+            max_depth: 8,
+            clay: false,
+            traversal: Traversal::Stack,
+            environment: Environment::Default,
+            aovs: Aovs::NONE,
+        }
+    }
+}
+
+/// One frame to render: its soup and tree on the device, camera and lights.
+pub struct FrameInput<'a> {
+    pub frame: i64,
+    pub soup: &'a DeviceSoup<'a>,
+    pub bvh: &'a Bvh,
+    /// The tree's primitive-index array on the device
+    /// (`DeviceBuilder::device_prim_ids`).
+    pub prim_ids: &'a Buffer<u32>,
+    pub camera: &'a FrameCamera,
+    pub lights: &'a [FrameLight],
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub image: Image,
+    /// Rays traced: camera, bounce and shadow rays, and continuations
+    /// through cut-out or culled surfaces.
+    pub rays: u64,
+    /// Device time of the frame's path tracing launches (profiling events).
+    pub trace_ms: f64,
+    pub warnings: Vec<String>,
+}
+
+impl RenderOutput {
+    /// Millions of rays per second of device time.
+    pub fn mrays_per_s(&self) -> f64 {
+        if self.trace_ms > 0.0 {
+            self.rays as f64 / (self.trace_ms * 1e3)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// How a frame's work is cut into launches. Any schedule gives the same
+/// image, bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Schedule {
+    /// Samples per pixel per launch; 0 picks a size from the image.
+    pub samples_per_pass: u32,
+    /// Tile width and height in pixels; `None`: the whole image.
+    pub tile: Option<(u32, u32)>,
+    /// Work-items per work-group.
+    pub local_size: usize,
+}
+
+impl Default for Schedule {
+    fn default() -> Self {
+        Schedule {
+            samples_per_pass: 0,
+            tile: None,
+            local_size: 64,
+        }
+    }
+}
+
+/// Paths per launch the automatic pass size aims at: enough to fill a large
+/// GPU, few enough that progress is reported often.
+const PATHS_PER_LAUNCH: u64 = 1 << 21;
+
+/// `PtCamera` of `kernels/pathtrace.cl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DeviceCamera {
+    pub origin: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    pub forward: [f32; 4],
+    pub ortho: u32,
+    pub znear: f32,
+    pub pad: [u32; 2],
+}
+
+/// `PtFrame` of `kernels/pathtrace.cl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DeviceFrame {
+    pub seed_lo: u32,
+    pub seed_hi: u32,
+    pub frame_lo: u32,
+    pub frame_hi: u32,
+    pub width: u32,
+    pub height: u32,
+    pub max_depth: u32,
+    pub flags: u32,
+    pub light_count: u32,
+    pub emit_count: u32,
+    pub material_count: u32,
+    pub select_count: u32,
+}
+
+const FRAME_NORMALS: u32 = 1;
+const FRAME_UVS: u32 = 2;
+const FRAME_CLAY: u32 = 4;
+
+/// The camera for a `width` x `height` image. The image's aspect ratio is
+/// used (a file's `aspectRatio` would stretch the picture); an
+/// orthographic camera keeps `ymag` and widens `xmag` to the image.
+pub fn device_camera(cam: &FrameCamera, width: u32, height: u32) -> DeviceCamera {
+    let m = cam.world_from_camera;
+    let origin = m.w_axis.truncate();
+    let right = m.x_axis.truncate().normalize_or(Vec3::X);
+    let up = m.y_axis.truncate().normalize_or(Vec3::Y);
+    let forward = (-m.z_axis.truncate()).normalize_or(Vec3::NEG_Z);
+    let aspect = width as f32 / height as f32;
+    let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
+    let (half_x, half_y, ortho, znear) = match cam.projection {
+        Projection::Perspective { yfov, znear, .. } => {
+            let t = (0.5 * yfov).tan();
+            (t * aspect, t, 0, znear)
+        }
+        Projection::Orthographic { ymag, znear, .. } => (ymag * aspect, ymag, 1, znear),
+    };
+    DeviceCamera {
+        origin: v4(origin),
+        right: v4(right * half_x),
+        up: v4(up * half_y),
+        forward: v4(forward),
+        ortho,
+        znear: if znear.is_finite() {
+            znear.max(0.0)
+        } else {
+            0.0
+        },
+        pad: [0; 2],
+    }
+}
+
+/// A device buffer that only grows.
+struct Grow<T> {
+    buffer: Option<Buffer<T>>,
+    capacity: usize,
+}
+
+impl<T> Grow<T> {
+    fn new() -> Grow<T> {
+        Grow {
+            buffer: None,
+            capacity: 0,
+        }
+    }
+
+    fn ensure(&mut self, device: &Device, n: usize) -> Result<&mut Buffer<T>, TraceError> {
+        if self.buffer.is_none() || self.capacity < n {
+            let cap = n.max(1) + n / 8;
+            self.buffer = Some(device.buffer(cap)?);
+            self.capacity = cap;
+        }
+        Ok(self.buffer.as_mut().expect("allocated above"))
+    }
+
+    fn get(&self) -> &Buffer<T> {
+        self.buffer.as_ref().expect("ensured before use")
+    }
+}
+
+/// A frame's soup on the device, whoever made it.
+struct SoupBuffers<'a> {
+    positions: &'a Buffer<[f32; 4]>,
+    normals: Option<&'a Buffer<[f32; 4]>>,
+    uvs: Option<&'a Buffer<[f32; 2]>>,
+    material_ids: &'a Buffer<u32>,
+    triangles: usize,
+}
+
+struct Kernels {
+    render: Kernel,
+    clear: Kernel,
+    emissive_power: Kernel,
+    _program: Program,
+}
+
+/// The path tracer of one scene on one device.
+pub struct PathTracer<'d> {
+    device: &'d Device,
+    settings: RenderSettings,
+    schedule: Schedule,
+    kernels: Kernels,
+    materials: Buffer<DeviceMaterial>,
+    material_count: u32,
+    any_emissive: bool,
+    textures: Option<(TextureSet<'d>, Buffer<TextureBinding>)>,
+    env_map: Option<EnvBuffers>,
+    filter: Buffer<f32>,
+    camera: Buffer<DeviceCamera>,
+    frame: Buffer<DeviceFrame>,
+    env: Buffer<DeviceEnv>,
+    dummy_f32: Buffer<f32>,
+    dummy_u32: Buffer<u32>,
+    dummy_f4: Buffer<[f32; 4]>,
+    nodes: Grow<BvhNode>,
+    snodes: Grow<StacklessNode>,
+    snode_host: Vec<StacklessNode>,
+    lights: Grow<DeviceLight>,
+    power: Grow<f32>,
+    power_host: Vec<f32>,
+    emit_prims: Grow<u32>,
+    emit_cdf: Grow<f32>,
+    emit_pmf: Grow<f32>,
+    accum_color: Grow<[f32; 4]>,
+    accum_normal: Grow<[f32; 4]>,
+    accum_albedo: Grow<[f32; 4]>,
+    accum_aux: Grow<[f32; 4]>,
+    ray_counts: Grow<u32>,
+    /// Warnings of `new`, repeated in the first frame's output.
+    setup_warnings: Vec<String>,
+    /// Host soup uploads for `render_soup`.
+    host_soup: Option<HostSoupBuffers>,
+}
+
+/// An environment map on the device: its record, texels and CDFs.
+type EnvBuffers = (DeviceEnv, Buffer<[f32; 4]>, Buffer<f32>, Buffer<f32>);
+
+struct HostSoupBuffers {
+    positions: Grow<[f32; 4]>,
+    normals: Grow<[f32; 4]>,
+    uvs: Grow<[f32; 2]>,
+    material_ids: Grow<u32>,
+}
+
+fn usage(msg: String) -> TraceError {
+    TraceError::Unsupported(msg)
+}
+
+impl<'d> PathTracer<'d> {
+    /// Compiles the kernels for what the scene needs and uploads its
+    /// materials, textures and the environment once.
+    pub fn new(
+        device: &'d Device,
+        scene: &Scene,
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        Self::with_materials(device, scene.materials(), settings)
+    }
+
+    /// As `new`, from a material table alone (scenes made in code).
+    pub fn with_materials(
+        device: &'d Device,
+        table: &MaterialTable,
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        if settings.width == 0
+            || settings.height == 0
+            || settings.width > 65536
+            || settings.height > 65536
+        {
+            return Err(usage(format!(
+                "render size {}x{}: both sides must be 1 to 65536 pixels (--width, --height)",
+                settings.width, settings.height
+            )));
+        }
+        if settings.spp == 0 {
+            return Err(usage(
+                "--spp 0: at least one sample per pixel is needed".into(),
+            ));
+        }
+        let mut warnings = Vec::new();
+        let mut host_materials = device_materials(table);
+
+        // Textures: only when some material samples one (and not in clay
+        // mode, where only alpha cut-outs would need them: those are kept).
+        let mut textures = None;
+        if table.has_textured_materials() {
+            match TextureSet::new(device, table) {
+                Ok(set) if !set.is_empty() => {
+                    let mut bindings = Vec::with_capacity(4 * table.materials.len());
+                    let mut set1 = false;
+                    for (i, m) in table.materials.iter().enumerate() {
+                        let slots = [
+                            Slot::BaseColor,
+                            Slot::MetallicRoughness,
+                            Slot::Normal,
+                            Slot::Emissive,
+                        ];
+                        let dm = &mut host_materials[i];
+                        for (k, slot) in slots.iter().enumerate() {
+                            let b = set.slot_binding(m, *slot);
+                            let index = if b.is_none() { -1 } else { (4 * i + k) as i32 };
+                            set1 |= !b.is_none() && b.tex_coord == 1;
+                            match slot {
+                                Slot::BaseColor => dm.base_color_tex = index,
+                                Slot::MetallicRoughness => dm.metallic_roughness_tex = index,
+                                Slot::Normal => dm.normal_tex = index,
+                                _ => dm.emissive_tex = index,
+                            }
+                            bindings.push(b);
+                        }
+                    }
+                    if set1 {
+                        warnings.push(
+                            "some material samples a texture with TEXCOORD_1; the soup carries TEXCOORD_0 only, \
+                             so those textures are read with TEXCOORD_0"
+                                .to_owned(),
+                        );
+                    }
+                    let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
+                    device.write(&mut buf, &bindings)?;
+                    textures = Some((set, buf));
+                }
+                Ok(_) => {}
+                Err(e) => warnings.push(format!(
+                    "textures are not used ({e}); materials are rendered with their factors only"
+                )),
+            }
+        }
+
+        let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
+        if settings.traversal == Traversal::Stackless {
+            defines.push(("TRAVERSAL_STACKLESS", "1".to_owned()));
+        }
+        if textures.is_some() {
+            defines.push(("HAS_TEXTURES", "1".to_owned()));
+        }
+        let program = device.build_program("pathtrace.cl", &defines)?;
+        let kernels = Kernels {
+            render: device.kernel(&program, "pt_render")?,
+            clear: device.kernel(&program, "pt_clear")?,
+            emissive_power: device.kernel(&program, "pt_emissive_power")?,
+            _program: program,
+        };
+
+        let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
+        device.write(&mut materials, &host_materials)?;
+        let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
+
+        let env_map = match &settings.environment {
+            Environment::Map(path) => {
+                let map = EnvMap::load(path).map_err(|e| usage(e.to_string()))?;
+                let mut texels = device.buffer::<[f32; 4]>(map.texels.len())?;
+                device.write(&mut texels, &map.texels)?;
+                let mut marginal = device.buffer::<f32>(map.marginal.len())?;
+                device.write(&mut marginal, &map.marginal)?;
+                let mut conditional = device.buffer::<f32>(map.conditional.len())?;
+                device.write(&mut conditional, &map.conditional)?;
+                let env = DeviceEnv {
+                    color: [1.0, 1.0, 1.0, 0.0],
+                    kind: ENV_MAP,
+                    width: map.width,
+                    height: map.height,
+                    pad: 0,
+                };
+                Some((env, texels, marginal, conditional))
+            }
+            Environment::Color(c) => {
+                if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                    return Err(usage(format!(
+                        "--env-color {c:?}: the radiance must be three finite, non-negative numbers"
+                    )));
+                }
+                None
+            }
+            Environment::Default => None,
+        };
+
+        let table_f = film::Filter::default().sampler().table().to_vec();
+        let mut filter = device.buffer::<f32>(table_f.len())?;
+        device.write(&mut filter, &table_f)?;
+        let mut dummy_f32 = device.buffer::<f32>(4)?;
+        device.write(&mut dummy_f32, &[0.0f32; 4])?;
+        let mut dummy_u32 = device.buffer::<u32>(4)?;
+        device.write(&mut dummy_u32, &[0u32; 4])?;
+        let mut dummy_f4 = device.buffer::<[f32; 4]>(1)?;
+        device.write(&mut dummy_f4, &[[0.0f32; 4]])?;
+
+        Ok(PathTracer {
+            device,
+            settings: settings.clone(),
+            schedule: Schedule::default(),
+            kernels,
+            materials,
+            material_count: host_materials.len() as u32,
+            any_emissive,
+            textures,
+            env_map,
+            filter,
+            camera: device.buffer(1)?,
+            frame: device.buffer(1)?,
+            env: device.buffer(1)?,
+            dummy_f32,
+            dummy_u32,
+            dummy_f4,
+            nodes: Grow::new(),
+            snodes: Grow::new(),
+            snode_host: Vec::new(),
+            lights: Grow::new(),
+            power: Grow::new(),
+            power_host: Vec::new(),
+            emit_prims: Grow::new(),
+            emit_cdf: Grow::new(),
+            emit_pmf: Grow::new(),
+            accum_color: Grow::new(),
+            accum_normal: Grow::new(),
+            accum_albedo: Grow::new(),
+            accum_aux: Grow::new(),
+            ray_counts: Grow::new(),
+            setup_warnings: warnings,
+            host_soup: None,
+        })
+    }
+
+    /// Changes how frames are cut into launches (the image does not change).
+    pub fn set_schedule(&mut self, schedule: Schedule) {
+        self.schedule = schedule;
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// Whether the program was compiled with texture sampling.
+    pub fn has_textures(&self) -> bool {
+        self.textures.is_some()
+    }
+
+    /// Renders one frame; `progress(samples_done)` is called between
+    /// sample passes.
+    pub fn render(
+        &mut self,
+        frame: &FrameInput,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let soup = SoupBuffers {
+            positions: frame.soup.positions(),
+            normals: frame.soup.normals(),
+            uvs: frame.soup.uvs(),
+            material_ids: frame.soup.material_ids(),
+            triangles: frame.soup.triangle_count(),
+        };
+        self.render_buffers(
+            &soup,
+            frame.bvh,
+            frame.prim_ids,
+            frame.camera,
+            frame.lights,
+            frame.frame,
+            progress,
+        )
+    }
+
+    /// Renders a host soup (uploaded into buffers kept for the next call)
+    /// whose tree is built here on the device. Missing material ids mean
+    /// material 0 of the table (or the default material when it is empty).
+    pub fn render_soup(
+        &mut self,
+        soup: &Soup,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame: i64,
+    ) -> Result<RenderOutput, TraceError> {
+        let n = soup.triangle_count();
+        let d = self.device;
+        let mut builder = DeviceBuilder::new(d, BuildParams::default())
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        let (bvh, _) = builder
+            .build(soup)
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
+            positions: Grow::new(),
+            normals: Grow::new(),
+            uvs: Grow::new(),
+            material_ids: Grow::new(),
+        });
+        let result = (|| {
+            d.write(hs.positions.ensure(d, 3 * n)?, &soup.positions)?;
+            let has_normals = soup.normals.len() == 3 * n && n > 0;
+            let has_uvs = soup.uvs.len() == 3 * n && n > 0;
+            if has_normals {
+                d.write(hs.normals.ensure(d, 3 * n)?, &soup.normals)?;
+            }
+            if has_uvs {
+                d.write(hs.uvs.ensure(d, 3 * n)?, &soup.uvs)?;
+            }
+            let ids = if soup.material_ids.len() == n {
+                soup.material_ids.clone()
+            } else {
+                vec![0; n]
+            };
+            d.write(hs.material_ids.ensure(d, n)?, &ids)?;
+            let buffers = SoupBuffers {
+                positions: hs.positions.get(),
+                normals: has_normals.then(|| hs.normals.get()),
+                uvs: has_uvs.then(|| hs.uvs.get()),
+                material_ids: hs.material_ids.get(),
+                triangles: n,
+            };
+            let prim_ids = builder
+                .device_prim_ids()
+                .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
+            self.render_buffers(&buffers, &bvh, prim_ids, camera, lights, frame, &mut |_| {})
+        })();
+        self.host_soup = Some(hs);
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn render_buffers(
+        &mut self,
+        soup: &SoupBuffers,
+        bvh: &Bvh,
+        prim_ids: &Buffer<u32>,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame_index: i64,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let d = self.device;
+        let s = self.settings.clone();
+        let mut warnings = std::mem::take(&mut self.setup_warnings);
+        let (w, h) = (s.width, s.height);
+        let pixels = w as usize * h as usize;
+
+        // The tree. An empty soup has an empty tree: nothing can be hit, and
+        // the stack traversal gets an empty root to read.
+        let empty = soup.triangles == 0 || bvh.nodes.is_empty();
+        let snode_count = match s.traversal {
+            _ if empty => {
+                d.write(self.nodes.ensure(d, 1)?, &[BvhNode::empty()])?;
+                self.snodes.ensure(d, 1)?;
+                0
+            }
+            Traversal::Stack => {
+                check_depth(bvh)?;
+                let buf = self.nodes.ensure(d, bvh.nodes.len())?;
+                d.write(buf, &bvh.nodes)?;
+                self.snodes.ensure(d, 1)?;
+                0
+            }
+            Traversal::Stackless => {
+                stackless_layout_into(bvh, &mut self.snode_host)?;
+                let buf = self.snodes.ensure(d, self.snode_host.len())?;
+                d.write(buf, &self.snode_host)?;
+                self.nodes.ensure(d, 1)?;
+                self.snode_host.len() as u32
+            }
+        };
+
+        // Lights.
+        let host_lights: Vec<DeviceLight> =
+            lights.iter().map(DeviceLight::from_frame_light).collect();
+        let lbuf = self.lights.ensure(d, host_lights.len())?;
+        d.write(lbuf, &host_lights)?;
+
+        // Emissive triangles, in proportion to their power.
+        let mut emit = EmissiveDistribution::default();
+        if self.any_emissive && soup.triangles > 0 {
+            let n = soup.triangles;
+            let pbuf = self.power.ensure(d, n)?;
+            d.launch(
+                "pathtrace/emissive_power",
+                &self.kernels.emissive_power,
+                n.div_ceil(64),
+                64,
+                &[
+                    Arg::Buf(soup.positions),
+                    Arg::Buf(soup.material_ids),
+                    Arg::Buf(&self.materials),
+                    Arg::U32(self.material_count),
+                    Arg::U32(n as u32),
+                    Arg::Buf(&*pbuf),
+                ],
+            )?;
+            self.power_host.resize(n, 0.0);
+            d.read(pbuf, &mut self.power_host)?;
+            emit = EmissiveDistribution::from_power(&self.power_host);
+        }
+        if !emit.is_empty() {
+            d.write(self.emit_prims.ensure(d, emit.prims.len())?, &emit.prims)?;
+            d.write(self.emit_cdf.ensure(d, emit.cdf.len())?, &emit.cdf)?;
+            d.write(
+                self.emit_pmf.ensure(d, emit.pmf_by_prim.len())?,
+                &emit.pmf_by_prim,
+            )?;
+        } else {
+            // MIS reads the pmf of every hit triangle: all zero.
+            let n = soup.triangles.max(1);
+            d.write(self.emit_pmf.ensure(d, n)?, &vec![0.0f32; n])?;
+            self.emit_prims.ensure(d, 1)?;
+            self.emit_cdf.ensure(d, 2)?;
+        }
+
+        // The environment.
+        let env = match (&s.environment, &self.env_map) {
+            (Environment::Map(_), Some((env, ..))) => *env,
+            (Environment::Color(c), _) => DeviceEnv {
+                color: [c[0], c[1], c[2], 0.0],
+                kind: ENV_CONSTANT,
+                ..DeviceEnv::zeroed()
+            },
+            _ if lights.is_empty() && emit.is_empty() => {
+                warnings.push(
+                    "the scene has no light of its own (no KHR_lights_punctual light, no emissive material): \
+                     lit by a constant white environment of radiance 1 (--env-color or --env to choose another)"
+                        .to_owned(),
+                );
+                DeviceEnv {
+                    color: [1.0, 1.0, 1.0, 0.0],
+                    kind: ENV_CONSTANT,
+                    ..DeviceEnv::zeroed()
+                }
+            }
+            _ => DeviceEnv {
+                kind: ENV_NONE,
+                ..DeviceEnv::zeroed()
+            },
+        };
+        d.write(&mut self.env, &[env])?;
+
+        let mut flags = 0;
+        if soup.normals.is_some() {
+            flags |= FRAME_NORMALS;
+        }
+        if soup.uvs.is_some() {
+            flags |= FRAME_UVS;
+        }
+        if s.clay {
+            flags |= FRAME_CLAY;
+        }
+        let select_count =
+            lights.len() as u32 + (!emit.is_empty()) as u32 + (env.kind != ENV_NONE) as u32;
+        let fr = DeviceFrame {
+            seed_lo: s.seed as u32,
+            seed_hi: (s.seed >> 32) as u32,
+            frame_lo: frame_index as u64 as u32,
+            frame_hi: ((frame_index as u64) >> 32) as u32,
+            width: w,
+            height: h,
+            max_depth: s.max_depth,
+            flags,
+            light_count: lights.len() as u32,
+            emit_count: emit.prims.len() as u32,
+            material_count: self.material_count,
+            select_count,
+        };
+        d.write(&mut self.frame, &[fr])?;
+        d.write(&mut self.camera, &[device_camera(camera, w, h)])?;
+
+        // Accumulators.
+        self.accum_color.ensure(d, pixels)?;
+        self.accum_normal.ensure(d, pixels)?;
+        self.accum_albedo.ensure(d, pixels)?;
+        self.accum_aux.ensure(d, pixels)?;
+        self.ray_counts.ensure(d, pixels)?;
+        let first_event = d.pending_events().len();
+        d.launch(
+            "pathtrace/clear",
+            &self.kernels.clear,
+            pixels.div_ceil(64),
+            64,
+            &[
+                Arg::Buf(self.accum_color.get()),
+                Arg::Buf(self.accum_normal.get()),
+                Arg::Buf(self.accum_albedo.get()),
+                Arg::Buf(self.accum_aux.get()),
+                Arg::Buf(self.ray_counts.get()),
+                Arg::U32(pixels as u32),
+            ],
+        )?;
+
+        // Sample passes over tiles.
+        let spp = s.spp;
+        let per_pass = if self.schedule.samples_per_pass > 0 {
+            self.schedule.samples_per_pass
+        } else {
+            (PATHS_PER_LAUNCH / pixels as u64).clamp(1, spp as u64) as u32
+        };
+        let (tw, th) = self.schedule.tile.unwrap_or((w, h));
+        let (tw, th) = (tw.clamp(1, w), th.clamp(1, h));
+        let local = self.schedule.local_size.max(1);
+        let empty_soup_positions;
+        let positions: &Buffer<[f32; 4]> = if empty {
+            empty_soup_positions = &self.dummy_f4;
+            empty_soup_positions
+        } else {
+            soup.positions
+        };
+        let mut pass_ends: Vec<(usize, u32)> = Vec::new();
+        let mut begin = 0;
+        while begin < spp {
+            let end = (begin + per_pass).min(spp);
+            for ty in (0..h).step_by(th as usize) {
+                for tx in (0..w).step_by(tw as usize) {
+                    let cw = tw.min(w - tx);
+                    let ch = th.min(h - ty);
+                    let items = cw as usize * ch as usize;
+                    let mut args = vec![
+                        Arg::Buf(self.nodes.get()),
+                        Arg::Buf(self.snodes.get()),
+                        Arg::U32(snode_count),
+                        Arg::Buf(prim_ids),
+                        Arg::Buf(positions),
+                        match soup.normals {
+                            Some(b) => Arg::Buf(b),
+                            None => Arg::Buf(&self.dummy_f32),
+                        },
+                        match soup.uvs {
+                            Some(b) => Arg::Buf(b),
+                            None => Arg::Buf(&self.dummy_f32),
+                        },
+                        Arg::Buf(if empty {
+                            &self.dummy_u32
+                        } else {
+                            soup.material_ids
+                        }),
+                        Arg::Buf(&self.materials),
+                        Arg::Buf(self.lights.get()),
+                        Arg::Buf(self.emit_prims.get()),
+                        Arg::Buf(self.emit_cdf.get()),
+                        Arg::Buf(self.emit_pmf.get()),
+                        Arg::Buf(&self.env),
+                    ];
+                    match &self.env_map {
+                        Some((_, t, m, c)) => {
+                            args.push(Arg::Buf(t));
+                            args.push(Arg::Buf(m));
+                            args.push(Arg::Buf(c));
+                        }
+                        None => {
+                            args.push(Arg::Buf(&self.dummy_f4));
+                            args.push(Arg::Buf(&self.dummy_f32));
+                            args.push(Arg::Buf(&self.dummy_f32));
+                        }
+                    }
+                    args.extend([
+                        Arg::Buf(&self.filter),
+                        Arg::Buf(&self.camera),
+                        Arg::Buf(&self.frame),
+                        Arg::Buf(self.accum_color.get()),
+                        Arg::Buf(self.accum_normal.get()),
+                        Arg::Buf(self.accum_albedo.get()),
+                        Arg::Buf(self.accum_aux.get()),
+                        Arg::Buf(self.ray_counts.get()),
+                        Arg::U32(tx),
+                        Arg::U32(ty),
+                        Arg::U32(cw),
+                        Arg::U32(ch),
+                        Arg::U32(begin),
+                        Arg::U32(end),
+                    ]);
+                    if let Some((set, bindings)) = &self.textures {
+                        args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
+                        args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
+                        args.push(Arg::Buf(bindings));
+                    }
+                    d.launch(
+                        "pathtrace/render",
+                        &self.kernels.render,
+                        items.div_ceil(local),
+                        local,
+                        &args,
+                    )?;
+                }
+            }
+            d.flush()?;
+            pass_ends.push((d.pending_events().len(), end));
+            begin = end;
+        }
+        // Report each pass as it completes, while later passes run.
+        for (count, done) in &pass_ends {
+            let events = d.pending_events();
+            if let Some(e) = events.get(count - 1) {
+                opencl3::event::wait_for_events(&[*e]).map_err(|c| {
+                    TraceError::Device(crate::device::DeviceError::Cl {
+                        what: "clWaitForEvents (path tracing pass)".into(),
+                        code: c.to_string(),
+                    })
+                })?;
+            }
+            progress(*done);
+        }
+        let events = d.pending_events();
+        let mut trace_ms = 0.0;
+        for e in events.iter().skip(first_event) {
+            use opencl3::event::{
+                get_event_profiling_info, CL_PROFILING_COMMAND_END, CL_PROFILING_COMMAND_START,
+            };
+            let t0: u64 = get_event_profiling_info(*e, CL_PROFILING_COMMAND_START)
+                .map(Into::into)
+                .unwrap_or(0);
+            let t1: u64 = get_event_profiling_info(*e, CL_PROFILING_COMMAND_END)
+                .map(Into::into)
+                .unwrap_or(0);
+            trace_ms += t1.saturating_sub(t0) as f64 * 1e-6;
+        }
+
+        // Resolve: means over the kept samples.
+        let mut color = vec![[0.0f32; 4]; pixels];
+        let mut aux = vec![[0.0f32; 4]; pixels];
+        let mut rays = vec![0u32; pixels];
+        d.read(self.accum_color.get(), &mut color)?;
+        d.read(self.accum_aux.get(), &mut aux)?;
+        d.read(self.ray_counts.get(), &mut rays)?;
+        let mut normal = Vec::new();
+        let mut albedo = Vec::new();
+        if s.aovs.normal {
+            normal = vec![[0.0f32; 4]; pixels];
+            d.read(self.accum_normal.get(), &mut normal)?;
+        }
+        if s.aovs.albedo {
+            albedo = vec![[0.0f32; 4]; pixels];
+            d.read(self.accum_albedo.get(), &mut albedo)?;
+        }
+        let mut image = Image::new(w, h, s.aovs);
+        let mut dropped = 0u64;
+        for i in 0..pixels {
+            let bad = aux[i][2] as u32;
+            dropped += bad as u64;
+            let kept = spp.saturating_sub(bad);
+            if kept == 0 {
+                continue;
+            }
+            let inv = 1.0 / kept as f32;
+            let c = color[i];
+            image.rgba[i] = [c[0] * inv, c[1] * inv, c[2] * inv, c[3] * inv];
+            if let Some(n) = &mut image.normal {
+                n[i] = [normal[i][0] * inv, normal[i][1] * inv, normal[i][2] * inv];
+            }
+            if let Some(a) = &mut image.albedo {
+                a[i] = [albedo[i][0] * inv, albedo[i][1] * inv, albedo[i][2] * inv];
+            }
+            if let Some(z) = &mut image.depth {
+                z[i] = if aux[i][1] > 0.0 {
+                    aux[i][0] / aux[i][1]
+                } else {
+                    BACKGROUND_DEPTH
+                };
+            }
+        }
+        if dropped > 0 {
+            warnings.push(format!(
+                "path tracing: dropped {dropped} of {} samples with NaN or infinite values",
+                pixels as u64 * spp as u64
+            ));
+        }
+        Ok(RenderOutput {
+            image,
+            rays: rays.iter().map(|&r| r as u64).sum(),
+            trace_ms,
+            warnings,
+        })
+    }
+}
+
+/// Renders a host soup with `table`'s materials (soup material ids index
+/// it), `camera` and `lights`: a tracer made for this one frame.
+pub fn render_soup(
+    device: &Device,
+    soup: &Soup,
+    table: &MaterialTable,
+    camera: &FrameCamera,
+    lights: &[FrameLight],
+    settings: &RenderSettings,
+    frame: i64,
+) -> Result<RenderOutput, TraceError> {
+    let mut pt = PathTracer::with_materials(device, table, settings)?;
+    pt.render_soup(soup, camera, lights, frame)
+}

@@ -1,0 +1,495 @@
+//! Golden-image tests: small renders of real and generated scenes with a
+//! fixed seed and spp, compared with reference EXRs in `tests/golden/`.
+//!
+//! Comparison: relative MSE of the linear image and mean FLIP of the
+//! tonemapped image (`soupray::compare`). On the device that made the
+//! references the images are identical bit for bit; the thresholds allow
+//! another device (a GPU driver) to land within the Monte Carlo noise. They
+//! are measured, not guessed: `SOUPRAY_UPDATE_GOLDEN=1 cargo test --test
+//! golden` renders each case with two seeds, and stores twice the
+//! seed-to-seed difference (the noise at that spp) as the case's thresholds
+//! in `tests/golden/thresholds.json`, beside the new references.
+//!
+//! A failing case writes the test image, the reference and a FLIP error map
+//! as PNGs under `out/golden/`.
+
+mod common;
+mod scene_support;
+
+use scene_support::Builder;
+use serde_json::json;
+use soupray::film::{Aovs, Image};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const WIDTH: u32 = 96;
+const HEIGHT: u32 = 54;
+const SEED: u64 = 7;
+
+fn golden_dir() -> PathBuf {
+    common::repo().join("tests/golden")
+}
+
+fn updating() -> bool {
+    std::env::var("SOUPRAY_UPDATE_GOLDEN").is_ok_and(|v| v == "1")
+}
+
+/// Renders one frame through the real binary and reads it back.
+fn render(scene: &Path, frame: i64, spp: u32, seed: u64, extra: &[&str]) -> Image {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .arg("render")
+        .arg(scene)
+        .args(["--frame", &frame.to_string()])
+        .args([
+            "--width",
+            &WIDTH.to_string(),
+            "--height",
+            &HEIGHT.to_string(),
+        ])
+        .args([
+            "--spp",
+            &spp.to_string(),
+            "--seed",
+            &seed.to_string(),
+            "--quiet",
+        ])
+        .args([
+            "--out",
+            dir.path().to_str().unwrap(),
+            "--name",
+            "golden.####.exr",
+        ])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}: {}",
+        scene.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    read_exr(&dir.path().join(format!("golden.{frame:04}.exr")))
+}
+
+fn read_exr(path: &Path) -> Image {
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |res, _| {
+            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
+            (img, res.width())
+        },
+        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
+        },
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    image.layer_data.channel_data.pixels.0
+}
+
+fn write_exr(path: &Path, img: &Image) {
+    let w = img.width as usize;
+    exr::prelude::write_rgba_file(path, w, img.height as usize, |x, y| {
+        let p = img.rgba[y * w + x];
+        (p[0], p[1], p[2], p[3])
+    })
+    .unwrap();
+}
+
+fn write_png(path: &Path, rgb: &[u8], img: &Image) {
+    image::save_buffer(
+        path,
+        rgb,
+        img.width,
+        img.height,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
+}
+
+/// Thresholds of one case, with the noise they were derived from.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Copy, Debug)]
+struct Threshold {
+    noise_rel_mse: f64,
+    noise_flip: f64,
+    rel_mse: f64,
+    flip: f64,
+}
+
+fn thresholds() -> serde_json::Map<String, serde_json::Value> {
+    std::fs::read(golden_dir().join("thresholds.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or_default()
+}
+
+fn check(name: &str, scene: &Path, frame: i64, spp: u32, extra: &[&str]) {
+    let image = render(scene, frame, spp, SEED, extra);
+    let reference_path = golden_dir().join(format!("{name}.exr"));
+    if updating() {
+        std::fs::create_dir_all(golden_dir()).unwrap();
+        write_exr(&reference_path, &image);
+        let other = render(scene, frame, spp, SEED + 1, extra);
+        let noise = soupray::compare::compare(&other, &image, 0.0).unwrap();
+        let t = Threshold {
+            noise_rel_mse: noise.rel_mse,
+            noise_flip: noise.flip,
+            rel_mse: 2.0 * noise.rel_mse + 1e-6,
+            flip: 2.0 * noise.flip + 1e-4,
+        };
+        // Cases run in parallel: merge into the file under a lock.
+        static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _guard = LOCK.lock().unwrap();
+        let mut all = thresholds();
+        all.insert(name.to_string(), serde_json::to_value(t).unwrap());
+        let mut sorted: Vec<_> = all.into_iter().collect();
+        sorted.sort_by(|a, b| a.0.cmp(&b.0));
+        let map: serde_json::Map<_, _> = sorted.into_iter().collect();
+        std::fs::write(
+            golden_dir().join("thresholds.json"),
+            serde_json::to_string_pretty(&map).unwrap() + "\n",
+        )
+        .unwrap();
+        return;
+    }
+    assert!(
+        reference_path.is_file(),
+        "{name}: no reference {}; create the references with SOUPRAY_UPDATE_GOLDEN=1 cargo test --test golden",
+        reference_path.display()
+    );
+    let reference = read_exr(&reference_path);
+    let t: Threshold = serde_json::from_value(
+        thresholds()
+            .get(name)
+            .cloned()
+            .unwrap_or_else(|| panic!("{name}: no thresholds in tests/golden/thresholds.json")),
+    )
+    .unwrap();
+    let err = soupray::compare::compare(&image, &reference, 0.0).unwrap();
+    if err.rel_mse > t.rel_mse || err.flip > t.flip {
+        let out = common::repo().join("out/golden");
+        std::fs::create_dir_all(&out).unwrap();
+        write_png(
+            &out.join(format!("{name}.test.png")),
+            &soupray::output::tonemap_srgb8(&image, 0.0),
+            &image,
+        );
+        write_png(
+            &out.join(format!("{name}.reference.png")),
+            &soupray::output::tonemap_srgb8(&reference, 0.0),
+            &image,
+        );
+        write_png(
+            &out.join(format!("{name}.flip.png")),
+            &soupray::compare::flip_map_rgb8(&image, &reference, 0.0).unwrap(),
+            &image,
+        );
+        panic!(
+            "{name}: differs from its reference: relative MSE {:.3e} (threshold {:.3e}), FLIP {:.4} \
+             (threshold {:.4}); images and the error map are in {}",
+            err.rel_mse,
+            t.rel_mse,
+            err.flip,
+            t.flip,
+            out.display()
+        );
+    }
+}
+
+fn asset(rel: &str) -> PathBuf {
+    common::repo().join(rel)
+}
+
+/// A UV sphere of `segments` around, centred at `c` with radius `r`.
+fn sphere(c: [f32; 3], r: f32, segments: usize) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+    let (mut pos, mut nrm, mut idx) = (Vec::new(), Vec::new(), Vec::new());
+    let rings = segments / 2;
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..=segments {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let n = [
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ];
+            pos.extend([c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]]);
+            nrm.extend(n);
+        }
+    }
+    let row = segments as u32 + 1;
+    for i in 0..rings as u32 {
+        for j in 0..segments as u32 {
+            let (a, b) = (i * row + j, (i + 1) * row + j);
+            idx.extend([a, a + 1, b, a + 1, b + 1, b]);
+        }
+    }
+    (pos, nrm, idx)
+}
+
+/// A horizontal square of half-size `h` at height `y`, facing up.
+fn plane(y: f32, h: f32) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+    (
+        vec![-h, y, -h, -h, y, h, h, y, h, h, y, -h],
+        [0.0, 1.0, 0.0].repeat(4),
+        vec![0, 1, 2, 0, 2, 3],
+    )
+}
+
+struct MeshSpec {
+    geometry: (Vec<f32>, Vec<f32>, Vec<u32>),
+    material: serde_json::Value,
+}
+
+/// A glTF with the given meshes (one node each), a camera looking at the
+/// origin from `eye`, and optional KHR_lights_punctual lights.
+fn scene_file(
+    dir: &Path,
+    name: &str,
+    meshes: Vec<MeshSpec>,
+    eye: [f32; 3],
+    lights: Vec<(serde_json::Value, serde_json::Value)>,
+) -> PathBuf {
+    let mut b = Builder::default();
+    let mut gl_meshes = Vec::new();
+    let mut materials = Vec::new();
+    let mut nodes = Vec::new();
+    for (i, m) in meshes.into_iter().enumerate() {
+        let (pos, nrm, idx) = m.geometry;
+        let p = b.floats(&pos, 3);
+        let n = b.floats(&nrm, 3);
+        let ix = b.u32s(&idx);
+        materials.push(m.material);
+        gl_meshes.push(json!({"primitives": [{"attributes": {"POSITION": p, "NORMAL": n}, "indices": ix, "material": i}]}));
+        nodes.push(json!({"mesh": i}));
+    }
+    // Camera at `eye` looking at the origin (+Y up): rotation about Y then X.
+    let d = [-eye[0], -eye[1], -eye[2]];
+    let yaw = (-d[0]).atan2(-d[2]);
+    let pitch = (d[1] / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).asin();
+    let (qy, qx) = (
+        [0.0, (yaw / 2.0).sin(), 0.0, (yaw / 2.0).cos()],
+        [(pitch / 2.0).sin(), 0.0, 0.0, (pitch / 2.0).cos()],
+    );
+    let q = [
+        qy[3] * qx[0] + qy[0] * qx[3] + qy[1] * qx[2] - qy[2] * qx[1],
+        qy[3] * qx[1] - qy[0] * qx[2] + qy[1] * qx[3] + qy[2] * qx[0],
+        qy[3] * qx[2] + qy[0] * qx[1] - qy[1] * qx[0] + qy[2] * qx[3],
+        qy[3] * qx[3] - qy[0] * qx[0] - qy[1] * qx[1] - qy[2] * qx[2],
+    ];
+    nodes.push(json!({"camera": 0, "translation": eye, "rotation": q}));
+    let mut root = json!({
+        "scene": 0,
+        "meshes": gl_meshes,
+        "materials": materials,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.01, "aspectRatio": WIDTH as f32 / HEIGHT as f32}}],
+    });
+    if !lights.is_empty() {
+        let mut defs = Vec::new();
+        for (i, (def, mut node)) in lights.into_iter().enumerate() {
+            defs.push(def);
+            node["extensions"] = json!({"KHR_lights_punctual": {"light": i}});
+            nodes.push(node);
+        }
+        root["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        root["extensions"] = json!({"KHR_lights_punctual": {"lights": defs}});
+    }
+    let all: Vec<usize> = (0..nodes.len()).collect();
+    root["nodes"] = json!(nodes);
+    root["scenes"] = json!([{"nodes": all}]);
+    b.write(root, dir, name, true)
+}
+
+fn diffuse(rgb: [f32; 3]) -> serde_json::Value {
+    json!({"pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}})
+}
+
+#[test]
+fn textured_skinned_character_at_two_frames() {
+    let scene = asset("animations/CesiumMan/CesiumMan.glb");
+    check("cesiumman_f0", &scene, 0, 64, &[]);
+    check("cesiumman_f30", &scene, 30, 64, &[]);
+}
+
+#[test]
+fn skinned_fox_running() {
+    check(
+        "fox_run_f8",
+        &asset("tests/assets/Fox/Fox.glb"),
+        8,
+        64,
+        &["--animation", "2"],
+    );
+}
+
+#[test]
+fn morph_target_animation() {
+    let dir = asset("tests/assets/MorphStressTest");
+    let scene = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.extension().is_some_and(|x| x == "glb" || x == "gltf"))
+        .expect("MorphStressTest asset");
+    check("morph_stress_f12", &scene, 12, 64, &[]);
+}
+
+#[test]
+fn clay_render_of_an_animated_box() {
+    check(
+        "box_animated_clay_f10",
+        &asset("tests/assets/BoxAnimated/BoxAnimated.glb"),
+        10,
+        64,
+        &["--clay"],
+    );
+}
+
+#[test]
+fn punctual_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(
+        dir.path(),
+        "lights",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.8, 0.8, 0.8]),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.6, 0.0], 0.6, 32),
+                material: diffuse([0.8, 0.3, 0.2]),
+            },
+        ],
+        [0.0, 2.5, 4.5],
+        vec![
+            (
+                json!({"type": "point", "color": [1.0, 0.9, 0.8], "intensity": 30.0}),
+                json!({"translation": [1.5, 2.5, 1.0]}),
+            ),
+            (
+                json!({"type": "spot", "color": [0.3, 0.5, 1.0], "intensity": 60.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.45}}),
+                json!({"translation": [-1.5, 3.0, 0.5], "rotation": [-0.6427876, 0.0, 0.0, 0.7660444]}),
+            ),
+            (
+                json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 0.5}),
+                json!({"rotation": [-0.3826834, 0.0, 0.0, 0.9238795]}),
+            ),
+        ],
+    );
+    check("punctual_lights", &scene, 0, 256, &["--env-color", "0,0,0"]);
+}
+
+#[test]
+fn emissive_area_light() {
+    let dir = tempfile::tempdir().unwrap();
+    // A downward-facing 1.2 x 1.2 emitter, 2 units above the floor.
+    let (mut pos, _, _) = plane(0.0, 0.6);
+    for y in pos.iter_mut().skip(1).step_by(3) {
+        *y = 2.0;
+    }
+    let down: Vec<f32> = [0.0, -1.0, 0.0].repeat(4);
+    let emitter = MeshSpec {
+        geometry: (pos, down, vec![0, 2, 1, 0, 3, 2]),
+        material: json!({"emissiveFactor": [1.0, 0.9, 0.7], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}, "pbrMetallicRoughness": {"baseColorFactor": [0,0,0,1]}}),
+    };
+    let scene = scene_file(
+        dir.path(),
+        "emissive",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.8, 0.8, 0.8]),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.5, 0.0], 0.5, 32),
+                material: diffuse([0.2, 0.8, 0.3]),
+            },
+            emitter,
+        ],
+        [0.0, 1.8, 4.0],
+        vec![],
+    );
+    check(
+        "emissive_area_light",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0,0,0"],
+    );
+}
+
+#[test]
+fn hdr_environment_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let env = dir.path().join("sky.exr");
+    // A deterministic sky: a bright warm sun, a blue gradient, a dark ground.
+    let (w, h) = (64usize, 32usize);
+    exr::prelude::write_rgb_file(&env, w, h, |x, y| {
+        let v = (y as f32 + 0.5) / h as f32;
+        let u = (x as f32 + 0.5) / w as f32;
+        let sun = ((u - 0.3).powi(2) + (v - 0.25).powi(2)).sqrt() < 0.04;
+        if sun {
+            (60.0, 50.0, 40.0)
+        } else if v < 0.5 {
+            (0.3 + 0.4 * v, 0.5 + 0.4 * v, 1.0)
+        } else {
+            (0.1, 0.08, 0.06)
+        }
+    })
+    .unwrap();
+    let scene = scene_file(
+        dir.path(),
+        "env",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.7, 0.7, 0.7]),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.6, 0.0], 0.6, 32),
+                material: diffuse([0.9, 0.9, 0.9]),
+            },
+        ],
+        [0.0, 1.5, 4.0],
+        vec![],
+    );
+    check(
+        "hdr_environment",
+        &scene,
+        0,
+        256,
+        &["--env", env.to_str().unwrap()],
+    );
+}
+
+#[test]
+fn glossy_metal() {
+    let dir = tempfile::tempdir().unwrap();
+    let metal = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.95, 0.64, 0.54, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.25}});
+    let scene = scene_file(
+        dir.path(),
+        "metal",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.5, 0.5, 0.5]),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.6, 0.0], 0.6, 48),
+                material: metal,
+            },
+        ],
+        [0.0, 1.6, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 20.0}),
+            json!({"translation": [1.0, 2.5, 2.0]}),
+        )],
+    );
+    check(
+        "glossy_metal",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.2,0.25,0.3"],
+    );
+}

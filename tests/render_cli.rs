@@ -1,0 +1,303 @@
+//! `soupray render` as farm jobs run it: the real binary in a temporary
+//! directory. Frames split over runs give the same files, a killed run
+//! leaves no truncated frame and resumes, and every exit code comes from
+//! its own cause.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// A small, untextured, animated scene, rendered tiny so the tests are quick.
+fn scene() -> String {
+    common::repo()
+        .join("tests/assets/BoxAnimated/BoxAnimated.glb")
+        .display()
+        .to_string()
+}
+
+const SMALL: &[&str] = &["--width", "48", "--height", "27", "--spp", "2"];
+
+fn soupray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .args(args)
+        .output()
+        .expect("run soupray")
+}
+
+fn render(out: &Path, extra: &[&str]) -> Output {
+    let scene = scene();
+    let mut args = vec!["render", scene.as_str(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(SMALL);
+    args.extend_from_slice(extra);
+    soupray(&args)
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+fn exr_pixels(path: &Path) -> Vec<(String, Vec<f32>)> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let layer = &image.layer_data[0];
+    layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let values: Vec<f32> = c.sample_data.values_as_f32().collect();
+            (c.name.to_string(), values)
+        })
+        .collect()
+}
+
+/// A frame log with the fields that legitimately differ between runs
+/// (timings, throughput, output paths) removed.
+fn stable_log(path: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    let obj = v.as_object_mut().unwrap();
+    obj.remove("timings_ms");
+    obj.remove("output");
+    obj["build"].as_object_mut().unwrap().remove("stages_ms");
+    obj["render"].as_object_mut().unwrap().remove("mrays_per_s");
+    v
+}
+
+#[test]
+fn frames_split_over_runs_give_identical_files() {
+    let one = tempfile::tempdir().unwrap();
+    let two = tempfile::tempdir().unwrap();
+    let out = render(one.path(), &["--frames", "0-5"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for spec in ["0-2", "3-5"] {
+        let out = render(two.path(), &["--frames", spec]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let names = files(one.path());
+    assert_eq!(names, files(two.path()));
+    let exrs: Vec<&String> = names.iter().filter(|n| n.ends_with(".exr")).collect();
+    assert_eq!(exrs.len(), 6, "{names:?}");
+    assert!(names.iter().any(|n| n == "BoxAnimated.0000.exr"));
+    assert!(names.iter().any(|n| n == "BoxAnimated.0005.json"));
+    for name in &names {
+        let (a, b) = (one.path().join(name), two.path().join(name));
+        if name.ends_with(".exr") {
+            assert_eq!(exr_pixels(&a), exr_pixels(&b), "{name}: pixels differ");
+        } else if name.ends_with(".json") {
+            assert_eq!(stable_log(&a), stable_log(&b), "{name}: logs differ");
+        }
+    }
+    // The log carries what a farm needs.
+    let log: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(one.path().join("BoxAnimated.0003.json")).unwrap())
+            .unwrap();
+    assert_eq!(log["frame"], 3);
+    assert!((log["time"].as_f64().unwrap() - 3.0 / 24.0).abs() < 1e-9);
+    assert_eq!(log["triangles"], 254);
+    for key in ["evaluate", "build", "trace", "write", "total"] {
+        assert!(
+            log["timings_ms"][key].as_f64().unwrap() >= 0.0,
+            "timings_ms.{key}"
+        );
+    }
+    for key in ["large", "medium", "small"] {
+        assert!(
+            log["build"]["stages_ms"][key].is_number(),
+            "build.stages_ms.{key}"
+        );
+    }
+    assert_eq!(log["build"]["leaf_size"], 4);
+    assert_eq!(log["render"]["width"], 48);
+    assert_eq!(log["render"]["spp"], 2);
+    assert!(log["render"]["rays"].as_u64().unwrap() >= 48 * 27 * 2);
+    assert!(log["camera"]["position"].is_array());
+    assert!(log["warnings"].is_array());
+}
+
+#[test]
+fn a_killed_run_leaves_no_partial_frame_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
+        .args([
+            "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-40",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill it once it has written some frames but not all.
+    let started = Instant::now();
+    loop {
+        let done = files(dir.path())
+            .iter()
+            .filter(|n| n.ends_with(".json"))
+            .count();
+        if done >= 2 || started.elapsed() > Duration::from_secs(120) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL: no chance to clean up
+    child.wait().unwrap();
+    let after_kill = files(dir.path());
+    assert!(
+        after_kill.iter().filter(|n| n.ends_with(".json")).count() < 41,
+        "the run finished before it was killed; the test needs a slower render"
+    );
+    for name in after_kill.iter().filter(|n| n.ends_with(".exr")) {
+        assert!(
+            soupray::output::is_complete_exr(&dir.path().join(name)),
+            "{name} is truncated under its final name"
+        );
+    }
+    // Resume: the complete frames are skipped, the rest rendered, and
+    // stale temporaries of the killed run do not count as frames.
+    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
+        .args([
+            "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-40",
+        ])
+        .arg("--skip-existing")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("skipped"), "{stderr}");
+    let names = files(dir.path());
+    let exrs = names.iter().filter(|n| n.ends_with(".exr")).count();
+    assert_eq!(exrs, 41, "{names:?}");
+    assert!(
+        !names.iter().any(|n| n.ends_with(".tmp")),
+        "the killed run's temporaries were not cleaned: {names:?}"
+    );
+    for name in names.iter().filter(|n| n.ends_with(".exr")) {
+        assert!(
+            soupray::output::is_complete_exr(&dir.path().join(name)),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn exit_codes_come_from_their_causes() {
+    let dir = tempfile::tempdir().unwrap();
+    // 2: usage.
+    for spec in ["5-2", "a-b", ""] {
+        let out = render(dir.path(), &["--frames", spec]);
+        assert_eq!(out.status.code(), Some(2), "--frames {spec:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--frames") || err.contains("frame"), "{err}");
+    }
+    // 3: device set-up.
+    let out = render(
+        dir.path(),
+        &["--device", "no-such-device-xyz", "--frame", "0"],
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // 4: the scene cannot be read.
+    let missing = dir.path().join("missing.glb");
+    let out = soupray(&["render", missing.to_str().unwrap(), "--frame", "0"]);
+    assert_eq!(out.status.code(), Some(4));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.glb"));
+    // 5: a frame fails (its EXR name is taken by a directory), and
+    // --keep-going still renders the others.
+    let frames = dir.path().join("frames");
+    std::fs::create_dir_all(frames.join("BoxAnimated.0001.exr")).unwrap();
+    let out = render(&frames, &["--frames", "0-2", "--keep-going"]);
+    assert_eq!(
+        out.status.code(),
+        Some(5),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("frame 1"), "{err}");
+    assert!(frames.join("BoxAnimated.0000.exr").is_file());
+    assert!(frames.join("BoxAnimated.0002.exr").is_file());
+    // 6: the output directory cannot be made, before anything renders.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let out = render(&file.join("sub"), &["--frame", "0"]);
+    assert_eq!(
+        out.status.code(),
+        Some(6),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_and_sigterm_stop_cleanly() {
+    for (signal, code) in [("INT", 130), ("TERM", 143)] {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = scene();
+        let child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+            .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
+            .args([
+                "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-100",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = Instant::now();
+        while !files(dir.path()).iter().any(|n| n.ends_with(".json"))
+            && started.elapsed() < Duration::from_secs(120)
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let status = Command::new("kill")
+            .args([&format!("-{signal}"), &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(out.status.code(), Some(code), "SIG{signal}");
+        let names = files(dir.path());
+        assert!(
+            !names.iter().any(|n| n.ends_with(".tmp")),
+            "SIG{signal} left temporaries: {names:?}"
+        );
+        assert!(names.iter().filter(|n| n.ends_with(".exr")).count() < 101);
+        for name in names.iter().filter(|n| n.ends_with(".exr")) {
+            assert!(soupray::output::is_complete_exr(&dir.path().join(name)));
+        }
+    }
+}
+
+#[test]
+fn the_default_animation_is_shipped_with_its_license() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("animations/CesiumMan");
+    assert!(dir.join("CesiumMan.glb").is_file());
+    assert!(dir.join("LICENSE.md").is_file());
+}
