@@ -33,7 +33,7 @@ use std::time::Instant;
 ///   soupray bench a.glb b.glb --frame 10 --reference-spp 4096
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// glTF scenes to measure (default: the shipped animation).
+    /// glTF scenes or PLY meshes to measure (default: the shipped animation).
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
     /// Frame to render (default: the middle of each scene's clip).
@@ -212,6 +212,29 @@ fn build_tree(
 }
 
 fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result<Vec<Point>> {
+    let tmp = std::env::temp_dir().join(format!("soupray-bench-{}", std::process::id()));
+    let is_ply = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    let gltf = if is_ply {
+        std::fs::create_dir_all(&tmp)?;
+        ply_as_gltf(path, &tmp)?
+    } else {
+        path.to_path_buf()
+    };
+    let result = bench_gltf(args, device, &gltf, path);
+    if is_ply {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
+}
+
+fn bench_gltf(
+    args: &BenchArgs,
+    device: &Device,
+    path: &Path,
+    named: &Path,
+) -> anyhow::Result<Vec<Point>> {
     let scene = Scene::load(path, &LoadOptions::default())?;
     let (first, last) = scene.frame_range();
     let frame = args.frame.unwrap_or((first + last) / 2);
@@ -221,7 +244,7 @@ fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result
     let info = soup.evaluate(&scene, time)?;
     let evaluate_ms = t.elapsed().as_secs_f64() * 1e3;
     let host_soup = soup.read_back()?;
-    let name = path
+    let name = named
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
@@ -304,20 +327,60 @@ fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result
     Ok(points)
 }
 
-/// The points no other point beats in both frame time and FLIP.
+/// The points no other point of the same scene beats in both frame time
+/// and FLIP.
 pub fn pareto_front(points: &[Point]) -> Vec<usize> {
     let mut front: Vec<usize> = (0..points.len())
         .filter(|&i| {
             !points.iter().enumerate().any(|(j, q)| {
                 j != i
+                    && q.scene == points[i].scene
                     && q.frame_ms <= points[i].frame_ms
                     && q.flip <= points[i].flip
                     && (q.frame_ms < points[i].frame_ms || q.flip < points[i].flip)
             })
         })
         .collect();
-    front.sort_by(|&a, &b| points[a].frame_ms.total_cmp(&points[b].frame_ms));
+    front.sort_by(|&a, &b| {
+        (points[a].scene.as_str(), points[a].frame_ms)
+            .partial_cmp(&(points[b].scene.as_str(), points[b].frame_ms))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     front
+}
+
+/// A PLY mesh as a minimal glTF (one unindexed mesh, a diffuse grey
+/// material, no camera: the default camera frames it), so real scanned
+/// meshes go through exactly the pipeline a glTF frame does.
+fn ply_as_gltf(ply: &Path, dir: &Path) -> anyhow::Result<PathBuf> {
+    let soup = crate::ply::read_soup(ply)?;
+    let (lo, hi) = soup
+        .bounds()
+        .ok_or_else(|| anyhow::anyhow!("{}: the mesh has no triangles", ply.display()))?;
+    let bytes: Vec<u8> = soup
+        .positions
+        .iter()
+        .flat_map(|p| p[..3].iter().flat_map(|c| c.to_le_bytes()))
+        .collect();
+    let stem = ply
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    std::fs::write(dir.join(format!("{stem}.bin")), &bytes)?;
+    let json = serde_json::json!({
+        "asset": {"version": "2.0", "generator": "soupray bench (from PLY)"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
+        "buffers": [{"byteLength": bytes.len(), "uri": format!("{stem}.bin")}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": bytes.len()}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": soup.positions.len(), "type": "VEC3", "min": lo, "max": hi}],
+    });
+    let path = dir.join(format!("{stem}.gltf"));
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+    Ok(path)
 }
 
 fn csv(points: &[Point]) -> String {
@@ -423,7 +486,8 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
             .x_desc("frame ms (evaluate + build + trace)")
             .y_desc("mean FLIP against the reference")
             .x_label_formatter(&|x| format_axis(*x))
-            .y_label_formatter(&|y| format!("{y:.3}"))
+            .y_label_formatter(&|y| format!("{y:.4}"))
+            .y_labels(8)
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(plot_err)?;
@@ -449,16 +513,26 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
                 .label(sweep)
                 .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
         }
-        let front: Vec<(f64, f64)> = pareto_front(points)
-            .into_iter()
-            .map(|i| (points[i].frame_ms, points[i].flip))
-            .filter(|&(x, y)| finite(x) && finite(y))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(front, BLACK.mix(0.5).stroke_width(2)))
-            .map_err(plot_err)?
-            .label("Pareto front")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+        // One front per scene: points of different scenes do not compete.
+        let front = pareto_front(points);
+        let mut scenes: Vec<&str> = front.iter().map(|&i| points[i].scene.as_str()).collect();
+        scenes.dedup();
+        for (k, scene) in scenes.iter().enumerate() {
+            let line: Vec<(f64, f64)> = front
+                .iter()
+                .filter(|&&i| points[i].scene == *scene)
+                .map(|&i| (points[i].frame_ms, points[i].flip))
+                .filter(|&(x, y)| finite(x) && finite(y))
+                .collect();
+            let series = chart
+                .draw_series(LineSeries::new(line, BLACK.mix(0.5).stroke_width(2)))
+                .map_err(plot_err)?;
+            if k == 0 {
+                series.label("Pareto front (per scene)").legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2))
+                });
+            }
+        }
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
