@@ -447,10 +447,79 @@ impl Device {
         Ok(std::mem::take(&mut *self.timings.borrow_mut()))
     }
 
+    /// Runs a layout probe: a one-work-item kernel of `file` that writes
+    /// the `sizeof`/`offsetof` of the structs it names, ended by
+    /// 0xFFFFFFFF. Tests compare the result with the Rust mirrors.
+    pub fn run_layout_probe(&self, file: &str, kernel: &str) -> Result<Vec<u32>> {
+        let program = self.build_program(file, &[])?;
+        let kernel = self.kernel(&program, kernel)?;
+        let mut out = self.buffer::<u32>(256)?;
+        self.write(&mut out, &[0u32; 256])?;
+        self.launch("layout_probe", &kernel, 1, 1, &[Arg::Buf(&out)])?;
+        let mut got = vec![0u32; 256];
+        self.read(&out, &mut got)?;
+        let end = got.iter().position(|&v| v == u32::MAX).unwrap_or(got.len());
+        got.truncate(end);
+        Ok(got)
+    }
+
     /// Events are only needed for profiling; a raw list is exposed for the
     /// rare caller that must wait on one launch.
     pub fn pending_events(&self) -> Vec<cl_event> {
         self.pending.borrow().iter().map(|(_, e)| e.get()).collect()
+    }
+}
+
+/// A device buffer that grows to the largest size asked for and is then
+/// reused frame after frame (with some headroom, so a slowly growing
+/// animation does not reallocate every frame). `allocations` counts the
+/// (re)allocations, so tests can prove the reuse.
+pub struct GrowBuffer<T> {
+    buffer: Option<Buffer<T>>,
+    capacity: usize,
+    allocations: usize,
+}
+
+impl<T> Default for GrowBuffer<T> {
+    fn default() -> Self {
+        GrowBuffer {
+            buffer: None,
+            capacity: 0,
+            allocations: 0,
+        }
+    }
+}
+
+impl<T> GrowBuffer<T> {
+    pub fn new() -> GrowBuffer<T> {
+        GrowBuffer::default()
+    }
+
+    /// The buffer, with room for at least `n` elements.
+    pub fn ensure(&mut self, device: &Device, n: usize) -> Result<&mut Buffer<T>> {
+        if self.buffer.is_none() || self.capacity < n {
+            let cap = n.max(1) + n / 8;
+            self.buffer = Some(device.buffer(cap)?);
+            self.capacity = cap;
+            self.allocations += 1;
+        }
+        Ok(self.buffer.as_mut().expect("allocated above"))
+    }
+
+    /// The buffer, if it has been allocated.
+    pub fn buffer(&self) -> Option<&Buffer<T>> {
+        self.buffer.as_ref()
+    }
+
+    /// The buffer, after an `ensure`.
+    pub fn get(&self) -> &Buffer<T> {
+        self.buffer
+            .as_ref()
+            .expect("GrowBuffer::ensure runs before use")
+    }
+
+    pub fn allocations(&self) -> usize {
+        self.allocations
     }
 }
 

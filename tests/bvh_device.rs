@@ -8,28 +8,15 @@ use common::{device, mesh, random_soup, transformed};
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::layout::host_layout;
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams, Bvh, Child};
-use soupray::device::Arg;
 use soupray::soup::Soup;
 
 #[test]
 fn layout_matches_device() {
     let d = device();
-    let program = d.build_program("layout_probe.cl", &[]).unwrap();
-    let kernel = d.kernel(&program, "layout_probe").unwrap();
-    let mut out = d.buffer::<u32>(256).unwrap();
-    d.write(&mut out, &[0u32; 256]).unwrap();
-    d.launch("probe", &kernel, 1, 1, &[Arg::Buf(&out)]).unwrap();
-    let mut got = vec![0u32; 256];
-    d.read(&out, &mut got).unwrap();
-    let end = got
-        .iter()
-        .position(|&v| v == u32::MAX)
-        .expect("probe terminator");
-    assert_eq!(
-        got[..end],
-        host_layout()[..],
-        "kernel/host struct layouts differ"
-    );
+    let got = d
+        .run_layout_probe("layout_probe.cl", "layout_probe")
+        .unwrap();
+    assert_eq!(got, host_layout(), "kernel/host struct layouts differ");
 }
 
 /// The leaves' triangle sets, in node order; the order inside a leaf is

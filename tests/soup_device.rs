@@ -14,7 +14,7 @@ use scene_support::{asset, load, Builder};
 use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{validate, BuildParams};
-use soupray::device::{Arg, Device};
+use soupray::device::Device;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::{host_layout, DeviceSoup, SoupError};
 use soupray::soup::Soup;
@@ -129,22 +129,10 @@ fn check_file(rel: &str) {
 #[test]
 fn soup_layout_matches_device() {
     let d = device();
-    let program = d.build_program("soup_layout_probe.cl", &[]).unwrap();
-    let kernel = d.kernel(&program, "soup_layout_probe").unwrap();
-    let mut out = d.buffer::<u32>(64).unwrap();
-    d.write(&mut out, &[0u32; 64]).unwrap();
-    d.launch("probe", &kernel, 1, 1, &[Arg::Buf(&out)]).unwrap();
-    let mut got = vec![0u32; 64];
-    d.read(&out, &mut got).unwrap();
-    let end = got
-        .iter()
-        .position(|&v| v == u32::MAX)
-        .expect("probe terminator");
-    assert_eq!(
-        got[..end],
-        host_layout()[..],
-        "kernel/host soup struct layouts differ"
-    );
+    let got = d
+        .run_layout_probe("soup_layout_probe.cl", "soup_layout_probe")
+        .unwrap();
+    assert_eq!(got, host_layout(), "kernel/host soup struct layouts differ");
 }
 
 #[test]

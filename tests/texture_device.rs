@@ -15,7 +15,7 @@ mod common;
 mod scene_support;
 
 use scene_support::asset;
-use soupray::device::{Arg, Device};
+use soupray::device::Device;
 use soupray::scene::material::{Filter, Wrap};
 use soupray::scene::{LoadOptions, Scene, TextureTransform};
 use soupray::trace::texture::*;
@@ -128,15 +128,14 @@ fn compare(
 #[test]
 fn texture_layout_matches_device() {
     let (_one, d) = device();
-    let program = d.build_program("texture_layout_probe.cl", &[]).unwrap();
-    let kernel = d.kernel(&program, "texture_layout_probe").unwrap();
-    let mut out = d.buffer::<u32>(64).unwrap();
-    d.write(&mut out, &[0u32; 64]).unwrap();
-    d.launch("probe", &kernel, 1, 1, &[Arg::Buf(&out)]).unwrap();
-    let mut got = vec![0u32; 64];
-    d.read(&out, &mut got).unwrap();
-    let end = got.iter().position(|&v| v == u32::MAX).expect("terminator");
-    assert_eq!(got[..end], texture_layout()[..]);
+    let got = d
+        .run_layout_probe("texture_layout_probe.cl", "texture_layout_probe")
+        .unwrap();
+    assert_eq!(
+        got,
+        texture_layout(),
+        "kernel/host texture struct layouts differ"
+    );
 }
 
 const WRAPS: [Wrap; 3] = [Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat];

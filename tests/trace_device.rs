@@ -10,7 +10,6 @@ mod trace_support;
 use common::{mesh, random_soup};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{sweep, BuildParams, Bvh, BvhNode, Child, MAX_DEPTH};
-use soupray::device::Arg;
 use soupray::soup::Soup;
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
@@ -19,17 +18,12 @@ use trace_support::{assert_any_agrees, assert_same, device, random_rays, trace_e
 #[test]
 fn trace_layout_matches_device() {
     let d = device();
-    let program = d.build_program("layout_probe.cl", &[]).unwrap();
-    let kernel = d.kernel(&program, "trace_layout_probe").unwrap();
-    let mut out = d.buffer::<u32>(64).unwrap();
-    d.write(&mut out, &[0u32; 64]).unwrap();
-    d.launch("probe", &kernel, 1, 1, &[Arg::Buf(&out)]).unwrap();
-    let mut got = vec![0u32; 64];
-    d.read(&out, &mut got).unwrap();
-    let end = got.iter().position(|&v| v == u32::MAX).expect("terminator");
+    let got = d
+        .run_layout_probe("layout_probe.cl", "trace_layout_probe")
+        .unwrap();
     assert_eq!(
-        got[..end],
-        trace::trace_layout()[..],
+        got,
+        trace::trace_layout(),
         "kernel/host trace struct layouts differ"
     );
 }

@@ -14,7 +14,7 @@ use super::escape::{stackless_layout_into, StacklessNode};
 use super::traverse::check_depth;
 use super::{Hit, PinholeCamera, Ray, TraceError};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
-use crate::device::{Arg, Device};
+use crate::device::{Arg, Device, GrowBuffer};
 use opencl3::kernel::Kernel;
 use opencl3::memory::Buffer;
 use std::time::Instant;
@@ -41,39 +41,6 @@ pub struct EscapeStats {
     pub entries: usize,
 }
 
-/// A device buffer that grows to the largest size asked for and is then
-/// reused, frame after frame.
-struct Grow<T> {
-    buffer: Option<Buffer<T>>,
-    capacity: usize,
-}
-
-impl<T> Grow<T> {
-    fn new() -> Grow<T> {
-        Grow {
-            buffer: None,
-            capacity: 0,
-        }
-    }
-
-    fn ensure(
-        &mut self,
-        device: &Device,
-        n: usize,
-        allocations: &mut usize,
-    ) -> Result<&mut Buffer<T>, TraceError> {
-        if self.buffer.is_none() || self.capacity < n {
-            // Some headroom, so a slowly growing animation does not
-            // reallocate every frame.
-            let cap = n.max(1) + n / 8;
-            self.buffer = Some(device.buffer(cap)?);
-            self.capacity = cap;
-            *allocations += 1;
-        }
-        Ok(self.buffer.as_mut().expect("allocated above"))
-    }
-}
-
 /// The trace kernels and the current tree, on one device.
 pub struct DeviceTracer<'d> {
     device: &'d Device,
@@ -81,15 +48,14 @@ pub struct DeviceTracer<'d> {
     any: Kernel,
     stackless: Kernel,
     primary: Kernel,
-    nodes: Grow<BvhNode>,
-    snodes: Grow<StacklessNode>,
+    nodes: GrowBuffer<BvhNode>,
+    snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     snode_count: usize,
     depth: Option<u32>,
     /// Scratch for `trace_rays` (tests, tools).
-    rays: Grow<Ray>,
-    hits: Grow<Hit>,
-    allocations: usize,
+    rays: GrowBuffer<Ray>,
+    hits: GrowBuffer<Hit>,
     /// Work-items per work-group of the trace launches.
     pub local_size: usize,
 }
@@ -108,14 +74,13 @@ impl<'d> DeviceTracer<'d> {
             any: k("trace_any")?,
             stackless: k("trace_closest_stackless")?,
             primary: k("generate_primary")?,
-            nodes: Grow::new(),
-            snodes: Grow::new(),
+            nodes: GrowBuffer::new(),
+            snodes: GrowBuffer::new(),
             snode_host: Vec::new(),
             snode_count: 0,
             depth: None,
-            rays: Grow::new(),
-            hits: Grow::new(),
-            allocations: 0,
+            rays: GrowBuffer::new(),
+            hits: GrowBuffer::new(),
             local_size: 64,
         })
     }
@@ -123,7 +88,10 @@ impl<'d> DeviceTracer<'d> {
     /// Device buffer (re)allocations so far: only when a frame outgrows the
     /// buffers, never every frame.
     pub fn allocations(&self) -> usize {
-        self.allocations
+        self.nodes.allocations()
+            + self.snodes.allocations()
+            + self.rays.allocations()
+            + self.hits.allocations()
     }
 
     /// Checks the tree's depth against the stack and uploads its nodes into
@@ -132,9 +100,7 @@ impl<'d> DeviceTracer<'d> {
     pub fn upload_bvh(&mut self, bvh: &Bvh) -> Result<u32, TraceError> {
         self.depth = None;
         let depth = check_depth(bvh)?;
-        let buf = self
-            .nodes
-            .ensure(self.device, bvh.nodes.len(), &mut self.allocations)?;
+        let buf = self.nodes.ensure(self.device, bvh.nodes.len())?;
         self.device.write(buf, &bvh.nodes)?;
         self.depth = Some(depth);
         Ok(depth)
@@ -149,7 +115,7 @@ impl<'d> DeviceTracer<'d> {
         let layout_ms = start.elapsed().as_secs_f64() * 1e3;
         let start = Instant::now();
         let n = self.snode_host.len();
-        let buf = self.snodes.ensure(self.device, n, &mut self.allocations)?;
+        let buf = self.snodes.ensure(self.device, n)?;
         self.device.write(buf, &self.snode_host)?;
         self.snode_count = n;
         Ok(EscapeStats {
@@ -180,7 +146,7 @@ impl<'d> DeviceTracer<'d> {
         let groups = n.div_ceil(self.local_size);
         match kind {
             TraceKind::Closest | TraceKind::Any => {
-                let nodes = match (&self.nodes.buffer, self.depth) {
+                let nodes = match (self.nodes.buffer(), self.depth) {
                     (Some(b), Some(_)) => b,
                     _ => {
                         return Err(TraceError::Malformed(
@@ -209,7 +175,7 @@ impl<'d> DeviceTracer<'d> {
                 )?;
             }
             TraceKind::ClosestStackless => {
-                let snodes = match &self.snodes.buffer {
+                let snodes = match self.snodes.buffer() {
                     Some(b) if self.snode_count > 0 => b,
                     _ => {
                         return Err(TraceError::Malformed(
@@ -290,29 +256,21 @@ impl<'d> DeviceTracer<'d> {
         if n == 0 {
             return Ok(hits);
         }
-        let mut ray_buf = self.rays.buffer.take();
-        let mut hit_buf = self.hits.buffer.take();
-        // Put them back whatever happens, so a failure does not leak them.
         let result = (|| {
-            if ray_buf.is_none() || self.rays.capacity < n {
-                ray_buf = Some(self.device.buffer(n)?);
-                self.rays.capacity = n;
-                self.allocations += 1;
-            }
-            if hit_buf.is_none() || self.hits.capacity < n {
-                hit_buf = Some(self.device.buffer(n)?);
-                self.hits.capacity = n;
-                self.allocations += 1;
-            }
-            let (rb, hb) = (ray_buf.as_mut().unwrap(), hit_buf.as_ref().unwrap());
-            self.device.write(rb, rays)?;
-            self.trace(kind, positions, prim_ids, rb, hb, n)?;
-            self.device.read(hb, &mut hits)?;
+            self.device.write(self.rays.ensure(self.device, n)?, rays)?;
+            self.hits.ensure(self.device, n)?;
+            self.trace(
+                kind,
+                positions,
+                prim_ids,
+                self.rays.get(),
+                self.hits.get(),
+                n,
+            )?;
+            self.device.read(self.hits.get(), &mut hits)?;
             self.device.finish()?;
             Ok::<(), TraceError>(())
         })();
-        self.rays.buffer = ray_buf;
-        self.hits.buffer = hit_buf;
         result.map(|()| hits)
     }
 }

@@ -41,7 +41,7 @@ use super::traverse::check_depth;
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh, BvhNode, MAX_DEPTH};
-use crate::device::{Arg, Device};
+use crate::device::{Arg, Device, GrowBuffer};
 use crate::film::{self, Aovs, Image, BACKGROUND_DEPTH};
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
 use crate::soup::device::DeviceSoup;
@@ -231,34 +231,6 @@ pub fn device_camera(cam: &FrameCamera, width: u32, height: u32) -> DeviceCamera
     }
 }
 
-/// A device buffer that only grows.
-struct Grow<T> {
-    buffer: Option<Buffer<T>>,
-    capacity: usize,
-}
-
-impl<T> Grow<T> {
-    fn new() -> Grow<T> {
-        Grow {
-            buffer: None,
-            capacity: 0,
-        }
-    }
-
-    fn ensure(&mut self, device: &Device, n: usize) -> Result<&mut Buffer<T>, TraceError> {
-        if self.buffer.is_none() || self.capacity < n {
-            let cap = n.max(1) + n / 8;
-            self.buffer = Some(device.buffer(cap)?);
-            self.capacity = cap;
-        }
-        Ok(self.buffer.as_mut().expect("allocated above"))
-    }
-
-    fn get(&self) -> &Buffer<T> {
-        self.buffer.as_ref().expect("ensured before use")
-    }
-}
-
 /// A frame's soup on the device, whoever made it.
 struct SoupBuffers<'a> {
     positions: &'a Buffer<[f32; 4]>,
@@ -293,20 +265,20 @@ pub struct PathTracer<'d> {
     dummy_f32: Buffer<f32>,
     dummy_u32: Buffer<u32>,
     dummy_f4: Buffer<[f32; 4]>,
-    nodes: Grow<BvhNode>,
-    snodes: Grow<StacklessNode>,
+    nodes: GrowBuffer<BvhNode>,
+    snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
-    lights: Grow<DeviceLight>,
-    power: Grow<f32>,
+    lights: GrowBuffer<DeviceLight>,
+    power: GrowBuffer<f32>,
     power_host: Vec<f32>,
-    emit_prims: Grow<u32>,
-    emit_cdf: Grow<f32>,
-    emit_pmf: Grow<f32>,
-    accum_color: Grow<[f32; 4]>,
-    accum_normal: Grow<[f32; 4]>,
-    accum_albedo: Grow<[f32; 4]>,
-    accum_aux: Grow<[f32; 4]>,
-    ray_counts: Grow<u32>,
+    emit_prims: GrowBuffer<u32>,
+    emit_cdf: GrowBuffer<f32>,
+    emit_pmf: GrowBuffer<f32>,
+    accum_color: GrowBuffer<[f32; 4]>,
+    accum_normal: GrowBuffer<[f32; 4]>,
+    accum_albedo: GrowBuffer<[f32; 4]>,
+    accum_aux: GrowBuffer<[f32; 4]>,
+    ray_counts: GrowBuffer<u32>,
     /// Warnings of `new`, repeated in the first frame's output.
     setup_warnings: Vec<String>,
     /// Host soup uploads for `render_soup`.
@@ -317,10 +289,10 @@ pub struct PathTracer<'d> {
 type EnvBuffers = (DeviceEnv, Buffer<[f32; 4]>, Buffer<f32>, Buffer<f32>);
 
 struct HostSoupBuffers {
-    positions: Grow<[f32; 4]>,
-    normals: Grow<[f32; 4]>,
-    uvs: Grow<[f32; 2]>,
-    material_ids: Grow<u32>,
+    positions: GrowBuffer<[f32; 4]>,
+    normals: GrowBuffer<[f32; 4]>,
+    uvs: GrowBuffer<[f32; 2]>,
+    material_ids: GrowBuffer<u32>,
 }
 
 fn usage(msg: String) -> TraceError {
@@ -484,20 +456,20 @@ impl<'d> PathTracer<'d> {
             dummy_f32,
             dummy_u32,
             dummy_f4,
-            nodes: Grow::new(),
-            snodes: Grow::new(),
+            nodes: GrowBuffer::new(),
+            snodes: GrowBuffer::new(),
             snode_host: Vec::new(),
-            lights: Grow::new(),
-            power: Grow::new(),
+            lights: GrowBuffer::new(),
+            power: GrowBuffer::new(),
             power_host: Vec::new(),
-            emit_prims: Grow::new(),
-            emit_cdf: Grow::new(),
-            emit_pmf: Grow::new(),
-            accum_color: Grow::new(),
-            accum_normal: Grow::new(),
-            accum_albedo: Grow::new(),
-            accum_aux: Grow::new(),
-            ray_counts: Grow::new(),
+            emit_prims: GrowBuffer::new(),
+            emit_cdf: GrowBuffer::new(),
+            emit_pmf: GrowBuffer::new(),
+            accum_color: GrowBuffer::new(),
+            accum_normal: GrowBuffer::new(),
+            accum_albedo: GrowBuffer::new(),
+            accum_aux: GrowBuffer::new(),
+            ray_counts: GrowBuffer::new(),
             setup_warnings: warnings,
             host_soup: None,
         })
@@ -560,10 +532,10 @@ impl<'d> PathTracer<'d> {
             .build(soup)
             .map_err(|e| usage(format!("BVH build: {e}")))?;
         let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
-            positions: Grow::new(),
-            normals: Grow::new(),
-            uvs: Grow::new(),
-            material_ids: Grow::new(),
+            positions: GrowBuffer::new(),
+            normals: GrowBuffer::new(),
+            uvs: GrowBuffer::new(),
+            material_ids: GrowBuffer::new(),
         });
         let result = (|| {
             d.write(hs.positions.ensure(d, 3 * n)?, &soup.positions)?;
