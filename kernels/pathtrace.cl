@@ -164,7 +164,7 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
         float3 p = hit_point(s->positions, h.prim, h.u, h.v);
         float3 ng = geometric_normal(s->positions, h.prim);
         float3 n = dot(dir, ng) > 0.0f ? ng : -ng;
-        float3 o = offset_ray_origin(p, n);
+        float3 o = offset_ray_origin_scaled(p, n, offset_scale(s->positions, h.prim));
         ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
         *travelled = *travelled + h.t;
         ray.tmin = 0.0f;
@@ -440,7 +440,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 t, b;
         onb(sf.ns, &t, &b);
         float3 wo = to_local(wo_w, t, b, sf.ns);
-        float3 above = offset_ray_origin(sf.p, sf.ng);
+        float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(s->positions, h.prim));
 
         // Next-event estimation: one light, chosen uniformly among the
         // punctual lights, the emissive triangles (as one entry) and the

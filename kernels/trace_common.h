@@ -315,18 +315,34 @@ inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uin
 // surface along the unit normal `n` (flip it to the side the new ray leaves
 // from) by a fixed number of ulps, so the offset scales with the point's
 // magnitude; near the origin, where ulps vanish, by a small fixed distance.
-inline float offset_component(float p, float n) {
-    const float origin = 1.0f / 32.0f;
-    const float float_scale = 1.0f / 65536.0f;
+// That distance (and the "near") is `scale` times theirs: `offset_scale`.
+inline float offset_component(float p, float n, float scale) {
+    const float origin = scale * (1.0f / 32.0f);
+    const float float_scale = scale * (1.0f / 65536.0f);
     const float int_scale = 256.0f;
     int of_i = (int)(int_scale * n);
     float p_i = as_float(as_int(p) + (p < 0.0f ? -of_i : of_i));
     return fabs(p) < origin ? p + float_scale * n : p_i;
 }
 
-inline float3 offset_ray_origin(float3 p, float3 n) {
-    return (float3)(offset_component(p.x, n.x), offset_component(p.y, n.y),
-                    offset_component(p.z, n.z));
+inline float3 offset_ray_origin_scaled(float3 p, float3 n, float scale) {
+    return (float3)(offset_component(p.x, n.x, scale), offset_component(p.y, n.y, scale),
+                    offset_component(p.z, n.z, scale));
+}
+
+// The scale of the offsets from triangle `prim`: its largest coordinate
+// magnitude, capped at 1. A hit point's error is a few ulps of that
+// magnitude, so the fixed distance near the origin, sized for unit scenes,
+// shrinks with it: a scene at 1e-4 is offset like the unit scene, scaled,
+// instead of by a quarter of a sphere's radius. From 1 up it is 1 (the
+// published constants, unchanged).
+inline float offset_scale(const __global float* positions, uint prim) {
+    const __global float* p = positions + (size_t)prim * 12u;
+    float m = 0.0f;
+    for (uint k = 0u; k < 3u; ++k) {
+        m = fmax(m, fmax(fabs(p[4u * k]), fmax(fabs(p[4u * k + 1u]), fabs(p[4u * k + 2u]))));
+    }
+    return fmin(m, 1.0f);
 }
 
 // The hit point from the barycentrics (more precise than org + t * dir far

@@ -213,25 +213,48 @@ pub fn hit_point(positions: &[[f32; 4]], prim: u32, u: f32, v: f32) -> [f32; 3] 
 
 /// Wächter and Binder's offset of one coordinate along the unit normal's
 /// component `n`: a fixed number of ulps (so it scales with the magnitude of
-/// `p`), or a small fixed distance near the origin where ulps vanish.
-pub fn offset_component(p: f32, n: f32) -> f32 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+/// `p`), or a small fixed distance near the origin where ulps vanish. That
+/// distance, and what counts as near, are `scale` times theirs (see
+/// [`offset_scale`]).
+pub fn offset_component(p: f32, n: f32, scale: f32) -> f32 {
+    let origin = scale * (1.0 / 32.0);
+    let float_scale = scale * (1.0 / 65536.0);
     const INT_SCALE: f32 = 256.0;
     let of_i = (INT_SCALE * n) as i32;
     let p_i = f32::from_bits(
         (p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32,
     );
-    if p.abs() < ORIGIN {
-        p + FLOAT_SCALE * n
+    if p.abs() < origin {
+        p + float_scale * n
     } else {
         p_i
     }
 }
 
-/// A new ray's origin for a ray leaving the surface at `p` on the side of
-/// the unit normal `n` (flip `n` to the side the ray leaves from): it
-/// neither re-hits the surface it starts on nor skips nearby geometry.
+/// The scale of the offsets from triangle `prim`: its largest coordinate
+/// magnitude, capped at 1. A hit point's error is a few ulps of that
+/// magnitude, so the fixed distance near the origin (sized for unit scenes)
+/// shrinks with it: a scene at 1e-4 is offset like the unit scene, scaled.
+/// From 1 up the published constants apply unchanged.
+pub fn offset_scale(positions: &[[f32; 4]], prim: u32) -> f32 {
+    let p = &positions[3 * prim as usize..3 * prim as usize + 3];
+    let mut m = 0.0f32;
+    for c in p {
+        m = m.max(c[0].abs().max(c[1].abs().max(c[2].abs())));
+    }
+    m.min(1.0)
+}
+
+/// A new ray's origin for a ray leaving the surface at `p` of a triangle
+/// whose [`offset_scale`] is `scale`, on the side of the unit normal `n`
+/// (flip `n` to the side the ray leaves from): it neither re-hits the
+/// surface it starts on nor skips nearby geometry.
+pub fn offset_ray_origin_scaled(p: [f32; 3], n: [f32; 3], scale: f32) -> [f32; 3] {
+    std::array::from_fn(|a| offset_component(p[a], n[a], scale))
+}
+
+/// [`offset_ray_origin_scaled`] for triangles with a coordinate of
+/// magnitude 1 or more (scale 1).
 pub fn offset_ray_origin(p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|a| offset_component(p[a], n[a]))
+    offset_ray_origin_scaled(p, n, 1.0)
 }
