@@ -32,6 +32,7 @@ use std::time::Instant;
 ///   soupray bench                        # the shipped animation
 ///   soupray bench a.glb b.glb --frame 10 --reference-spp 4096
 #[derive(clap::Args, Debug, Clone)]
+#[command(verbatim_doc_comment)]
 pub struct BenchArgs {
     /// glTF scenes or PLY meshes to measure (default: the shipped animation).
     #[arg(value_name = "SCENE")]

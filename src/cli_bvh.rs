@@ -49,6 +49,7 @@ impl BuilderKind {
 ///   soupray bvh mesh.ply --json
 ///   soupray bvh walk.glb --frame 12 --bins 8 --leaf 2
 #[derive(clap::Args, Debug, Clone)]
+#[command(verbatim_doc_comment)]
 pub struct BvhArgs {
     /// A .ply triangle mesh, or a .gltf/.glb scene.
     #[arg(value_name = "INPUT")]

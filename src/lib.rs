@@ -30,3 +30,15 @@ pub mod trace;
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
+
+/// The exit codes of the `soupray` binary, for `--help` (and the README).
+pub const EXIT_CODES: &str = "\
+Exit codes:
+  0    success: everything requested was done
+  1    any other failure
+  2    usage error (bad flags or values)
+  3    OpenCL device set-up failed (no platform, no matching device, kernel build)
+  4    the input could not be read (missing, malformed or unsupported scene or mesh)
+  5    a frame failed (with --keep-going: at least one frame failed)
+  6    the output directory cannot be created or written
+  130  interrupted (SIGINT); 143 terminated (SIGTERM)";

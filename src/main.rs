@@ -5,24 +5,13 @@ use clap::{Parser, Subcommand};
 use soupray::{cli_bvh, cli_scene};
 use std::process::ExitCode;
 
-const EXIT_CODES: &str = "\
-Exit codes:
-  0    success: everything requested was done
-  1    any other failure
-  2    usage error (bad flags or values)
-  3    OpenCL device set-up failed (no platform, no matching device, kernel build)
-  4    the input could not be read (missing, malformed or unsupported scene or mesh)
-  5    a frame failed (with --keep-going: at least one frame failed)
-  6    the output directory cannot be created or written
-  130  interrupted (SIGINT); 143 terminated (SIGTERM)";
-
 /// soupray: an offline path tracer for glTF animations.
 ///
 /// Each frame is evaluated into a world-space triangle soup, a full
 /// binned-SAH BVH is rebuilt from it on an OpenCL device (PoCL on the CPU,
 /// or a GPU's driver), and the frame is traced.
 #[derive(Parser, Debug)]
-#[command(name = "soupray", version, after_help = EXIT_CODES, max_term_width = 100)]
+#[command(name = "soupray", version, after_help = soupray::EXIT_CODES, max_term_width = 100)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

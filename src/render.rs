@@ -46,6 +46,7 @@ pub const DEFAULT_SCENE: &str = "animations/CesiumMan/CesiumMan.glb";
 /// plus NAME.json with timings, BVH statistics and warnings. Files appear
 /// only when complete (written to a temporary file, then renamed).
 #[derive(clap::Args, Debug, Clone)]
+#[command(verbatim_doc_comment, after_help = crate::EXIT_CODES)]
 pub struct RenderArgs {
     /// The glTF 2.0 animation (.glb, or .gltf with its files). Default: the
     /// animation shipped in animations/.
@@ -189,7 +190,8 @@ pub struct RenderArgs {
     /// Print only errors.
     #[arg(long, short, conflicts_with = "verbose", help_heading = "Job")]
     pub quiet: bool,
-    /// Print each stage's timings and every kernel's device time.
+    /// Print each frame's stage timings (evaluate, build with its large/
+    /// medium/small device split, trace) and ray count.
     #[arg(long, short, help_heading = "Job")]
     pub verbose: bool,
 }
