@@ -12,6 +12,22 @@
 // or vertex exactly is given to one triangle only, by a top-left rule on the
 // orientation-normalised edge: no cracks and no double hits.
 //
+// The signs decide coverage; the magnitudes give t and the barycentrics.
+// Each edge function is a difference of two products of ray-space
+// coordinates, rounded at 2^-24 of the products, not of the difference: for a
+// sliver (aspect ratio 1e5 and up) or a triangle seen almost edge-on the
+// products dwarf the doubled area and the barycentrics and t lose most of
+// their digits (hit points a unit off along a 250-long sliver, shadow rays
+// re-hitting the plane they leave). When the products' sum exceeds the
+// determinant by more than ILL_CONDITIONED, the edge functions and t are
+// recomputed in double from the same float inputs: the products of floats
+// are exact in double, so the values are accurate and have the same signs
+// as the float ones (coverage, and so watertightness, is unchanged). Ordinary
+// triangles never take that path. Without cl_khr_fp64 (or with
+// SOUPRAY_NO_FP64 defined) the float values are kept: hits are the same, but
+// slivers shade less accurately and no longer match the CPU reference,
+// which always takes the double path.
+//
 // Boxes: the slab test with near/far planes chosen by the direction's sign
 // bit (so -0 and +0 both work, and 0 * inf = NaN from a ray lying in a slab
 // plane is ignored by fmax/fmin), and the far distance scaled by 1 + 2*gamma(3)
@@ -21,6 +37,12 @@
 #define SOUPRAY_TRACE_COMMON_H
 
 #pragma OPENCL FP_CONTRACT OFF
+
+// The compiler defines cl_khr_fp64 exactly when the device supports it.
+#if defined(cl_khr_fp64) && !defined(SOUPRAY_NO_FP64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#define SOUPRAY_FP64 1
+#endif
 
 #include "bvh_types.h"
 #include "trace_types.h"
@@ -38,6 +60,12 @@
 // index is never culled away and ties resolve the same in every tree.
 #define CULL_SCALE (1.0f + 1.0f / 65536.0f)
 #define NO_NODE 0xFFFFFFFFu
+// The float edge functions' error is about 2^-24 of the products' sum, so
+// below this ratio of determinant to that sum the barycentrics would carry
+// an error above 2^-12 relative, and t one of 2^-12 of the vertices' depths:
+// recompute them in double. Ordinary triangles stay far above it (the ratio
+// is about the inverse of the aspect ratio times the obliquity).
+#define ILL_CONDITIONED (1.0f / 4096.0f)
 
 // A ray prepared for traversal: the box test's reciprocals and near-plane
 // choice, and the watertight test's axis permutation and shear.
@@ -148,9 +176,31 @@ inline bool intersect_triangle(const RayPre* r, const __global float* positions,
     float az = r->sz * az_;
     float bz = r->sz * bz_;
     float cz = r->sz * cz_;
-    float tt = u * az + v * bz + w * cz;
-    float rcp = 1.0f / det;
-    float t = tt * rcp;
+    float t, bu, bv;
+#ifdef SOUPRAY_FP64
+    // The products' magnitudes, as edge_function forms them.
+    float mag = fabs(cx * by) + fabs(cy * bx) + fabs(ax * cy) + fabs(ay * cx) +
+                fabs(bx * ay) + fabs(by * ax);
+    if (fabs(det) < mag * ILL_CONDITIONED) {
+        // Exact products, one rounding per difference: same signs as u, v,
+        // w (both exact), so det_d is non-zero like det.
+        double u_d = (double)cx * (double)by - (double)cy * (double)bx;
+        double v_d = (double)ax * (double)cy - (double)ay * (double)cx;
+        double w_d = (double)bx * (double)ay - (double)by * (double)ax;
+        double det_d = u_d + v_d + w_d;
+        double tt_d = u_d * (double)az + v_d * (double)bz + w_d * (double)cz;
+        t = (float)(tt_d / det_d);
+        bu = (float)(v_d / det_d);
+        bv = (float)(w_d / det_d);
+    } else
+#endif
+    {
+        float tt = u * az + v * bz + w * cz;
+        float rcp = 1.0f / det;
+        t = tt * rcp;
+        bu = v * rcp;
+        bv = w * rcp;
+    }
     if (!(t > r->tmin && t < r->tmax)) return false;
     // Degenerate triangles: their projected area may round to non-zero, so
     // they are recognised in 3D, only for the few candidates that get here.
@@ -161,8 +211,8 @@ inline bool intersect_triangle(const RayPre* r, const __global float* positions,
     float nz = e1x * e2y - e1y * e2x;
     if (nx == 0.0f && ny == 0.0f && nz == 0.0f) return false;
     *t_out = t;
-    *u_out = v * rcp;
-    *v_out = w * rcp;
+    *u_out = bu;
+    *v_out = bv;
     return true;
 }
 

@@ -688,18 +688,16 @@ fn slivers_of_aspect_ratio_1e6_leave_no_cracks() {
     reference.assert_matches(&f.image, "slivers of aspect ratio 2.5e4");
 }
 
-/// Fails today (see the report of issue 6): at aspect ratio 1e6 the image
-/// is darker than the plane's (mean 0.218 against 0.256; direct light
-/// alone 0.055 against 0.100). The watertight test's edge functions are
-/// products of coordinates relative to the ray origin (up to 125 here),
-/// rounded to about 1e-3, against a doubled area of 0.06: the barycentrics
-/// of a hit are off by a few percent, which `hit_point` turns into a point
-/// up to a unit away along the sliver, and a shadow ray leaving the plane
-/// gets a t error of the same order, so a quarter of them report a hit on
-/// the plane they leave. Coverage is right (the inside test is
-/// watertight); positions and t are not.
+/// Issue 6: at aspect ratio 1e6 the image was darker than the plane's (mean
+/// 0.218 against 0.256; direct light alone 0.055 against 0.100). The
+/// watertight test's edge functions are differences of products of
+/// coordinates relative to the ray origin (up to 125 here), rounded in float
+/// to about 1e-3, against a doubled area of 0.06: the barycentrics were off
+/// by a few percent, `hit_point` put the hit up to a unit away along the
+/// sliver, and shadow rays leaving the plane got t errors of the same order.
+/// Ill-conditioned edge functions are now recomputed in double (see
+/// `ILL_CONDITIONED` in kernels/trace_common.h); coverage was always right.
 #[test]
-#[ignore = "issue 6: slivers of aspect ratio 1e6 shade wrongly (imprecise barycentrics and t)"]
 fn slivers_of_aspect_ratio_1e6_render_like_two_triangles() {
     let d = common::device();
     let dir = tempfile::tempdir().unwrap();

@@ -9,7 +9,10 @@
 //! The comments there explain the numerics; the short version: edge
 //! functions have exact signs (monotonic rounding, exact zeros resolved from
 //! FMA rounding errors), exact zeros go to one triangle by a top-left rule,
-//! and degenerate triangles (zero geometric normal) are never hit.
+//! and degenerate triangles (zero geometric normal) are never hit. The
+//! magnitudes of ill-conditioned edge functions (slivers, near edge-on
+//! views) are recomputed in f64, as the kernel does where the device has
+//! `cl_khr_fp64`; a device without it matches these hits except there.
 
 use super::Ray;
 
@@ -19,6 +22,10 @@ pub const BOX_FAR_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
 /// Boxes are culled only when they start beyond `best * CULL_SCALE`, so a
 /// triangle at the closest t (or a hair before, by rounding) is never lost.
 pub const CULL_SCALE: f32 = 1.0 + 1.0 / 65536.0;
+/// Below this ratio of the determinant to the edge functions' products'
+/// magnitudes, t and the barycentrics are computed in f64
+/// (`ILL_CONDITIONED` in the kernel, which explains the choice).
+pub const ILL_CONDITIONED: f32 = 1.0 / 4096.0;
 
 /// A ray prepared for traversal (`RayPre` in the kernel).
 #[derive(Clone, Copy, Debug)]
@@ -161,20 +168,39 @@ pub fn intersect_triangle(r: &RayPre, positions: &[[f32; 4]], prim: u32) -> Opti
     let az = sz * az_;
     let bz = sz * bz_;
     let cz = sz * cz_;
-    let tt = u * az + v * bz + w * cz;
-    let rcp = 1.0 / det;
-    let t = tt * rcp;
+    // The products' magnitudes, as `edge_function` forms them.
+    let mag = (cx * by).abs()
+        + (cy * bx).abs()
+        + (ax * cy).abs()
+        + (ay * cx).abs()
+        + (bx * ay).abs()
+        + (by * ax).abs();
+    let (t, bu, bv) = if det.abs() < mag * ILL_CONDITIONED {
+        // Exact products of floats, one rounding per difference: the same
+        // signs as u, v, w, accurate magnitudes.
+        let d = |x: f32| x as f64;
+        let u_d = d(cx) * d(by) - d(cy) * d(bx);
+        let v_d = d(ax) * d(cy) - d(ay) * d(cx);
+        let w_d = d(bx) * d(ay) - d(by) * d(ax);
+        let det_d = u_d + v_d + w_d;
+        let tt_d = u_d * d(az) + v_d * d(bz) + w_d * d(cz);
+        (
+            (tt_d / det_d) as f32,
+            (v_d / det_d) as f32,
+            (w_d / det_d) as f32,
+        )
+    } else {
+        let tt = u * az + v * bz + w * cz;
+        let rcp = 1.0 / det;
+        (tt * rcp, v * rcp, w * rcp)
+    };
     if !(t > r.tmin && t < r.tmax) {
         return None;
     }
     if is_degenerate(positions, prim) {
         return None;
     }
-    Some(TriHit {
-        t,
-        u: v * rcp,
-        v: w * rcp,
-    })
+    Some(TriHit { t, u: bu, v: bv })
 }
 
 /// Whether triangle `prim`'s geometric normal `(p1 - p0) × (p2 - p0)` is
