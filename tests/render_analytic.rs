@@ -507,3 +507,33 @@ fn environment_map_importance_sampling_matches_its_irradiance() {
     let e = render_soup(&d, &s, &table(vec![]), &top_down(1.0), &[], &st, 0).unwrap_err();
     assert!(e.to_string().contains("missing.exr"), "{e}");
 }
+
+#[test]
+fn a_black_environment_is_no_light_to_sample() {
+    // With a point light, `--env-color 0,0,0` must render exactly like no
+    // environment at all: a black sky adds nothing, so it must not take a
+    // share of the light samples (that would only add noise).
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(
+        &mut s,
+        Vec3::ZERO,
+        Vec3::X * 50.0,
+        Vec3::Z * 50.0,
+        Vec3::Y,
+        0,
+    );
+    let lights = [light(
+        LightKind::Point,
+        Vec3::new(0.0, 4.0, 0.0),
+        Vec3::NEG_Y,
+        [1.0; 3],
+        80.0,
+    )];
+    let mut st = settings(32, 8);
+    st.clay = true;
+    let none = render_soup(&d, &s, &table(vec![]), &top_down(6.0), &lights, &st, 0).unwrap();
+    st.environment = Environment::Color([0.0, 0.0, 0.0]);
+    let black = render_soup(&d, &s, &table(vec![]), &top_down(6.0), &lights, &st, 0).unwrap();
+    assert_eq!(bits(&black.image), bits(&none.image));
+}

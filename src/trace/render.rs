@@ -658,9 +658,15 @@ impl<'d> PathTracer<'d> {
         // The environment.
         let env = match (&s.environment, &self.env_map) {
             (Environment::Map(_), Some((env, ..))) => *env,
-            (Environment::Color(c), _) => DeviceEnv {
+            (Environment::Color(c), _) if c.iter().any(|&v| v > 0.0) => DeviceEnv {
                 color: [c[0], c[1], c[2], 0.0],
                 kind: ENV_CONSTANT,
+                ..DeviceEnv::zeroed()
+            },
+            // A black environment adds no light: as a light to sample it
+            // would only take samples away from the lights that do.
+            (Environment::Color(_), _) => DeviceEnv {
+                kind: ENV_NONE,
                 ..DeviceEnv::zeroed()
             },
             _ if lights.is_empty() && emit.is_empty() => {
