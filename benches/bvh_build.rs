@@ -12,6 +12,7 @@
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
 use soupray::device::Device;
+use soupray::report::median;
 use soupray::soup::Soup;
 use std::path::Path;
 use std::time::Instant;
@@ -45,11 +46,6 @@ fn arrangement(base: &Soup, copies: usize) -> Soup {
         }
     }
     out
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Peak resident memory since the last reset, in MiB (Linux).

@@ -11,6 +11,7 @@
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
 use soupray::device::Device;
+use soupray::report::median;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::DeviceSoup;
 use soupray::trace::render::{FrameInput, PathTracer, RenderSettings};
@@ -22,11 +23,6 @@ const SCENES: &[&str] = &[
     "tests/assets/CesiumMan/CesiumMan.gltf",
     "tests/assets/Fox/Fox.glb",
 ];
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
     args.iter()
@@ -116,11 +112,11 @@ fn main() {
             "| {name} | {} | {} | {:.3e} | {:.2} | {:.1} | {:.2} | {:.1} |",
             soup.triangle_count(),
             if pt.has_textures() { "yes" } else { "no" },
-            median(&mut sps),
-            median(&mut mrays),
-            median(&mut ms),
-            median(&mut rps),
-            median(&mut wall)
+            median(sps.clone()),
+            median(mrays.clone()),
+            median(ms.clone()),
+            median(rps.clone()),
+            median(wall.clone())
         );
         for w in warnings {
             eprintln!("  {name}: {w}");

@@ -16,6 +16,7 @@ use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
 use soupray::device::Device;
+use soupray::report::median;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::DeviceSoup;
 use std::path::{Path, PathBuf};
@@ -166,11 +167,6 @@ fn skinned_cylinder(dir: &Path) -> PathBuf {
     std::fs::write(&path, serde_json::to_string(&root).expect("json"))
         .expect("write cylinder.gltf");
     path
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

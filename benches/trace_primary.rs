@@ -14,6 +14,7 @@
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
 use soupray::device::Device;
+use soupray::report::median;
 use soupray::soup::Soup;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceKind};
 use std::path::Path;
@@ -63,11 +64,6 @@ fn filling_camera(bvh: &Bvh, soup: &Soup, size: u32) -> PinholeCamera {
         .max_by_key(|&(a, s)| coverage(&view(a, s, 64)))
         .unwrap();
     view(axis, sign, size)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn arg(name: &str, default: usize) -> usize {

@@ -19,6 +19,7 @@ use crate::bvh::{self, BuildParams, Bvh};
 use crate::compare::{self, ImageError};
 use crate::device::Device;
 use crate::film::{Aovs, Image};
+use crate::report::median;
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
@@ -93,11 +94,6 @@ struct Config {
     params: BuildParams,
     traversal: Traversal,
     spp: u32,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// The sweep: each knob varied alone around the defaults.

@@ -4,12 +4,13 @@
 //! `bvh --json` prints one JSON object (documented in `BvhReport`), so
 //! scripts and benchmarks can read a build without parsing prose.
 
-use crate::bvh::{self, binned, device_builder::DeviceBuilder, sweep, BuildParams};
+use crate::bvh::device_builder::{DeviceBuilder, StageTimes};
+use crate::bvh::{self, binned, sweep, BuildParams};
 use crate::device::{list_devices, Device};
+use crate::report::median;
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
-use anyhow::Context as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -121,12 +122,11 @@ pub struct BvhReport {
     pub mtris_per_s: f64,
 }
 
+/// The build's device time per stage, and the host's task generation.
 #[derive(serde::Serialize, Debug, Default)]
 pub struct StagesMs {
-    pub prepare: f64,
-    pub large: f64,
-    pub medium: f64,
-    pub small: f64,
+    #[serde(flatten)]
+    pub device: StageTimes,
     pub host: f64,
 }
 
@@ -190,11 +190,6 @@ fn extension(p: &Path) -> String {
     p.extension()
         .map(|e| e.to_string_lossy().to_lowercase())
         .unwrap_or_default()
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
@@ -261,10 +256,12 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
         }
     };
     let stages_ms = StagesMs {
-        prepare: stage(|s| s.stages_ms.prepare),
-        large: stage(|s| s.stages_ms.large),
-        medium: stage(|s| s.stages_ms.medium),
-        small: stage(|s| s.stages_ms.small),
+        device: StageTimes {
+            prepare: stage(|s| s.stages_ms.prepare),
+            large: stage(|s| s.stages_ms.large),
+            medium: stage(|s| s.stages_ms.medium),
+            small: stage(|s| s.stages_ms.small),
+        },
         host: stage(|s| s.host_ms),
     };
     let validation = bvh::validate(&tree, &soup, params.leaf_size);
@@ -331,12 +328,7 @@ fn print_report(r: &BvhReport) {
         let s = &r.stages_ms;
         println!(
             "stages     prepare {:.2} ms, large {:.2} ms, medium {:.2} ms, small {:.2} ms (device); host {:.2} ms",
-            s.prepare, s.large, s.medium, s.small, s.host
+            s.device.prepare, s.device.large, s.device.medium, s.device.small, s.host
         );
     }
-}
-
-/// Loads a soup from a path for other commands (PLY only).
-pub fn read_ply(path: &Path) -> anyhow::Result<Soup> {
-    crate::ply::read_soup(path).with_context(|| format!("reading {}", path.display()))
 }

@@ -327,24 +327,6 @@ impl Device {
         Ok(())
     }
 
-    /// Queues a copy of `data` into `buffer` without waiting; the caller
-    /// keeps `data` alive and unchanged until the queue is next synchronised.
-    pub fn write_async<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
-        if data.is_empty() {
-            return Ok(());
-        }
-        // SAFETY: see the contract above; the in-order queue finishes this
-        // write before any later command reads the buffer.
-        unsafe {
-            cl(
-                "clEnqueueWriteBuffer",
-                self.queue
-                    .enqueue_write_buffer(buffer, CL_NON_BLOCKING, 0, data, &[]),
-            )?;
-        }
-        Ok(())
-    }
-
     /// Reads the first `out.len()` elements of `buffer`, blocking.
     pub fn read<T>(&self, buffer: &Buffer<T>, out: &mut [T]) -> Result<()> {
         if out.is_empty() {

@@ -2,7 +2,7 @@
 //! PNG preview, and the per-frame JSON build log; plus the checks
 //! `--skip-existing` uses to tell a finished frame from an interrupted one.
 //!
-//! Every file is written to `soup::temporary_sibling(path)` in the same
+//! Every file is written to `temporary_sibling(path)` in the same
 //! directory, flushed and fsynced, then renamed over the final name (and the
 //! directory fsynced, so the rename survives a power cut). A killed run
 //! therefore never leaves a truncated file under a final name; on an error
@@ -76,7 +76,7 @@ pub enum OutputError {
     BadLog { path: PathBuf, message: String },
 }
 
-fn io_err<'a>(
+pub(crate) fn io_err<'a>(
     path: &'a Path,
     action: &'static str,
 ) -> impl FnOnce(std::io::Error) -> OutputError + 'a {
@@ -87,6 +87,26 @@ fn io_err<'a>(
     }
 }
 
+/// A temporary path in the same directory as `path`, so that a finished file
+/// can be renamed into place atomically (rename is atomic only within one
+/// file system): `.<name>.<pid>.tmp`. The process id keeps concurrent
+/// writers apart and tells a later run whose temporary it is.
+pub fn temporary_sibling(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// The target file name and writer's process id of a temporary made by
+/// `temporary_sibling`, from its file name; `None` for any other file.
+pub fn temporary_owner(file_name: &str) -> Option<(&str, u32)> {
+    let inner = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (target, pid) = inner.rsplit_once('.')?;
+    Some((target, pid.parse().ok()?))
+}
+
 /// Writes `path` atomically: `write` fills a temporary file beside it,
 /// which is flushed, fsynced and renamed over `path`. On any error the
 /// temporary is removed and `path` is untouched.
@@ -94,7 +114,7 @@ pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&File>) -> Result<(), OutputError>,
 ) -> Result<(), OutputError> {
-    let tmp = crate::soup::temporary_sibling(path);
+    let tmp = temporary_sibling(path);
     let result = (|| {
         let file = File::create(&tmp).map_err(io_err(path, "create a temporary file for"))?;
         let mut out = BufWriter::new(&file);
@@ -379,13 +399,7 @@ pub struct BuildLog {
     pub stages_ms: StageTimes,
 }
 
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(default)]
-pub struct StageTimes {
-    pub large: f64,
-    pub medium: f64,
-    pub small: f64,
-}
+pub use crate::bvh::device_builder::StageTimes;
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]

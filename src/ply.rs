@@ -10,7 +10,7 @@
 
 use crate::soup::Soup;
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 
 /// Why a PLY file could not be read. Every message names the file.
@@ -480,42 +480,35 @@ impl<R: BufRead> Body<'_, R> {
 }
 
 /// Writes a soup as binary little-endian PLY, three unshared vertices per
-/// triangle. The file is complete or absent: it is written to a temporary
-/// name beside `path` and renamed.
-pub fn write_soup(path: &Path, soup: &Soup) -> std::io::Result<()> {
-    let tmp = crate::soup::temporary_sibling(path);
-    let result = (|| {
-        let mut out = BufWriter::new(File::create(&tmp)?);
+/// triangle, atomically (`output::write_atomic`).
+pub fn write_soup(path: &Path, soup: &Soup) -> Result<(), crate::output::OutputError> {
+    crate::output::write_atomic(path, |out| {
         let tris = soup.triangle_count();
-        write!(
-            out,
-            "ply\nformat binary_little_endian 1.0\ncomment written by soupray {}\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
-            env!("CARGO_PKG_VERSION"),
-            tris * 3,
-            tris
-        )?;
-        for p in &soup.positions {
-            for c in &p[..3] {
-                out.write_all(&c.to_le_bytes())?;
+        let mut body = || -> std::io::Result<()> {
+            write!(
+                out,
+                "ply\nformat binary_little_endian 1.0\ncomment written by soupray {}\n\
+                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                 element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+                env!("CARGO_PKG_VERSION"),
+                tris * 3,
+                tris
+            )?;
+            for p in &soup.positions {
+                for c in &p[..3] {
+                    out.write_all(&c.to_le_bytes())?;
+                }
             }
-        }
-        for t in 0..tris as u32 {
-            out.write_all(&[3u8])?;
-            for k in 0..3 {
-                out.write_all(&(3 * t + k).to_le_bytes())?;
+            for t in 0..tris as u32 {
+                out.write_all(&[3u8])?;
+                for k in 0..3 {
+                    out.write_all(&(3 * t + k).to_le_bytes())?;
+                }
             }
-        }
-        out.into_inner().map_err(|e| e.into_error())?.sync_all()
-    })();
-    match result {
-        Ok(()) => std::fs::rename(&tmp, path),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
-        }
-    }
+            Ok(())
+        };
+        body().map_err(crate::output::io_err(path, "write"))
+    })
 }
 
 #[cfg(test)]

@@ -610,11 +610,7 @@ fn render_frame(
         leaves: shape.leaves as u64,
         max_depth: shape.max_depth,
         sah_cost: bvh::sah_cost(&tree),
-        stages_ms: output::StageTimes {
-            large: build.stages_ms.large,
-            medium: build.stages_ms.medium,
-            small: build.stages_ms.small,
-        },
+        stages_ms: build.stages_ms,
     };
     log.render = output::RenderLog {
         width: job.settings.width,
@@ -713,7 +709,7 @@ fn spawn_writer(
 }
 
 /// Removes the temporaries a killed run left for this job's frames: files
-/// named `.<frame file>.<pid>.tmp` (see `soup::temporary_sibling`) whose
+/// named by `output::temporary_sibling` whose
 /// process is gone. Only this job's frames are touched, and only when the
 /// writer is not running on this machine, so a chunk still writing on
 /// another node sharing the directory keeps its files.
@@ -733,13 +729,7 @@ fn remove_stale_temporaries(job: &Job) -> usize {
     let mut removed = 0;
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
-            continue;
-        };
-        let Some((target, pid)) = inner.rsplit_once('.') else {
-            continue;
-        };
-        let Ok(pid) = pid.parse::<u32>() else {
+        let Some((target, pid)) = output::temporary_owner(&name) else {
             continue;
         };
         let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();

@@ -14,20 +14,9 @@ use scene_support::{asset, load, Builder};
 use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{validate, BuildParams};
-use soupray::device::Device;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::{host_layout, DeviceSoup, SoupError};
 use soupray::soup::Soup;
-use std::sync::Mutex;
-
-/// `common::device`, one test thread at a time: PoCL's first platform and
-/// device enumeration is not safe to run from several threads at once (the
-/// loser sees "no OpenCL device").
-fn device() -> Device {
-    static OPEN: Mutex<()> = Mutex::new(());
-    let _one_at_a_time = OPEN.lock().unwrap_or_else(|e| e.into_inner());
-    common::device()
-}
 
 /// Clips with more frames than this are sampled evenly (ends included).
 const MAX_FRAMES: i64 = 120;
@@ -87,7 +76,7 @@ fn compare(device: &Soup, cpu: &Soup, normal_tol: f32, what: &str) -> f32 {
 /// Evaluates every frame of `scene` on the device and on the CPU and holds
 /// them to 1e-5 of the scene's diagonal; returns the worst relative error.
 fn check_scene(scene: &Scene, what: &str) -> f32 {
-    let d = device();
+    let d = common::device();
     let mut soup = DeviceSoup::new(&d, scene).unwrap_or_else(|e| panic!("{what}: {e}"));
     assert_eq!(soup.triangle_count(), scene.triangle_count());
     let diag = diagonal(scene).max(f32::MIN_POSITIVE);
@@ -128,7 +117,7 @@ fn check_file(rel: &str) {
 
 #[test]
 fn soup_layout_matches_device() {
-    let d = device();
+    let d = common::device();
     let got = d
         .run_layout_probe("soup_layout_probe.cl", "soup_layout_probe")
         .unwrap();
@@ -194,7 +183,7 @@ fn mirrored_skin_swaps_corners_like_the_cpu() {
     let dir = tempfile::tempdir().unwrap();
     let path = skinned_triangle(dir.path(), json!({"scale": [-1.0, 1.0, 1.0]}));
     let scene = load(&path, None);
-    let d = device();
+    let d = common::device();
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();
     soup.evaluate(&scene, 0.0).unwrap();
     let got = soup.read_back().unwrap();
@@ -329,7 +318,7 @@ fn second_influence_set_matches_cpu() {
     );
     let scene = load(&path, None);
     assert_eq!(scene.max_influence_sets(), 2);
-    let d = device();
+    let d = common::device();
     let soup = DeviceSoup::new(&d, &scene).unwrap();
     assert!(soup.build_options().contains("-D INFLUENCE_SETS=2"));
     drop(soup);
@@ -338,7 +327,7 @@ fn second_influence_set_matches_cpu() {
 
 #[test]
 fn compiled_defines_follow_the_scene_features() {
-    let d = device();
+    let d = common::device();
     // Rigid only: no skinning, no morphing.
     let scene = load(&asset("BoxAnimated/BoxAnimated.glb"), None);
     let soup = DeviceSoup::new(&d, &scene).unwrap();
@@ -381,7 +370,7 @@ fn compiled_defines_follow_the_scene_features() {
 
 #[test]
 fn buffers_are_allocated_once_and_reused_every_frame() {
-    let d = device();
+    let d = common::device();
     let scene = load(&asset("CesiumMan/CesiumMan.gltf"), None);
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();
     let allocations = soup.allocations();
@@ -411,7 +400,7 @@ fn buffers_are_allocated_once_and_reused_every_frame() {
 
 #[test]
 fn an_unchanged_pose_keeps_the_soup_without_launching() {
-    let d = device();
+    let d = common::device();
     let scene = load(&asset("CesiumMan/CesiumMan.gltf"), None);
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();
     d.take_timings().unwrap();
@@ -432,7 +421,7 @@ fn an_unchanged_pose_keeps_the_soup_without_launching() {
 
 #[test]
 fn bvh_built_from_the_device_soup_validates() {
-    let d = device();
+    let d = common::device();
     let scene = load(&asset("Fox/Fox.glb"), Some("Run"));
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();
     let params = BuildParams::default();
@@ -481,7 +470,7 @@ fn overflowing_scene(dir: &std::path::Path) -> std::path::PathBuf {
 fn non_finite_corners_fail_with_the_cpu_message_or_collapse_when_sanitized() {
     let dir = tempfile::tempdir().unwrap();
     let path = overflowing_scene(dir.path());
-    let d = device();
+    let d = common::device();
     let scene = load(&path, None);
     let cpu = scene.evaluate(0.0).unwrap_err().to_string();
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();
@@ -520,7 +509,7 @@ fn non_finite_corners_fail_with_the_cpu_message_or_collapse_when_sanitized() {
 
 #[test]
 fn another_scene_is_refused() {
-    let d = device();
+    let d = common::device();
     let a = load(&asset("BoxAnimated/BoxAnimated.glb"), None);
     let b = load(&asset("CesiumMan/CesiumMan.gltf"), None);
     let mut soup = DeviceSoup::new(&d, &a).unwrap();

@@ -15,21 +15,11 @@ mod common;
 mod scene_support;
 
 use scene_support::asset;
-use soupray::device::Device;
 use soupray::scene::material::{Filter, Wrap};
 use soupray::scene::{LoadOptions, Scene, TextureTransform};
 use soupray::trace::texture::*;
-use std::sync::Mutex;
 
 const TOLERANCE: f32 = 1e-6;
-
-/// `common::device`, one test thread at a time (PoCL's first enumeration is
-/// not thread-safe, and the 2-core machine is shared anyway).
-fn device() -> (std::sync::MutexGuard<'static, ()>, Device) {
-    static ONE: Mutex<()> = Mutex::new(());
-    let guard = ONE.lock().unwrap_or_else(|e| e.into_inner());
-    (guard, common::device())
-}
 
 /// A spread of uvs for a `w` x `h` texture: random ones in [-3, 4], far ones
 /// (up to ±1e6), exact texel centres and edges over three periods, and the
@@ -127,7 +117,7 @@ fn compare(
 
 #[test]
 fn texture_layout_matches_device() {
-    let (_one, d) = device();
+    let d = common::device();
     let got = d
         .run_layout_probe("texture_layout_probe.cl", "texture_layout_probe")
         .unwrap();
@@ -142,7 +132,7 @@ const WRAPS: [Wrap; 3] = [Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat]
 
 #[test]
 fn generated_images_every_wrap_pair_and_filter() {
-    let (_one, d) = device();
+    let d = common::device();
     let mut rng = common::Rng::new(4);
     let mut host = HostTextures::default();
     let mut per_texture = Vec::new();
@@ -187,7 +177,7 @@ fn generated_images_every_wrap_pair_and_filter() {
 
 #[test]
 fn srgb_bytes_decode_on_the_device_as_the_formula() {
-    let (_one, d) = device();
+    let d = common::device();
     let mut host = HostTextures::default();
     // 256x1: texel i has R = i, G = 255 - i, B = i / 2, A = i.
     let px: Vec<u8> = (0..256u32)
@@ -227,7 +217,7 @@ fn srgb_bytes_decode_on_the_device_as_the_formula() {
 
 #[test]
 fn transform_and_texcoord_on_the_device_by_hand() {
-    let (_one, d) = device();
+    let d = common::device();
     let mut host = HostTextures::default();
     host.push_texture(
         1,
@@ -294,7 +284,7 @@ fn transform_and_texcoord_on_the_device_by_hand() {
 
 /// Every shaded texture of `file`, sampled through its materials' bindings.
 fn real_asset(file: &str, random: usize) {
-    let (_one, d) = device();
+    let d = common::device();
     let scene = Scene::load(&asset(file), &LoadOptions::default()).unwrap();
     let table = scene.materials();
     let host = HostTextures::new(table).unwrap();
@@ -341,7 +331,7 @@ fn morph_stress_test_textures_match_reference() {
 
 #[test]
 fn untextured_scene_has_no_texture_buffers() {
-    let (_one, d) = device();
+    let d = common::device();
     let scene = Scene::load(
         &asset("RiggedFigure/RiggedFigure.glb"),
         &LoadOptions::default(),

@@ -21,8 +21,10 @@ use opencl3::kernel::Kernel;
 use opencl3::memory::Buffer;
 use std::time::Instant;
 
-/// Device time per stage of one build, in milliseconds, from profiling events.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+/// Device time per stage of one build, in milliseconds, from profiling
+/// events. `soupray bvh --json` and the per-frame log report it as is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct StageTimes {
     /// Triangle boxes and the root's bounds.
     pub prepare: f64,

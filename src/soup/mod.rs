@@ -78,14 +78,3 @@ impl fmt::Debug for Soup {
             .finish()
     }
 }
-
-/// A temporary path in the same directory as `path`, so that a finished file
-/// can be renamed into place atomically (rename is atomic only within one
-/// file system). The process id keeps concurrent writers apart.
-pub fn temporary_sibling(path: &std::path::Path) -> std::path::PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}

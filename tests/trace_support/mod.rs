@@ -3,21 +3,13 @@
 //! every way there is (device and CPU, stack and stackless, closest and any).
 #![allow(dead_code)]
 
+pub use crate::common::device;
 use crate::common::Rng;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
 use soupray::device::Device;
 use soupray::soup::Soup;
 use soupray::trace::{self, DeviceTracer, Hit, Ray, TraceKind};
-
-/// The test device, opened under a process-wide lock: PoCL's first platform
-/// enumeration is not thread-safe (concurrent first calls from the test
-/// harness's threads fail with "no device" or crash), so opens are serialised.
-pub fn device() -> Device {
-    static OPEN: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _guard = OPEN.lock().unwrap_or_else(|e| e.into_inner());
-    crate::common::device()
-}
 
 /// An indexed mesh, expanded into a soup so shared vertices are bit-equal.
 pub struct Mesh {
