@@ -29,8 +29,6 @@
 //   BIN_LANES           threads that count one block together; lane `l` owns
 //                       the bins b with b % BIN_LANES == l on every axis
 //   SMALL_WG            work-items of split_small's groups
-//   SMALL_TASKS         small nodes one split_small group takes in turn (on a
-//                       CPU many, to spread the launch cost of a group)
 //   HAVE_INT64_ATOMICS  0/1
 // On a GPU, BIN_LANES = BINS = 16 is the paper's half-warp scheme: the 16
 // threads walk the same 16 triangles and each takes those in its bin, with
@@ -424,7 +422,7 @@ inline void split_small_node(uint g, __global const BuildTask* tasks, __global u
 }
 
 __kernel __attribute__((reqd_work_group_size(SMALL_WG, 1, 1)))
-void split_small(__global const BuildTask* tasks, uint task_count, __global uint* ids_a,
+void split_small(__global const BuildTask* tasks, __global uint* ids_a,
                  __global PrimRef* refs_a, __global uint* ids_b, __global PrimRef* refs_b,
                  __global SplitResult* splits,
                  __global ulong* cursors) {
@@ -437,11 +435,6 @@ void split_small(__global const BuildTask* tasks, uint task_count, __global uint
     __local float s_cost[3];
     __local int s_idx[3];
     __local uint s_scan[SMALL_WG];
-    uint first = get_group_id(0) * SMALL_TASKS;
-    uint last = min(first + SMALL_TASKS, task_count);
-    for (uint g = first; g < last; ++g) {
-        split_small_node(g, tasks, ids_a, refs_a, ids_b, refs_b, splits, cursors, s_lo, s_hi, s_bin, s_id, s_left,
-                         s_bins, s_cost, s_idx, s_scan);
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
+    split_small_node(get_group_id(0), tasks, ids_a, refs_a, ids_b, refs_b, splits, cursors, s_lo,
+                     s_hi, s_bin, s_id, s_left, s_bins, s_cost, s_idx, s_scan);
 }

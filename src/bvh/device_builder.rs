@@ -118,14 +118,6 @@ impl Mapping {
         }
     }
 
-    /// Small nodes per `split_small` work-group.
-    fn small_tasks(self) -> usize {
-        match self {
-            Mapping::Paper => 1,
-            Mapping::SingleLane => 16,
-        }
-    }
-
     fn bin_lanes(self, bins: u32) -> u32 {
         match self {
             Mapping::Paper => bins,
@@ -175,7 +167,6 @@ impl<'d> DeviceBuilder<'d> {
             ("BUILD_WG", mapping.build_wg().to_string()),
             ("BIN_LANES", lanes.to_string()),
             ("SMALL_WG", lanes.to_string()),
-            ("SMALL_TASKS", mapping.small_tasks().to_string()),
             (
                 "HAVE_INT64_ATOMICS",
                 (device.has_int64_atomics() as u32).to_string(),
@@ -427,11 +418,10 @@ impl<'d> DeviceBuilder<'d> {
             d.launch(
                 name("split"),
                 &k.split_small,
-                tasks.div_ceil(self.mapping.small_tasks()),
+                tasks,
                 self.mapping.bin_lanes(self.params.bins) as usize,
                 &[
                     Arg::Buf(&b.tasks),
-                    Arg::U32(tasks as u32),
                     Arg::Buf(&b.ids),
                     Arg::Buf(&b.refs),
                     Arg::Buf(&b.ids_scratch),
