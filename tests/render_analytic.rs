@@ -127,15 +127,7 @@ fn ggx_furnace_energy_never_grows() {
     // A white metal plane under a uniform environment of radiance 1, seen
     // by orthographic cameras at view cosines 1 and 0.5: every pixel is the
     // directional albedo at that cosine (the plane never sees itself).
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
+    let s = ground_plane();
     for roughness in [0.1f32, 0.3, 0.6, 1.0] {
         for mu in [1.0f32, 0.5] {
             let view = Vec3::new((1.0 - mu * mu).sqrt(), mu, 0.0);
@@ -206,15 +198,7 @@ fn plane_under(
     half: f32,
 ) -> soupray::film::Image {
     let d = common::device();
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
+    let s = ground_plane();
     let mut st = settings(size, spp);
     st.clay = true;
     st.max_depth = 1;
@@ -353,15 +337,7 @@ fn emissive_rectangle_lights_a_plane_by_its_form_factor() {
     let (size, half) = (16u32, 1.5f32);
     let (h, a, b) = (1.0f32, 0.6f32, 0.4f32);
     let le = 4.0f32;
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
+    let mut s = ground_plane();
     // The emitter faces down; the camera above sees through its (culled)
     // back.
     quad(
@@ -458,15 +434,7 @@ fn environment_map_importance_sampling_matches_its_irradiance() {
         }
     }
     let d = common::device();
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
+    let s = ground_plane();
     let mut st = settings(16, 128);
     st.clay = true;
     st.max_depth = 1;
@@ -514,15 +482,7 @@ fn a_black_environment_is_no_light_to_sample() {
     // environment at all: a black sky adds nothing, so it must not take a
     // share of the light samples (that would only add noise).
     let d = common::device();
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
+    let s = ground_plane();
     let lights = [light(
         LightKind::Point,
         Vec3::new(0.0, 4.0, 0.0),

@@ -6,7 +6,7 @@
 mod scene_support;
 
 use nalgebra::Vector3;
-use scene_support::{assert_soup_matches, asset, bounds_of, load, Builder, Raw};
+use scene_support::{assert_soup_matches, asset, bounds_of, load, skinned_triangle, Builder, Raw};
 use serde_json::json;
 
 fn near(p: [f32; 3], q: [f64; 3], tol: f64) -> bool {
@@ -127,36 +127,6 @@ fn fox_matches_reference_in_all_three_clips() {
     check_figure("Fox/Fox.glb", Some("Survey"), &[0, 40, 82], 2e-3);
     check_figure("Fox/Fox.glb", Some("Walk"), &[0, 5, 17], 2e-3);
     check_figure("Fox/Fox.glb", Some("Run"), &[3, 14, 28], 2e-3);
-}
-
-/// A triangle facing +z (counter-clockwise seen from +z), skinned fully to
-/// joint node 1, whose transform is `joint`. Optional JOINTS_1/WEIGHTS_1.
-fn skinned_triangle(
-    dir: &std::path::Path,
-    joint: serde_json::Value,
-    mesh_node_translation: [f32; 3],
-) -> std::path::PathBuf {
-    let mut b = Builder::default();
-    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
-    let nrm = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 3);
-    let joints = b.u8s(&[0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], 4, false);
-    let weights = b.floats(
-        &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
-        4,
-    );
-    let mut joint_node = joint;
-    joint_node["name"] = json!("joint");
-    b.write(
-        json!({
-            "scenes": [{"nodes": [0, 1]}],
-            "nodes": [{"mesh": 0, "skin": 0, "translation": mesh_node_translation}, joint_node],
-            "skins": [{"joints": [1]}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm, "JOINTS_0": joints, "WEIGHTS_0": weights}}]}]
-        }),
-        dir,
-        "skinned",
-        true,
-    )
 }
 
 fn geometric_normal(soup: &soupray::soup::Soup, t: usize) -> Vector3<f64> {

@@ -10,7 +10,7 @@ mod common;
 mod scene_support;
 
 use opencl3::memory::ClMem;
-use scene_support::{asset, load, Builder};
+use scene_support::{asset, load, skinned_triangle, Builder};
 use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{validate, BuildParams};
@@ -152,36 +152,14 @@ fn rigid_assets_match_cpu_every_frame() {
     check_file("BoxAnimated/BoxAnimated.glb");
 }
 
-/// A triangle facing +z, skinned fully to joint node 1 (`joint`), the mesh
-/// node itself at x = 100 (which skinning must ignore).
-fn skinned_triangle(dir: &std::path::Path, joint: serde_json::Value) -> std::path::PathBuf {
-    let mut b = Builder::default();
-    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
-    let nrm = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 3);
-    let joints = b.u8s(&[0; 12], 4, false);
-    let weights = b.floats(
-        &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
-        4,
-    );
-    let mut joint_node = joint;
-    joint_node["name"] = json!("joint");
-    b.write(
-        json!({
-            "scenes": [{"nodes": [0, 1]}],
-            "nodes": [{"mesh": 0, "skin": 0, "translation": [100.0, 0.0, 0.0]}, joint_node],
-            "skins": [{"joints": [1]}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm, "JOINTS_0": joints, "WEIGHTS_0": weights}}]}]
-        }),
-        dir,
-        "skinned",
-        true,
-    )
-}
-
 #[test]
 fn mirrored_skin_swaps_corners_like_the_cpu() {
     let dir = tempfile::tempdir().unwrap();
-    let path = skinned_triangle(dir.path(), json!({"scale": [-1.0, 1.0, 1.0]}));
+    let path = skinned_triangle(
+        dir.path(),
+        json!({"scale": [-1.0, 1.0, 1.0]}),
+        [100.0, 0.0, 0.0],
+    );
     let scene = load(&path, None);
     let d = common::device();
     let mut soup = DeviceSoup::new(&d, &scene).unwrap();

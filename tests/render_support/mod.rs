@@ -49,6 +49,20 @@ pub fn quad(soup: &mut Soup, c: Vec3, u: Vec3, v: Vec3, n: Vec3, mat: u32) {
 }
 
 /// An axis-aligned box, outward facing.
+/// A 100 x 100 ground plane through the origin, facing +Y, material 0.
+pub fn ground_plane() -> Soup {
+    let mut s = Soup::default();
+    quad(
+        &mut s,
+        Vec3::ZERO,
+        Vec3::X * 50.0,
+        Vec3::Z * 50.0,
+        Vec3::Y,
+        0,
+    );
+    s
+}
+
 pub fn cube(soup: &mut Soup, c: Vec3, h: f32, mat: u32) {
     for axis in 0..3 {
         for s in [-1.0f32, 1.0] {

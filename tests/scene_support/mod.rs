@@ -615,3 +615,34 @@ pub fn load(path: &Path, animation: Option<&str>) -> soupray::scene::Scene {
     };
     soupray::scene::Scene::load(path, &opts).unwrap_or_else(|e| panic!("{e}"))
 }
+
+/// A triangle facing +z (counter-clockwise seen from +z), skinned fully to
+/// joint node 1, whose transform is `joint`; the mesh node sits at
+/// `mesh_node_translation`, which skinning must ignore.
+pub fn skinned_triangle(
+    dir: &std::path::Path,
+    joint: serde_json::Value,
+    mesh_node_translation: [f32; 3],
+) -> std::path::PathBuf {
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
+    let nrm = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 3);
+    let joints = b.u8s(&[0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0], 4, false);
+    let weights = b.floats(
+        &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+        4,
+    );
+    let mut joint_node = joint;
+    joint_node["name"] = json!("joint");
+    b.write(
+        json!({
+            "scenes": [{"nodes": [0, 1]}],
+            "nodes": [{"mesh": 0, "skin": 0, "translation": mesh_node_translation}, joint_node],
+            "skins": [{"joints": [1]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm, "JOINTS_0": joints, "WEIGHTS_0": weights}}]}]
+        }),
+        dir,
+        "skinned",
+        true,
+    )
+}
