@@ -2,7 +2,9 @@
 // (2011), level by level. The host keeps one queue per stage (large nodes of
 // more than 32K triangles, medium of 256..32K, small under 256), launches
 // every task of a level at once, reads back the splits and generates the
-// next level's tasks. Kernels, in launch order:
+// next level's tasks. The small stage is one launch: each small node's
+// work-group splits it and its descendants down to the leaves (see
+// build_small below for why). Kernels, in launch order:
 //
 //   compute_prim_refs, merge_bins  triangle boxes and the root's bin
 //   bin_triangles                  per-work-group bins, 512 triangles a group,
@@ -14,8 +16,9 @@
 //   partition                      one global atomic per work-group reserves
 //                                  the group's left and right slots at once;
 //                                  writes into the other buffer pair
-//   split_small                    small nodes: one work-group a node bins,
-//                                  splits and partitions in place
+//   build_small                    small nodes: one work-group a node takes
+//                                  it down to its leaves, all in one launch
+//   pack_small_nodes               the small subtrees' nodes, packed
 //   gather_ranges                  last: finished ranges left in buffer pair 1
 //                                  copied into pair 0
 //
@@ -28,7 +31,8 @@
 //   BUILD_WG            work-items of the large/medium kernels' groups
 //   BIN_LANES           threads that count one block together; lane `l` owns
 //                       the bins b with b % BIN_LANES == l on every axis
-//   SMALL_WG            work-items of split_small's groups
+//   SMALL_WG            work-items of build_small's groups
+//   LEAF_SIZE           largest leaf, in triangles
 //   HAVE_INT64_ATOMICS  0/1
 // On a GPU, BIN_LANES = BINS = 16 is the paper's half-warp scheme: the 16
 // threads walk the same 16 triangles and each takes those in its bin, with
@@ -318,61 +322,282 @@ void gather_ranges(__global const uint2* ranges, __global const uint* ids_b,
     for (uint p = range.x + get_local_id(0); p < range.x + range.y; p += BUILD_WG) ids_a[p] = ids_b[p];
 }
 
+// ---- Small nodes: one work-group takes a node down to its leaves --------
+//
+// A small node (under SMALL_MAX triangles) is split, and so are its
+// children, by the same work-group in the same launch, depth first. Its
+// triangles stay in the work-group's local memory (or, single-lane, in the
+// core's cache) for every level of its subtree instead of streaming through
+// global memory once per level, and the host has no per-level bookkeeping
+// for the hundreds of thousands of small nodes. Every split is the one a
+// level-by-level pass would choose: the same bins, the same SAH search.
+//
+// The node continues with its smaller child and stacks the larger, so a
+// stacked node is never smaller than the current one: with j entries on the
+// stack the current node holds at most SMALL_MAX / 2^j triangles, and since
+// only a node of two inner children (2 * (LEAF_SIZE + 1) >= 4 triangles)
+// pushes, 8 entries are enough below 256 triangles.
+#define SMALL_STACK 8
+
+// The bin mapping's scale on one axis; bin_scale in src/bvh/binned.rs.
+inline float bin_scale_axis(float clo, float chi) {
+    float extent = chi - clo;
+    float k = (float)BINS * 0.99999f / extent;
+    return (extent > 0.0f && isfinite(k)) ? k : 0.0f;
+}
+
+// A task for slots start..start+count with the given bounds; make_task in
+// src/bvh/binned.rs. Only the fields a small subtree reads are set.
+inline BuildTask small_task(uint start, uint count, float4 lo, float4 hi, float4 clo, float4 chi,
+                            uint source) {
+    BuildTask t;
+    t.cmin = clo;
+    t.scale = (float4)(bin_scale_axis(clo.x, chi.x), bin_scale_axis(clo.y, chi.y),
+                       bin_scale_axis(clo.z, chi.z), 0.0f);
+    t.lo = lo;
+    t.hi = hi;
+    t.clo = clo;
+    t.chi = chi;
+    t.start = start;
+    t.count = count;
+    t.first_group = 0;
+    t.group_count = 0;
+    t.set_first = 0;
+    t.set_count = 0;
+    t.node = 0;
+    t.source = source;
+    return t;
+}
+
+// Writes one side of a node: a leaf of `count` slots from `start`, or the
+// inner node `index` of the subtree (local numbering).
+inline void set_side(BvhNode* node, bool right, bool leaf, uint start, uint count, uint index,
+                     float4 lo, float4 hi) {
+    uint child = leaf ? start : index;
+    uint n = leaf ? count : 0u;
+    if (right) {
+        node->right_min[0] = lo.x;
+        node->right_min[1] = lo.y;
+        node->right_min[2] = lo.z;
+        node->right_max[0] = hi.x;
+        node->right_max[1] = hi.y;
+        node->right_max[2] = hi.z;
+        node->right_child = child;
+        node->right_count = n;
+    } else {
+        node->left_min[0] = lo.x;
+        node->left_min[1] = lo.y;
+        node->left_min[2] = lo.z;
+        node->left_max[0] = hi.x;
+        node->left_max[1] = hi.y;
+        node->left_max[2] = hi.z;
+        node->left_child = child;
+        node->left_count = n;
+    }
+}
+
 #if SMALL_WG == 1
-// One small node by one work-item: binned straight from global memory and
-// partitioned in place from both ends (the order inside each side is free:
-// only the sides' contents matter, and one work-item is deterministic).
-inline void split_small_node_single_lane(uint g, BuildTask t, __global uint* ids,
-                                         __global PrimRef* refs, __global SplitResult* splits,
-                                         __global ulong* cursors, __local Bin* s_bins,
-                                         __local float* s_cost, __local int* s_idx) {
-    Bin acc[3 * BINS];
-    for (uint i = 0; i < 3 * BINS; ++i) acc[i] = bin_empty();
+// Bit masks of a node's occupied bins, one per axis (bins are at most 64).
+typedef ulong BinMask;
+
+inline uint lowest_bin(BinMask m) { return 63 - (uint)clz(m & (~m + 1)); }
+
+// select_split over the occupied bins only, for one work-item. The same
+// answer: merging an empty bin changes no box or count, so a candidate
+// after an empty bin costs exactly what the one before it costs, and the
+// search keeps the lower index on a tie. Candidate j + 1 (left: the bins up
+// to occupied bin j) is the first of each such run.
+inline int select_split_occupied(__local const Bin* bins, const BinMask* occupied,
+                                 float4 scale) {
+    int chosen = -1;
+    float chosen_cost = 0.0f;
+    for (uint axis = 0; axis < 3; ++axis) {
+        BinMask m = occupied[axis];
+        if (!(axis_of(scale, (int)axis) > 0.0f) || popcount(m) < 2) continue;
+        __local const Bin* row = bins + axis * BINS;
+        float right_area[BINS];
+        uint right_count[BINS];
+        float4 lo = (float4)(INFINITY);
+        float4 hi = (float4)(-INFINITY);
+        uint count = 0;
+        for (BinMask r = m; r != 0;) {
+            uint k = 63 - (uint)clz(r);
+            r &= ~((BinMask)1 << k);
+            Bin b = row[k];
+            lo = box_min(lo, b.lo);
+            hi = box_max(hi, b.hi);
+            count += b.count;
+            right_area[k] = half_area(lo, hi);
+            right_count[k] = count;
+        }
+        lo = (float4)(INFINITY);
+        hi = (float4)(-INFINITY);
+        count = 0;
+        float best = 0.0f;
+        int best_i = -1;
+        BinMask l = m;
+        uint k = lowest_bin(l);
+        l &= l - 1;
+        while (l != 0) {
+            Bin b = row[k];
+            lo = box_min(lo, b.lo);
+            hi = box_max(hi, b.hi);
+            count += b.count;
+            uint next = lowest_bin(l);
+            l &= l - 1;
+            float cost = half_area(lo, hi) * (float)count + right_area[next] * (float)right_count[next];
+            if (best_i < 0 || cost < best) {
+                best = cost;
+                best_i = (int)(axis * BINS + k + 1);
+            }
+            k = next;
+        }
+        if (best_i >= 0 && (chosen < 0 || best < chosen_cost)) {
+            chosen = best_i;
+            chosen_cost = best;
+        }
+    }
+    return chosen;
+}
+
+// One node of a small subtree by one work-item, straight from global memory.
+// Its bins keep only what the SAH search reads (box and count). A first
+// pass finds each triangle's bins (kept for the partition) and which bins
+// are occupied; only those are cleared and filled, without a branch per
+// triangle. The children's boxes and centroid bounds, which make_split
+// would take from the bins, are gathered while partitioning instead: the
+// same minima and maxima over the same triangles, so the same values. The
+// partition runs in place from both ends (the order inside each side is
+// free). The counts are the partition's.
+inline SplitResult split_small_node(BuildTask t, __global uint* ids, __global PrimRef* refs,
+                                    __local Bin* s_bins, __local float* s_cost,
+                                    __local int* s_idx, bool* mismatch) {
+    uint packed[SMALL_MAX];
+    BinMask occupied[3] = {0, 0, 0};
     uint end = t.start + t.count;
-    for (uint p = t.start; p < end; ++p) bin_direct(t, ids[p], refs[p], acc);
-    for (uint i = 0; i < 3 * BINS; ++i) s_bins[i] = acc[i];
-    int best = select_split(s_bins, t.scale, s_cost, s_idx, 0, 1);
-    SplitResult s = make_split(s_bins, t, best);
+    for (uint i = 0; i < t.count; ++i) {
+        PrimRef r = refs[t.start + i];
+        float4 c = centroid(r.lo, r.hi);
+        uint bx = bin_index(c.x, t.cmin.x, t.scale.x);
+        uint by = bin_index(c.y, t.cmin.y, t.scale.y);
+        uint bz = bin_index(c.z, t.cmin.z, t.scale.z);
+        packed[i] = bx | (by << 8) | (bz << 16);
+        occupied[0] |= (BinMask)1 << bx;
+        occupied[1] |= (BinMask)1 << by;
+        occupied[2] |= (BinMask)1 << bz;
+    }
+    for (uint a = 0; a < 3; ++a) {
+        for (BinMask m = occupied[a]; m != 0; m &= m - 1) {
+            __local Bin* bin = &s_bins[a * BINS + lowest_bin(m)];
+            bin->lo = (float4)(INFINITY);
+            bin->hi = (float4)(-INFINITY);
+            bin->count = 0;
+        }
+    }
+    for (uint i = 0; i < t.count; ++i) {
+        PrimRef r = refs[t.start + i];
+        uint p = packed[i];
+        for (uint a = 0; a < 3; ++a) {
+            __local Bin* bin = &s_bins[a * BINS + ((p >> (8 * a)) & 0xFFu)];
+            bin->lo = box_min(bin->lo, r.lo);
+            bin->hi = box_max(bin->hi, r.hi);
+            bin->count += 1;
+        }
+    }
+    int best = select_split_occupied(s_bins, occupied, t.scale);
+    Bin empty = bin_empty();
+    SplitResult s;
+    uint binned_left = 0;
+    if (best >= 0) {
+        s.axis = best / BINS;
+        s.position = best % BINS;
+        for (BinMask m = occupied[s.axis] & (((BinMask)1 << s.position) - 1); m != 0; m &= m - 1) {
+            binned_left += s_bins[s.axis * BINS + lowest_bin(m)].count;
+        }
+    } else {
+        // No bin split: the id split of make_split.
+        uint id_or = 0;
+        uint id_and = 0xFFFFFFFFu;
+        for (uint p = t.start; p < end; ++p) {
+            id_or |= ids[p];
+            id_and &= ids[p];
+        }
+        uint differ = id_or ^ id_and;
+        s.axis = -1;
+        s.position = differ == 0 ? 0 : 31 - clz(differ);
+    }
+    Bin left = empty;
+    Bin right = empty;
     uint lo = t.start;
     uint hi = end;  // [lo, hi) is still undecided
+    uint shift = s.axis >= 0 ? 8 * (uint)s.axis : 0;
     while (lo < hi) {
         PrimRef r = refs[lo];
         uint id = ids[lo];
-        if (goes_left(t, s, r.lo, r.hi, id)) {
+        uint p = packed[lo - t.start];
+        float4 c = centroid(r.lo, r.hi);
+        // goes_left, from the bin found above
+        bool go_left = s.axis >= 0 ? ((p >> shift) & 0xFFu) < s.position
+                                   : ((id >> s.position) & 1u) == 0;
+        if (go_left) {
+            bin_add(&left, r.lo, r.hi, c, id);
             ++lo;
         } else {
+            bin_add(&right, r.lo, r.hi, c, id);
             --hi;
             refs[lo] = refs[hi];
             ids[lo] = ids[hi];
+            packed[lo - t.start] = packed[hi - t.start];
             refs[hi] = r;
             ids[hi] = id;
+            packed[hi - t.start] = p;
         }
     }
+    if (s.axis >= 0) {
+        s.left_lo = left.lo;
+        s.left_hi = left.hi;
+        s.right_lo = right.lo;
+        s.right_hi = right.hi;
+        s.left_clo = left.clo;
+        s.left_chi = left.chi;
+        s.right_clo = right.clo;
+        s.right_chi = right.chi;
+    } else {
+        // Both children of an id split inherit the node's bounds.
+        s.left_lo = t.lo;
+        s.left_hi = t.hi;
+        s.right_lo = t.lo;
+        s.right_hi = t.hi;
+        s.left_clo = t.clo;
+        s.left_chi = t.chi;
+        s.right_clo = t.clo;
+        s.right_chi = t.chi;
+    }
+    *mismatch = s.axis >= 0 && binned_left != lo - t.start;
     s.left_count = lo - t.start;
     s.right_count = end - lo;
-    splits[g] = s;
-    cursors[g] = ((ulong)s.right_count << 32) | (ulong)s.left_count;
+    return s;
 }
-#endif
-
-// One small node: binned, split and partitioned by one work-group.
-inline void split_small_node(uint g, __global const BuildTask* tasks, __global uint* ids_a,
-                             __global PrimRef* refs_a, __global uint* ids_b,
-                             __global PrimRef* refs_b, __global SplitResult* splits,
-                             __global ulong* cursors, __local float4* s_lo, __local float4* s_hi,
-                             __local uint* s_bin, __local uint* s_id, __local uchar* s_left,
-                             __local Bin* s_bins, __local float* s_cost, __local int* s_idx,
-                             __local uint* s_scan) {
+#else
+// One node of a small subtree by the work-group, on the subtree's triangles
+// staged in local memory (slot p of the subtree at index p - base): the
+// paper's lane-wise counting, then a stable partition through t_* and back.
+inline SplitResult split_small_node(BuildTask t, uint base, __local float4* s_lo,
+                                    __local float4* s_hi, __local uint* s_id,
+                                    __local uint* s_bin, __local uchar* s_left,
+                                    __local float4* t_lo, __local float4* t_hi,
+                                    __local uint* t_id, __local Bin* s_bins,
+                                    __local float* s_cost, __local int* s_idx,
+                                    __local uint* s_scan, bool* mismatch) {
     uint lid = get_local_id(0);
-    BuildTask t = tasks[g];
-    __global uint* ids = IDS(t);
-    __global PrimRef* refs = REFS(t);
-#if SMALL_WG == 1
-    split_small_node_single_lane(g, t, ids, refs, splits, cursors, s_bins, s_cost, s_idx);
-    return;
-#endif
-    for (uint k = lid; k < t.count; k += SMALL_WG) {
-        stage_prim(true, t.start + k, t.cmin, t.scale, ids, refs, s_lo, s_hi, s_bin, s_id, k);
+    uint first = t.start - base;
+    uint n = t.count;
+    for (uint k = first + lid; k < first + n; k += SMALL_WG) {
+        float4 c = centroid(s_lo[k], s_hi[k]);
+        uint bx = bin_index(c.x, t.cmin.x, t.scale.x);
+        uint by = bin_index(c.y, t.cmin.y, t.scale.y);
+        uint bz = bin_index(c.z, t.cmin.z, t.scale.z);
+        s_bin[k] = bx | (by << 8) | (bz << 16);
     }
     barrier(CLK_LOCAL_MEM_FENCE);
     // SMALL_WG / BIN_LANES groups of lanes take turns over the blocks.
@@ -380,8 +605,8 @@ inline void split_small_node(uint g, __global const BuildTask* tasks, __global u
     uint lane = lid % BIN_LANES;
     Bin acc[3 * OWNED];
     for (uint i = 0; i < 3 * OWNED; ++i) acc[i] = bin_empty();
-    for (uint base = group_of_lanes * BIN_LANES; base < t.count; base += SMALL_WG) {
-        bin_block(base, t.count, lane, s_lo, s_hi, s_bin, s_id, acc);
+    for (uint b = group_of_lanes * BIN_LANES; b < n; b += SMALL_WG) {
+        bin_block(first + b, first + n, lane, s_lo, s_hi, s_bin, s_id, acc);
     }
     store_lane_bins(acc, lane, s_bins + group_of_lanes * 3 * BINS);
     barrier(CLK_LOCAL_MEM_FENCE);
@@ -393,9 +618,9 @@ inline void split_small_node(uint g, __global const BuildTask* tasks, __global u
     SplitResult s = make_split(s_bins, t, best);
 
     // Each thread partitions one contiguous chunk, so the scan keeps order.
-    uint chunk = (t.count + SMALL_WG - 1) / SMALL_WG;
-    uint begin = min(lid * chunk, t.count);
-    uint end = min(begin + chunk, t.count);
+    uint chunk = (n + SMALL_WG - 1) / SMALL_WG;
+    uint begin = min(first + lid * chunk, first + n);
+    uint end = min(begin + chunk, first + n);
     uint nl = 0;
     for (uint k = begin; k < end; ++k) {
         bool left = goes_left(t, s, s_lo[k], s_hi[k], s_id[k]);
@@ -404,37 +629,169 @@ inline void split_small_node(uint g, __global const BuildTask* tasks, __global u
     }
     uint total;
     uint before = wg_exclusive_scan(((end - begin - nl) << 16) | nl, s_scan, lid, SMALL_WG, &total);
-    uint left_slot = t.start + (before & 0xFFFFu);
-    uint right_rank = before >> 16;
-    uint last = t.start + t.count - 1;
+    uint left_slot = first + (before & 0xFFFFu);
+    uint right_slot = first + (total & 0xFFFFu) + (before >> 16);
     for (uint k = begin; k < end; ++k) {
-        uint slot = s_left[k] ? left_slot++ : last - right_rank++;
-        ids[slot] = s_id[k];
-        refs[slot].lo = s_lo[k];
-        refs[slot].hi = s_hi[k];
+        uint slot = s_left[k] ? left_slot++ : right_slot++;
+        t_lo[slot] = s_lo[k];
+        t_hi[slot] = s_hi[k];
+        t_id[slot] = s_id[k];
     }
-    if (lid == 0) {
-        s.left_count = total & 0xFFFFu;
-        s.right_count = total >> 16;
-        splits[g] = s;
-        cursors[g] = ((ulong)s.right_count << 32) | (ulong)s.left_count;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint k = first + lid; k < first + n; k += SMALL_WG) {
+        s_lo[k] = t_lo[k];
+        s_hi[k] = t_hi[k];
+        s_id[k] = t_id[k];
     }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    uint left = total & 0xFFFFu;
+    uint right = total >> 16;
+    *mismatch = s.axis >= 0 && (s.left_count != left || s.right_count != right);
+    s.left_count = left;
+    s.right_count = right;
+    return s;
 }
+#endif
 
+// One private stack entry: a node still to split.
+typedef struct {
+    BuildTask task;
+    uint index;  // its index in the subtree's numbering
+    uint depth;  // its depth below the small node
+} SmallEntry;
+
+// Every small node of the stage, one work-group each, down to the leaves.
+// Nodes go to scratch[root.start + index] (a subtree of n triangles has at
+// most n - LEAF_SIZE nodes, so subtrees never overlap); the summary to
+// results[g]. Children are numbered as they are made, left before right, and
+// the subtree is walked smaller child first; binned::build_small_subtree
+// does the same, so the numbering matches the reference.
 __kernel __attribute__((reqd_work_group_size(SMALL_WG, 1, 1)))
-void split_small(__global const BuildTask* tasks, __global uint* ids_a,
+void build_small(__global const BuildTask* tasks, __global uint* ids_a,
                  __global PrimRef* refs_a, __global uint* ids_b, __global PrimRef* refs_b,
-                 __global SplitResult* splits,
-                 __global ulong* cursors) {
-    __local float4 s_lo[SMALL_MAX];
-    __local float4 s_hi[SMALL_MAX];
-    __local uint s_bin[SMALL_MAX];
-    __local uint s_id[SMALL_MAX];
-    __local uchar s_left[SMALL_MAX];
+                 __global BvhNode* scratch, __global SmallSubtree* results) {
     __local Bin s_bins[3 * BINS * (SMALL_WG / BIN_LANES)];
     __local float s_cost[3];
     __local int s_idx[3];
+    uint g = get_group_id(0);
+    BuildTask root = tasks[g];
+    __global uint* ids = IDS(root);
+    __global PrimRef* refs = REFS(root);
+#if SMALL_WG > 1
+    __local float4 s_lo[SMALL_MAX];
+    __local float4 s_hi[SMALL_MAX];
+    __local uint s_id[SMALL_MAX];
+    __local float4 t_lo[SMALL_MAX];
+    __local float4 t_hi[SMALL_MAX];
+    __local uint t_id[SMALL_MAX];
+    __local uint s_bin[SMALL_MAX];
+    __local uchar s_left[SMALL_MAX];
     __local uint s_scan[SMALL_WG];
-    split_small_node(get_group_id(0), tasks, ids_a, refs_a, ids_b, refs_b, splits, cursors, s_lo,
-                     s_hi, s_bin, s_id, s_left, s_bins, s_cost, s_idx, s_scan);
+    uint lid = get_local_id(0);
+    for (uint k = lid; k < root.count; k += SMALL_WG) {
+        PrimRef r = refs[root.start + k];
+        s_lo[k] = r.lo;
+        s_hi[k] = r.hi;
+        s_id[k] = ids[root.start + k];
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+#endif
+    __global BvhNode* out = scratch + root.start;
+    SmallEntry stack[SMALL_STACK];
+    uint sp = 0;
+    BuildTask t = root;
+    uint index = 0;
+    uint depth = 0;
+    uint next_local = 1;
+    uint max_depth = 0;
+    uint status = SMALL_OK;
+    for (;;) {
+        bool mismatch;
+#if SMALL_WG == 1
+        SplitResult s = split_small_node(t, ids, refs, s_bins, s_cost, s_idx, &mismatch);
+#else
+        SplitResult s = split_small_node(t, root.start, s_lo, s_hi, s_id, s_bin, s_left, t_lo,
+                                         t_hi, t_id, s_bins, s_cost, s_idx, s_scan, &mismatch);
+#endif
+        if (mismatch) {
+            status = SMALL_COUNT_MISMATCH;
+            break;
+        }
+        if (s.left_count == 0 || s.right_count == 0) {
+            status = SMALL_NO_PROGRESS;
+            break;
+        }
+        uint left_local = 0;
+        uint right_local = 0;
+        bool left_inner = s.left_count > LEAF_SIZE;
+        bool right_inner = s.right_count > LEAF_SIZE;
+        if (left_inner) left_local = next_local++;
+        if (right_inner) right_local = next_local++;
+        if (!left_inner || !right_inner) max_depth = max(max_depth, depth + 1);
+        BvhNode node;
+        set_side(&node, false, !left_inner, t.start, s.left_count, left_local, s.left_lo,
+                 s.left_hi);
+        set_side(&node, true, !right_inner, t.start + s.left_count, s.right_count, right_local,
+                 s.right_lo, s.right_hi);
+#if SMALL_WG > 1
+        if (lid == 0)
+#endif
+            out[index] = node;
+        BuildTask left = small_task(t.start, s.left_count, s.left_lo, s.left_hi, s.left_clo,
+                                    s.left_chi, t.source);
+        BuildTask right = small_task(t.start + s.left_count, s.right_count, s.right_lo,
+                                     s.right_hi, s.right_clo, s.right_chi, t.source);
+        depth += 1;
+        if (left_inner && right_inner) {
+            if (sp == SMALL_STACK) {
+                status = SMALL_STACK_FULL;
+                break;
+            }
+            // The smaller goes on; on a tie the left.
+            bool right_first = right.count < left.count;
+            stack[sp].task = right_first ? left : right;
+            stack[sp].index = right_first ? left_local : right_local;
+            stack[sp].depth = depth;
+            ++sp;
+            t = right_first ? right : left;
+            index = right_first ? right_local : left_local;
+        } else if (left_inner) {
+            t = left;
+            index = left_local;
+        } else if (right_inner) {
+            t = right;
+            index = right_local;
+        } else {
+            if (sp == 0) break;
+            --sp;
+            t = stack[sp].task;
+            index = stack[sp].index;
+            depth = stack[sp].depth;
+        }
+    }
+#if SMALL_WG > 1
+    for (uint k = lid; k < root.count; k += SMALL_WG) ids[root.start + k] = s_id[k];
+    if (lid == 0)
+#endif
+    {
+        SmallSubtree r;
+        r.nodes = next_local;
+        r.depth = max_depth;
+        r.status = status;
+        r.pad = 0;
+        results[g] = r;
+    }
+}
+
+// Copies each small subtree's nodes from the scratch array into one packed
+// array, one work-group a subtree: subtree g's nodes go to
+// out[offsets[g]..offsets[g + 1]] (the host sizes them from `results`).
+__kernel __attribute__((reqd_work_group_size(BUILD_WG, 1, 1)))
+void pack_small_nodes(__global const BuildTask* tasks, __global const uint* offsets,
+                      __global const BvhNode* scratch, __global BvhNode* out) {
+    uint g = get_group_id(0);
+    uint n = offsets[g + 1] - offsets[g];
+    __global const BvhNode* from = scratch + tasks[g].start;
+    __global BvhNode* to = out + offsets[g];
+    for (uint k = get_local_id(0); k < n; k += BUILD_WG) to[k] = from[k];
 }

@@ -85,4 +85,20 @@ typedef struct {
     uint right_count;
 } SplitResult;
 
+// What building one small node's subtree produced (device -> host). Its
+// nodes sit in the scratch node array from the node's first slot on, in
+// subtree-local numbering: 0 is the small node itself, inner children
+// refer to local indices, leaves to primitive slots as usual.
+typedef struct {
+    uint nodes;   // nodes written, the small node included
+    uint depth;   // deepest leaf, in levels below the small node
+    uint status;  // SMALL_OK, or why the subtree was abandoned
+    uint pad;
+} SmallSubtree;
+
+#define SMALL_OK 0u
+#define SMALL_NO_PROGRESS 1u     // a split left one side empty
+#define SMALL_COUNT_MISMATCH 2u  // the partition moved other counts than the bins said
+#define SMALL_STACK_FULL 3u      // cannot happen below 256 triangles; checked anyway
+
 #endif

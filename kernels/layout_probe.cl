@@ -37,6 +37,9 @@ __kernel void layout_probe(__global uint* out) {
     PUT(offsetof(SplitResult, right_clo)); PUT(offsetof(SplitResult, right_chi));
     PUT(offsetof(SplitResult, axis)); PUT(offsetof(SplitResult, position));
     PUT(offsetof(SplitResult, left_count)); PUT(offsetof(SplitResult, right_count));
+    PUT(sizeof(SmallSubtree));
+    PUT(offsetof(SmallSubtree, nodes)); PUT(offsetof(SmallSubtree, depth));
+    PUT(offsetof(SmallSubtree, status));
     out[n] = 0xFFFFFFFFu;
 }
 

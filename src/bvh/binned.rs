@@ -9,10 +9,12 @@
 //!
 //! `Levels` is the host's part of the paper's scheme, shared by both
 //! builders: it keeps one task queue per stage (large, medium, small nodes),
-//! and turns each level's split results into nodes and the next level's
-//! tasks. Node numbering therefore depends only on the splits.
+//! turns each level's split results into nodes and the next level's tasks,
+//! and attaches the small nodes' subtrees, which the device builds whole, one
+//! work-group a small node (`build_small_subtree` is their reference). Node
+//! numbering therefore depends only on the splits.
 
-use super::layout::{Bin, BuildTask, BvhNode, PrimRef, SplitResult};
+use super::layout::{Bin, BuildTask, BvhNode, PrimRef, SmallSubtree, SplitResult};
 use super::{Aabb, BuildParams, Bvh, Child};
 use crate::soup::Soup;
 
@@ -24,6 +26,9 @@ pub const MEDIUM_FROM: u32 = 256;
 /// Triangles per binning/partition work-group for large and medium nodes, so
 /// a node is spread over ceil(N/512) work-groups (paper: N/512).
 pub const PRIMS_PER_GROUP: u32 = 512;
+/// Entries of `build_small`'s node stack (`SMALL_STACK` in the kernel):
+/// enough below `MEDIUM_FROM` triangles, since the smaller child goes first.
+pub const SMALL_STACK: usize = 8;
 /// Work-group bin sets merged by one `reduce_bins` group for large nodes.
 pub const REDUCE_FAN: u32 = 64;
 
@@ -287,6 +292,8 @@ pub enum BuildError {
         expected: (u32, u32),
         got: (u32, u32),
     },
+    #[error("the device gave up on the small subtree at node {node} ({why}); this is a bug in the builder or the device's OpenCL driver")]
+    SmallSubtree { node: u32, why: &'static str },
     #[error("the BVH is deeper than {max} levels ({depth}); the traversal stack cannot hold it")]
     TooDeep { depth: u32, max: u32 },
     #[error("{0}")]
@@ -347,15 +354,16 @@ impl Levels {
         std::mem::take(&mut self.queues[stage as usize])
     }
 
-    /// Records one level's splits: writes each task's node, and returns the
-    /// children that belong to the same stage (the next level); smaller
-    /// children wait in their stage's queue.
+    /// Records one level's splits of the large or medium stage: writes each
+    /// task's node, and returns the children that belong to the same stage
+    /// (the next level); smaller children wait in their stage's queue.
     pub fn accept(
         &mut self,
         stage: Stage,
         tasks: &[BuildTask],
         splits: &[SplitResult],
     ) -> Result<Vec<BuildTask>, BuildError> {
+        debug_assert!(stage != Stage::Small, "small nodes are built whole");
         let mut next = Vec::new();
         for (task, split) in tasks.iter().zip(splits) {
             if split.left_count == 0
@@ -370,13 +378,8 @@ impl Levels {
                 });
             }
             let depth = self.depth[task.node as usize] + 1;
-            // Small nodes are partitioned in place; larger ones into the
-            // other buffer pair.
-            let source = if stage == Stage::Small {
-                task.source
-            } else {
-                1 - task.source
-            };
+            // Partitions write into the other buffer pair.
+            let source = 1 - task.source;
             let sides = [
                 (
                     task.start,
@@ -402,7 +405,7 @@ impl Levels {
                 };
                 let child = if count <= self.params.leaf_size {
                     self.max_depth = self.max_depth.max(depth);
-                    if source == 1 && stage != Stage::Small {
+                    if source == 1 {
                         self.finished_in_second.push([start, count]);
                     }
                     Child::Leaf {
@@ -424,7 +427,7 @@ impl Levels {
                     let t = BuildTask { source, ..t };
                     // A small node's whole subtree is partitioned in place,
                     // so its range ends where it starts.
-                    if child_stage == Stage::Small && stage != Stage::Small && source == 1 {
+                    if child_stage == Stage::Small && source == 1 {
                         self.finished_in_second.push([start, count]);
                     }
                     if child_stage == stage {
@@ -444,6 +447,161 @@ impl Levels {
         }
         Ok(next)
     }
+
+    /// Attaches the subtree built for the small node `root`: `nodes` in
+    /// subtree-local numbering (0 is `root` itself, inner children refer to
+    /// local indices), as `build_small_subtree` and the device's
+    /// `build_small` produce them. The descendants are appended in local
+    /// order, so attaching the small nodes in queue order numbers the tree
+    /// the same way in both builders.
+    pub fn attach_small(
+        &mut self,
+        root: &BuildTask,
+        nodes: &[BvhNode],
+        summary: &SmallSubtree,
+    ) -> Result<(), BuildError> {
+        let why = match summary.status {
+            super::layout::SMALL_OK => None,
+            super::layout::SMALL_NO_PROGRESS => Some("a split left one side empty"),
+            super::layout::SMALL_COUNT_MISMATCH => {
+                Some("the partition moved other counts than the bins said")
+            }
+            _ => Some("its node stack overflowed"),
+        };
+        if let Some(why) = why {
+            return Err(BuildError::SmallSubtree {
+                node: root.node,
+                why,
+            });
+        }
+        let depth = self.depth[root.node as usize] + summary.depth;
+        // The deepest inner node lies one level above the deepest leaf.
+        if depth > super::MAX_DEPTH {
+            return Err(BuildError::TooDeep {
+                depth,
+                max: super::MAX_DEPTH,
+            });
+        }
+        self.max_depth = self.max_depth.max(depth);
+        let base = self.nodes.len() as u32 - 1;
+        let global = |mut node: BvhNode| {
+            for (child, count) in [
+                (&mut node.left_child, node.left_count),
+                (&mut node.right_child, node.right_count),
+            ] {
+                if count == 0 && *child != super::layout::EMPTY_CHILD {
+                    *child += base;
+                }
+            }
+            node
+        };
+        let Some((first, rest)) = nodes.split_first() else {
+            return Err(BuildError::SmallSubtree {
+                node: root.node,
+                why: "it wrote no node",
+            });
+        };
+        self.nodes[root.node as usize] = global(*first);
+        self.nodes.extend(rest.iter().map(|&n| global(n)));
+        Ok(())
+    }
+}
+
+/// The reference for one small node's subtree, as the device's
+/// `build_small` makes it: split depth first, the smaller child first (the
+/// larger stacked; on a tie the left goes first), children numbered as they
+/// are made, left before right. Returns the nodes in subtree-local numbering
+/// (see `Levels::attach_small`) and the summary the device reports.
+pub fn build_small_subtree(
+    root: &BuildTask,
+    ids: &mut [u32],
+    refs: &[PrimRef],
+    params: BuildParams,
+) -> (Vec<BvhNode>, SmallSubtree) {
+    let leaf = params.leaf_size;
+    let mut nodes = vec![BvhNode::empty()];
+    let mut summary = SmallSubtree::default();
+    // (task, local index, depth below the small node)
+    let mut stack: Vec<(BuildTask, u32, u32)> = Vec::new();
+    let mut current = (*root, 0u32, 0u32);
+    loop {
+        let (task, local, depth) = current;
+        let split = split_task(&task, ids, refs, params.bins);
+        if split.left_count == 0 || split.right_count == 0 {
+            summary.status = super::layout::SMALL_NO_PROGRESS;
+            break;
+        }
+        let sides = [
+            (
+                task.start,
+                split.left_count,
+                (&split.left_lo, &split.left_hi),
+                (&split.left_clo, &split.left_chi),
+            ),
+            (
+                task.start + split.left_count,
+                split.right_count,
+                (&split.right_lo, &split.right_hi),
+                (&split.right_clo, &split.right_chi),
+            ),
+        ];
+        let mut inner = Vec::with_capacity(2);
+        let mut node = BvhNode::empty();
+        for (side, (start, count, bounds, cbounds)) in sides.into_iter().enumerate() {
+            let child = if count <= leaf {
+                summary.depth = summary.depth.max(depth + 1);
+                Child::Leaf {
+                    first: start,
+                    count,
+                }
+            } else {
+                let index = nodes.len() as u32;
+                nodes.push(BvhNode::empty());
+                let t = make_task(start, count, bounds, cbounds, 0, params.bins);
+                inner.push((
+                    BuildTask {
+                        source: task.source,
+                        ..t
+                    },
+                    index,
+                    depth + 1,
+                ));
+                Child::Inner(index)
+            };
+            let b = Aabb {
+                lo: [bounds.0[0], bounds.0[1], bounds.0[2]],
+                hi: [bounds.1[0], bounds.1[1], bounds.1[2]],
+            };
+            if side == 0 {
+                node.set_left(child, b);
+            } else {
+                node.set_right(child, b);
+            }
+        }
+        nodes[local as usize] = node;
+        current = match inner[..] {
+            [l, r] => {
+                let (go, stay) = if r.0.count < l.0.count {
+                    (r, l)
+                } else {
+                    (l, r)
+                };
+                stack.push(stay);
+                debug_assert!(
+                    stack.len() <= SMALL_STACK,
+                    "the device's stack would overflow"
+                );
+                go
+            }
+            [one] => one,
+            _ => match stack.pop() {
+                Some(next) => next,
+                None => break,
+            },
+        };
+    }
+    summary.nodes = nodes.len() as u32;
+    (nodes, summary)
 }
 
 /// The root bin of a set of primitive boxes.
@@ -493,7 +651,7 @@ pub fn build(soup: &Soup, params: BuildParams) -> Result<Bvh, BuildError> {
     let n = refs.len() as u32;
     let mut ids: Vec<u32> = (0..n).collect();
     let mut levels = Levels::new(&root_bin(&refs), n, params);
-    for stage in Stage::ALL {
+    for stage in [Stage::Large, Stage::Medium] {
         let mut level = levels.take_stage(stage);
         while !level.is_empty() {
             let splits: Vec<SplitResult> = level
@@ -502,6 +660,10 @@ pub fn build(soup: &Soup, params: BuildParams) -> Result<Bvh, BuildError> {
                 .collect();
             level = levels.accept(stage, &level, &splits)?;
         }
+    }
+    for root in levels.take_stage(Stage::Small) {
+        let (nodes, summary) = build_small_subtree(&root, &mut ids, &refs, params);
+        levels.attach_small(&root, &nodes, &summary)?;
     }
     Ok(Bvh {
         nodes: levels.nodes,
@@ -551,6 +713,26 @@ mod tests {
             assert!(shape.leaves >= n.div_ceil(4));
             assert!(sah_cost(&bvh) >= 1.0);
         }
+    }
+
+    #[test]
+    fn a_small_subtree_the_device_gave_up_on_is_an_error() {
+        let soup = random_soup(100, 0.05, 7);
+        let refs = prim_refs(&soup);
+        let params = BuildParams::default();
+        let mut levels = Levels::new(&root_bin(&refs), 100, params);
+        let root = levels.take_stage(Stage::Small).pop().unwrap();
+        let mut ids: Vec<u32> = (0..100).collect();
+        let (nodes, mut summary) = build_small_subtree(&root, &mut ids, &refs, params);
+        assert_eq!(summary.status, crate::bvh::layout::SMALL_OK);
+        assert!(nodes.len() as u32 <= 100 - params.leaf_size);
+        summary.status = crate::bvh::layout::SMALL_COUNT_MISMATCH;
+        let err = levels.attach_small(&root, &nodes, &summary).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("at node 0 (the partition moved other counts than the bins said)"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -5,14 +5,16 @@
 //! and its index within that node), launches the stage's kernels for every
 //! task of the level at once, reads back the split results, and lets
 //! `binned::Levels` (shared with the Rust reference) turn them into nodes and
-//! the next level's tasks. Binning, the split search and the reordering all
-//! run on the device.
+//! the next level's tasks. The small stage is one launch in which each small
+//! node's work-group builds its whole subtree; the host packs the subtrees'
+//! nodes on the device, reads them back in one piece and attaches them.
+//! Binning, the split search and the reordering all run on the device.
 //!
 //! Buffers are sized for the largest soup seen so far and reused from frame
 //! to frame; `allocations()` counts them so a test can prove it.
 
 use super::binned::{BuildError, Levels, Stage, PRIMS_PER_GROUP, REDUCE_FAN};
-use super::layout::{Bin, BuildTask, PrimRef, SplitResult};
+use super::layout::{Bin, BuildTask, BvhNode, PrimRef, SmallSubtree, SplitResult};
 use super::{BuildParams, Bvh};
 use crate::device::{Arg, Device};
 use crate::soup::Soup;
@@ -58,7 +60,8 @@ struct Kernels {
     find_split: Kernel,
     partition: Kernel,
     gather_ranges: Kernel,
-    split_small: Kernel,
+    build_small: Kernel,
+    pack_small_nodes: Kernel,
 }
 
 /// Device buffers, sized for `capacity` triangles.
@@ -83,6 +86,12 @@ struct Buffers {
     partial_bins: Buffer<Bin>,
     splits: Buffer<SplitResult>,
     cursors: Buffer<u64>,
+    /// The small subtrees' nodes where `build_small` writes them (from each
+    /// small node's first slot on), their summaries, and the packed copy.
+    small_scratch: Buffer<BvhNode>,
+    small_results: Buffer<SmallSubtree>,
+    small_offsets: Buffer<u32>,
+    small_packed: Buffer<BvhNode>,
 }
 
 /// How the kernels map onto the device's threads (see the header of
@@ -145,6 +154,9 @@ pub struct DeviceBuilder<'d> {
     reduce_index: Vec<u32>,
     splits: Vec<SplitResult>,
     cursors: Vec<u64>,
+    small_results: Vec<SmallSubtree>,
+    small_offsets: Vec<u32>,
+    small_nodes: Vec<BvhNode>,
     pending_check: Option<PendingCheck>,
 }
 
@@ -167,6 +179,7 @@ impl<'d> DeviceBuilder<'d> {
             ("BUILD_WG", mapping.build_wg().to_string()),
             ("BIN_LANES", lanes.to_string()),
             ("SMALL_WG", lanes.to_string()),
+            ("LEAF_SIZE", params.leaf_size.to_string()),
             (
                 "HAVE_INT64_ATOMICS",
                 (device.has_int64_atomics() as u32).to_string(),
@@ -182,7 +195,8 @@ impl<'d> DeviceBuilder<'d> {
             find_split: k("find_split")?,
             partition: k("partition")?,
             gather_ranges: k("gather_ranges")?,
-            split_small: k("split_small")?,
+            build_small: k("build_small")?,
+            pack_small_nodes: k("pack_small_nodes")?,
         };
         Ok(DeviceBuilder {
             device,
@@ -199,6 +213,9 @@ impl<'d> DeviceBuilder<'d> {
             reduce_index: Vec::new(),
             splits: Vec::new(),
             cursors: Vec::new(),
+            small_results: Vec::new(),
+            small_offsets: Vec::new(),
+            small_nodes: Vec::new(),
             pending_check: None,
         })
     }
@@ -225,9 +242,11 @@ impl<'d> DeviceBuilder<'d> {
         let d = self.device;
         let n = n.max(1);
         let bins = 3 * self.params.bins as usize;
-        // Tasks of one level are disjoint and each holds more than leaf_size
-        // triangles; work-groups serve only nodes of 256 or more triangles.
+        // Tasks of one level (and the small nodes) are disjoint and each
+        // holds more than leaf_size triangles; large and medium tasks hold 256
+        // or more, and only they get work-groups.
         let max_tasks = n / (self.params.leaf_size as usize + 1) + 1;
+        let max_split_tasks = n / super::binned::MEDIUM_FROM as usize + 1;
         let max_groups = n / PRIMS_PER_GROUP as usize + n / super::binned::MEDIUM_FROM as usize + 1;
         let max_partials =
             max_groups / REDUCE_FAN as usize + n / super::binned::LARGE_ABOVE as usize + 1;
@@ -249,8 +268,13 @@ impl<'d> DeviceBuilder<'d> {
             reduce_index: d.buffer(max_partials)?,
             group_bins: d.buffer(max_groups * bins)?,
             partial_bins: d.buffer(max_partials * bins)?,
-            splits: d.buffer(max_tasks)?,
-            cursors: d.buffer(max_tasks)?,
+            splits: d.buffer(max_split_tasks)?,
+            cursors: d.buffer(max_split_tasks)?,
+            // A subtree of m triangles has at most m - leaf_size nodes.
+            small_scratch: d.buffer(n)?,
+            small_results: d.buffer(max_tasks)?,
+            small_offsets: d.buffer(max_tasks + 1)?,
+            small_packed: d.buffer(n)?,
         });
         self.allocations += 1;
         Ok(())
@@ -341,7 +365,7 @@ impl<'d> DeviceBuilder<'d> {
         let t0 = Instant::now();
         let mut levels = Levels::new(&root, n as u32, self.params);
         host += t0.elapsed().as_secs_f64();
-        for stage in Stage::ALL {
+        for stage in [Stage::Large, Stage::Medium] {
             let mut level = levels.take_stage(stage);
             while !level.is_empty() {
                 self.run_level(stage, &mut level)?;
@@ -352,6 +376,21 @@ impl<'d> DeviceBuilder<'d> {
             }
         }
         self.check_cursors()?;
+        let small = levels.take_stage(Stage::Small);
+        if !small.is_empty() {
+            self.run_small_stage(&small)?;
+            let t0 = Instant::now();
+            for ((root, summary), range) in small
+                .iter()
+                .zip(&self.small_results)
+                .zip(self.small_offsets.windows(2))
+            {
+                let nodes = &self.small_nodes[range[0] as usize..range[1] as usize];
+                levels.attach_small(root, nodes, summary)?;
+            }
+            host += t0.elapsed().as_secs_f64();
+            levels_done += 1;
+        }
         let b = self.buffers.as_mut().expect("allocated above");
         if !levels.finished_in_second.is_empty() {
             d.write(&mut b.ranges, &levels.finished_in_second)?;
@@ -404,7 +443,6 @@ impl<'d> DeviceBuilder<'d> {
         // both the stage totals and each kernel's share.
         let name = |kernel: &str| -> &'static str {
             match (stage, kernel) {
-                (Stage::Small, _) => "bvh.small/split_small",
                 (Stage::Large, "bin") => "bvh.large/bin_triangles",
                 (Stage::Large, "reduce") => "bvh.large/reduce_bins",
                 (Stage::Large, _) => "bvh.large/find_split",
@@ -413,28 +451,6 @@ impl<'d> DeviceBuilder<'d> {
             }
         };
         let tasks = level.len();
-        if stage == Stage::Small {
-            d.write(&mut b.tasks, level)?;
-            d.launch(
-                name("split"),
-                &k.split_small,
-                tasks,
-                self.mapping.bin_lanes(self.params.bins) as usize,
-                &[
-                    Arg::Buf(&b.tasks),
-                    Arg::Buf(&b.ids),
-                    Arg::Buf(&b.refs),
-                    Arg::Buf(&b.ids_scratch),
-                    Arg::Buf(&b.refs_scratch),
-                    Arg::Buf(&b.splits),
-                    Arg::Buf(&b.cursors),
-                ],
-            )?;
-            self.splits.resize(tasks, SplitResult::default());
-            d.read(&b.splits, &mut self.splits)?;
-            return Ok(());
-        }
-
         // The two arrays that tell each work-group its node and its index
         // within the node, and the same for the large stage's reduction.
         self.group_task.clear();
@@ -538,6 +554,65 @@ impl<'d> DeviceBuilder<'d> {
         });
         if self.splits.iter().any(|s| s.axis < 0) {
             self.check_cursors()?;
+        }
+        Ok(())
+    }
+
+    /// Builds every small node's subtree (one work-group each), packs their
+    /// nodes and reads them into `self.small_nodes`, subtree after subtree;
+    /// `self.small_results` gets each one's summary.
+    fn run_small_stage(&mut self, roots: &[BuildTask]) -> Result<(), BuildError> {
+        let d = self.device;
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let k = &self.kernels;
+        d.write(&mut b.tasks, roots)?;
+        d.launch(
+            "bvh.small/build_small",
+            &k.build_small,
+            roots.len(),
+            self.mapping.bin_lanes(self.params.bins) as usize,
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(&b.ids),
+                Arg::Buf(&b.refs),
+                Arg::Buf(&b.ids_scratch),
+                Arg::Buf(&b.refs_scratch),
+                Arg::Buf(&b.small_scratch),
+                Arg::Buf(&b.small_results),
+            ],
+        )?;
+        self.small_results
+            .resize(roots.len(), SmallSubtree::default());
+        d.read(&b.small_results, &mut self.small_results)?;
+        // Subtree g's nodes go to small_offsets[g]..small_offsets[g + 1]. A
+        // subtree the device gave up on is reported by attach_small; its
+        // count is not trusted for the copy.
+        self.small_offsets.clear();
+        let mut total = 0u32;
+        for (root, r) in roots.iter().zip(&self.small_results) {
+            self.small_offsets.push(total);
+            let cap = root.count - self.params.leaf_size;
+            if r.status == super::layout::SMALL_OK && r.nodes <= cap {
+                total += r.nodes;
+            }
+        }
+        self.small_offsets.push(total);
+        d.write(&mut b.small_offsets, &self.small_offsets)?;
+        d.launch(
+            "bvh.small/pack_small_nodes",
+            &k.pack_small_nodes,
+            roots.len(),
+            self.mapping.build_wg(),
+            &[
+                Arg::Buf(&b.tasks),
+                Arg::Buf(&b.small_offsets),
+                Arg::Buf(&b.small_scratch),
+                Arg::Buf(&b.small_packed),
+            ],
+        )?;
+        self.small_nodes.resize(total as usize, BvhNode::default());
+        if total > 0 {
+            d.read(&b.small_packed, &mut self.small_nodes)?;
         }
         Ok(())
     }

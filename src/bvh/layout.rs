@@ -93,6 +93,24 @@ pub struct SplitResult {
     pub right_count: u32,
 }
 
+/// What building one small node's subtree produced (device → host): the
+/// nodes it wrote (the small node included), its deepest leaf below the
+/// small node, and a status (`SMALL_*` in `kernels/bvh_types.h`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SmallSubtree {
+    pub nodes: u32,
+    pub depth: u32,
+    pub status: u32,
+    pub pad: u32,
+}
+
+/// `SmallSubtree::status` values, as in `kernels/bvh_types.h`.
+pub const SMALL_OK: u32 = 0;
+pub const SMALL_NO_PROGRESS: u32 = 1;
+pub const SMALL_COUNT_MISMATCH: u32 = 2;
+pub const SMALL_STACK_FULL: u32 = 3;
+
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<PrimRef>() == 32);
 const _: () = assert!(std::mem::size_of::<Bin>() == 80);
@@ -152,5 +170,9 @@ pub fn host_layout() -> Vec<u32> {
         v(offset_of!(SplitResult, position)),
         v(offset_of!(SplitResult, left_count)),
         v(offset_of!(SplitResult, right_count)),
+        v(size_of::<SmallSubtree>()),
+        v(offset_of!(SmallSubtree, nodes)),
+        v(offset_of!(SmallSubtree, depth)),
+        v(offset_of!(SmallSubtree, status)),
     ]
 }
