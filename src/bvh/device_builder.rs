@@ -380,6 +380,10 @@ impl<'d> DeviceBuilder<'d> {
         if !small.is_empty() {
             self.run_small_stage(&small)?;
             let t0 = Instant::now();
+            // Every packed node but the small nodes themselves is new.
+            levels
+                .nodes
+                .reserve(self.small_nodes.len().saturating_sub(small.len()));
             for ((root, summary), range) in small
                 .iter()
                 .zip(&self.small_results)
