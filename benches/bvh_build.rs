@@ -4,6 +4,7 @@
 //!
 //!   cargo bench --bench bvh_build            # all sizes
 //!   cargo bench --bench bvh_build -- --quick # 70K and 250K only
+//!   cargo bench --bench bvh_build -- --write-ply DIR  # the soups as PLY files
 //!
 //! Prints a Markdown table for BENCHMARKS.md: median build ms, Mtris/s, the
 //! device's per-stage split, SAH cost relative to the full sweep, and each
@@ -203,6 +204,16 @@ fn main() {
         return;
     }
     let scenes = scene_list(quick);
+    if let Some(i) = args.iter().position(|a| a == "--write-ply") {
+        // The soups as PLY files, for `soupray bvh` runs (A/B of two binaries).
+        let dir = Path::new(&args[i + 1]);
+        for (index, (name, make)) in scenes.iter().enumerate() {
+            let path = dir.join(format!("{index}-{}.ply", name.replace([' ', '(', ')'], "")));
+            soupray::ply::write_soup(&path, &make()).unwrap();
+            println!("{}", path.display());
+        }
+        return;
+    }
     let device = Device::open(None).expect("an OpenCL device");
     let params = BuildParams::default();
     let mut builder = DeviceBuilder::with_mapping(&device, params, Mapping::SingleLane).unwrap();
