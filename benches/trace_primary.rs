@@ -141,6 +141,7 @@ fn main() {
         let mut tracer = DeviceTracer::new(&device).unwrap();
         tracer.local_size = local;
         tracer.upload_bvh(&bvh).unwrap();
+        tracer.upload_wide(&bvh).unwrap();
         let mut layout_ms = Vec::new();
         for _ in 0..runs {
             layout_ms.push(tracer.upload_stackless(&bvh).unwrap().layout_ms);
@@ -184,6 +185,11 @@ fn main() {
                 TraceKind::ClosestStackless,
                 "soupray device, stackless",
                 "trace/stackless",
+            ),
+            (
+                TraceKind::ClosestWide,
+                "soupray device, stack, 4-wide layout",
+                "trace/closest_wide",
             ),
         ] {
             let mut out = vec![Hit::miss(0.0); count];

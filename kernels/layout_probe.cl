@@ -57,5 +57,8 @@ __kernel void trace_layout_probe(__global uint* out) {
     PUT(sizeof(StacklessNode));
     PUT(offsetof(StacklessNode, lo)); PUT(offsetof(StacklessNode, escape));
     PUT(offsetof(StacklessNode, hi)); PUT(offsetof(StacklessNode, leaf));
+    PUT(sizeof(WideNode));
+    PUT(offsetof(WideNode, lo)); PUT(offsetof(WideNode, hi));
+    PUT(offsetof(WideNode, child)); PUT(offsetof(WideNode, count));
     out[n] = 0xFFFFFFFFu;
 }

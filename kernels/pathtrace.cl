@@ -13,8 +13,9 @@
 // Surfaces: single-sided materials are invisible from behind (the glTF
 // back-face culling), MASK materials above the cutoff are holes and BLEND
 // materials are crossed with probability 1 - alpha (stochastic coverage),
-// for camera, bounce and shadow rays alike. Compiled with STACK_SIZE, and
-// TRAVERSAL_STACKLESS for the escape-index traversal, HAS_TEXTURES when some
+// for camera, bounce and shadow rays alike. Compiled with STACK_SIZE,
+// TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
+// the stack traversal of the 4-wide layout, and HAS_TEXTURES when some
 // material is textured.
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -58,6 +59,7 @@ typedef struct {
 // Everything a path needs, gathered once per work-item.
 typedef struct {
     const __global BvhNode* nodes;
+    const __global WideNode* wnodes;
     const __global StacklessNode* snodes;
     uint snode_count;
     const __global uint* prim_ids;
@@ -92,6 +94,8 @@ inline Hit pt_trace_closest(PtScene* s, Ray ray) {
     s->rays += 1u;
 #ifdef TRAVERSAL_STACKLESS
     return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, s->positions, ray);
+#elif defined(TRAVERSAL_WIDE)
+    return trace_closest_wide_bvh(s->wnodes, s->prim_ids, s->positions, ray);
 #else
     return trace_closest_bvh(s->nodes, s->prim_ids, s->positions, ray);
 #endif
@@ -189,7 +193,11 @@ inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRn
     // the exact answer above; both give the same result, so the stack and
     // stackless traversals agree.
     s->rays += 1u;
+#ifdef TRAVERSAL_WIDE
+    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, s->positions, r);
+#else
     Hit a = trace_any_bvh(s->nodes, s->prim_ids, s->positions, r);
+#endif
     if (a.prim == MISS) return false;
     PtMaterial m = pt_material(s, a.prim);
     if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
@@ -561,7 +569,8 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 // every pixel of the tile, added to the pixel's sums in sample order.
 // accum_color: rgb, alpha; accum_normal / accum_albedo: rgb; accum_aux:
 // depth sum over hits, hit count, dropped samples, unused.
-__kernel void pt_render(__global const BvhNode* nodes, __global const StacklessNode* snodes,
+__kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* wnodes,
+                        __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
                         __global const float* positions, __global const float* normals,
                         __global const float* uvs, __global const uint* material_ids,
@@ -581,6 +590,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const StacklessN
     uint py = tile_y + gid / tile_w;
     PtScene s;
     s.nodes = nodes;
+    s.wnodes = wnodes;
     s.snodes = snodes;
     s.snode_count = snode_count;
     s.prim_ids = prim_ids;

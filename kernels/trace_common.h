@@ -331,6 +331,101 @@ inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* pri
     TRAVERSE_BODY(1)
 }
 
+// Front-to-back stack traversal of the 4-wide layout (node 0 = root): the
+// node's four boxes are tested, hit leaves intersected at once, and of the
+// hit inner children the nearest is entered and the others pushed, farthest
+// first, with their entry distances (skipped on pop if a closer hit has been
+// found since). A node pushes at most three entries and a path holds at
+// most one node per binary-tree level: WIDE_STACK_SIZE = 3 * STACK_SIZE.
+#define WIDE_STACK_SIZE (3 * STACK_SIZE)
+
+// box_entry for the four boxes of a wide node at once, lane by lane the
+// same operations, so the same four results.
+inline float4 box_entry_wide(const RayPre* r, const __global WideNode* n, float best) {
+    float4 lox = vload4(0, n->lo[0]), loy = vload4(0, n->lo[1]), loz = vload4(0, n->lo[2]);
+    float4 hix = vload4(0, n->hi[0]), hiy = vload4(0, n->hi[1]), hiz = vload4(0, n->hi[2]);
+    float4 tnx = ((r->nx ? hix : lox) - r->ox) * r->ix;
+    float4 tny = ((r->ny ? hiy : loy) - r->oy) * r->iy;
+    float4 tnz = ((r->nz ? hiz : loz) - r->oz) * r->iz;
+    float4 tfx = ((r->nx ? lox : hix) - r->ox) * r->ix;
+    float4 tfy = ((r->ny ? loy : hiy) - r->oy) * r->iy;
+    float4 tfz = ((r->nz ? loz : hiz) - r->oz) * r->iz;
+    float4 tn = fmax(fmax(tnx, tny), fmax(tnz, (float4)(r->tmin)));
+    float4 tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;
+    int4 hit = (tn <= tf) & (tn <= (float4)(best * CULL_SCALE));
+    return select((float4)(INFINITY), tn, hit);
+}
+#define TRAVERSE_WIDE_BODY(ANY)                                                   \
+    Hit best;                                                                     \
+    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;            \
+    RayPre r;                                                                     \
+    if (!ray_prepare(&r, ray)) return best;                                       \
+    uint stack_node[WIDE_STACK_SIZE];                                             \
+    float stack_t[WIDE_STACK_SIZE];                                               \
+    int sp = 0;                                                                   \
+    uint node = 0;                                                                \
+    for (;;) {                                                                    \
+        const __global WideNode* n = wnodes + node;                               \
+        /* the hit inner children, nearest first */                               \
+        uint near_node[4];                                                        \
+        float near_t[4];                                                          \
+        uint k = 0;                                                               \
+        float4 entry = box_entry_wide(&r, n, best.t);                             \
+        float entries[4] = {entry.x, entry.y, entry.z, entry.w};                  \
+        for (uint c = 0; c < 4; ++c) {                                            \
+            float t = entries[c];                                                 \
+            if (t == INFINITY) continue; /* missed, culled, or an empty slot */   \
+            uint child = n->child[c], count = n->count[c];                        \
+            if (count > 0) {                                                      \
+                if (ANY) {                                                        \
+                    if (any_leaf(&r, prim_ids, positions, child, count, &best)) return best; \
+                } else {                                                          \
+                    closest_leaf(&r, prim_ids, positions, child, count, &best);   \
+                }                                                                 \
+                continue;                                                         \
+            }                                                                     \
+            uint j = k++;                                                         \
+            while (j > 0 && near_t[j - 1] > t) {                                  \
+                near_t[j] = near_t[j - 1];                                        \
+                near_node[j] = near_node[j - 1];                                  \
+                j--;                                                              \
+            }                                                                     \
+            near_t[j] = t;                                                        \
+            near_node[j] = child;                                                 \
+        }                                                                         \
+        float cull = best.t * CULL_SCALE;                                         \
+        while (k > 1) {                                                           \
+            k--;                                                                  \
+            if (near_t[k] <= cull) {                                              \
+                stack_node[sp] = near_node[k];                                    \
+                stack_t[sp] = near_t[k];                                          \
+                sp++;                                                             \
+            }                                                                     \
+        }                                                                         \
+        if (k == 1 && near_t[0] <= cull) {                                        \
+            node = near_node[0];                                                  \
+            continue;                                                             \
+        }                                                                         \
+        for (;;) {                                                                \
+            if (sp == 0) return best;                                             \
+            sp--;                                                                 \
+            if (stack_t[sp] <= best.t * CULL_SCALE) break;                        \
+        }                                                                         \
+        node = stack_node[sp];                                                    \
+    }
+
+// The closest hit of `ray` through the 4-wide layout.
+inline Hit trace_closest_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
+                                  const __global float* positions, Ray ray) {
+    TRAVERSE_WIDE_BODY(0)
+}
+
+// Any hit of `ray` through the 4-wide layout.
+inline Hit trace_any_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
+                              const __global float* positions, Ray ray) {
+    TRAVERSE_WIDE_BODY(1)
+}
+
 // The closest hit by stackless traversal of the escape-index layout: entries
 // in depth-first preorder, a hit inner entry continues with its first child
 // (the next entry), a missed or finished one jumps to its escape index. The

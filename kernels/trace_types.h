@@ -47,4 +47,16 @@ typedef struct {
 
 #define LEAF_COUNT_BITS 7u
 
+// A 4-wide node of the traversal layout (src/trace/wide.rs): the boxes of
+// up to four children stored axis by axis, lo[axis][slot] and
+// hi[axis][slot], and per slot the child as in BvhNode: count == 0 an inner
+// node's index (EMPTY_CHILD: absent, with an empty box), count > 0 a leaf of
+// `count` primitives from slot `child` of the primitive-index array.
+typedef struct {
+    float lo[3][4];
+    float hi[3][4];
+    uint child[4];
+    uint count[4];
+} WideNode;
+
 #endif

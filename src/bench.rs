@@ -102,7 +102,7 @@ fn configs(max_spp: u32) -> Vec<Config> {
         sweep: "default",
         sweep_builder: false,
         params: BuildParams::default(),
-        traversal: Traversal::Stack,
+        traversal: Traversal::Wide,
         spp: 16,
     };
     let mut out = vec![base];
@@ -131,11 +131,13 @@ fn configs(max_spp: u32) -> Vec<Config> {
             ..base
         });
     }
-    out.push(Config {
-        sweep: "traversal",
-        traversal: Traversal::Stackless,
-        ..base
-    });
+    for traversal in [Traversal::Stack, Traversal::Stackless] {
+        out.push(Config {
+            sweep: "traversal",
+            traversal,
+            ..base
+        });
+    }
     let mut spp = 1;
     while spp <= max_spp {
         if spp != base.spp {
@@ -274,7 +276,7 @@ fn bench_gltf(
         let mut tracer = PathTracer::new(
             device,
             &scene,
-            &settings(args, args.reference_spp, Traversal::Stack),
+            &settings(args, args.reference_spp, Traversal::default()),
         )?;
         let input = FrameInput {
             frame,
@@ -309,6 +311,7 @@ fn bench_gltf(
             traversal: match c.traversal {
                 Traversal::Stack => "stack",
                 Traversal::Stackless => "stackless",
+                Traversal::Wide => "wide",
             },
             spp: c.spp,
             triangles: soup.triangle_count(),

@@ -267,7 +267,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         seed,
         max_depth: 8,
         clay: false,
-        traversal: Traversal::Stack,
+        traversal: Traversal::default(),
         environment: Environment::Color([0.2, 0.25, 0.3]),
         aovs: Aovs::NONE,
     }
@@ -583,6 +583,12 @@ fn degenerate_triangles_are_never_hit() {
     st.traversal = Traversal::Stackless;
     let sl = render(&d, &write(&spec, dir.path(), "mixed"), &st, Tree::Device);
     assert!(bits(&sl.image) == bits(&clean.image), "stackless differs");
+    st.traversal = Traversal::Stack;
+    let binary = render(&d, &write(&spec, dir.path(), "mixed"), &st, Tree::Device);
+    assert!(
+        bits(&binary.image) == bits(&clean.image),
+        "binary stack differs"
+    );
 }
 
 // ---------------------------------------------------------------------------
@@ -1277,4 +1283,10 @@ fn device_and_cpu_trees_give_the_same_image() {
     st.traversal = Traversal::Stackless;
     let cpu_sl = render(&d, &path, &st, Tree::CpuSweep);
     assert!(bits(&dev.image) == bits(&cpu_sl.image), "stackless differs");
+    st.traversal = Traversal::Stack;
+    let cpu_binary = render(&d, &path, &st, Tree::CpuSweep);
+    assert!(
+        bits(&dev.image) == bits(&cpu_binary.image),
+        "binary stack differs"
+    );
 }

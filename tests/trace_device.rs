@@ -1,5 +1,5 @@
 //! The device tracer against the CPU reference: the struct layouts, then
-//! closest hit (stack and stackless) and any hit on ~100K random rays over
+//! closest hit (stack, stackless and 4-wide) and any hit on ~100K random rays over
 //! the real meshes and random soups, bit for bit; the CPU traversal against
 //! brute force and against a differently shaped tree; determinism; the depth
 //! limit; buffer reuse; and the primary-ray generator.
@@ -28,7 +28,7 @@ fn trace_layout_matches_device() {
     );
 }
 
-/// All six tracings agree, and agree with brute force on a sample.
+/// All ten tracings agree, and agree with brute force on a sample.
 fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
     let d = device();
     let t = trace_everything(&d, soup, rays);
@@ -56,6 +56,30 @@ fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
         &format!("{what}: device any-hit"),
     );
     assert_any_agrees(&t.cpu_any, &t.cpu_closest, &format!("{what}: CPU any-hit"));
+    assert_same(
+        &t.dev_wide,
+        &t.cpu_wide,
+        rays,
+        &format!("{what}: device vs CPU wide"),
+    );
+    assert_same(
+        &t.cpu_wide,
+        &t.cpu_closest,
+        rays,
+        &format!("{what}: CPU wide vs stack"),
+    );
+    // The wide any-hit twins visit in the same order: the same triangle.
+    assert_same(
+        &t.dev_any_wide,
+        &t.cpu_any_wide,
+        rays,
+        &format!("{what}: device vs CPU wide any-hit"),
+    );
+    assert_any_agrees(
+        &t.dev_any_wide,
+        &t.cpu_closest,
+        &format!("{what}: device wide any-hit"),
+    );
     // Culling never loses the closest hit: brute force over every triangle
     // (the first of all hits sorted by t, then index) on a sample.
     let step = (rays.len() / 300).max(1);

@@ -110,7 +110,13 @@ fn check_watertight(mesh: &Mesh, center: [f32; 3], radius: f32, what: &str) -> u
         &rays,
         &format!("{what}: device stackless"),
     );
+    assert_same(&t.dev_wide, &brute, &rays, &format!("{what}: device wide"));
     assert_any_agrees(&t.dev_any, &brute, &format!("{what}: device any-hit"));
+    assert_any_agrees(
+        &t.dev_any_wide,
+        &brute,
+        &format!("{what}: device wide any-hit"),
+    );
     rays.len()
 }
 
@@ -227,6 +233,7 @@ fn axis_parallel_rays_with_signed_zeros_hit_the_right_triangle() {
             &rays,
             &format!("x{s} +{off}: stackless"),
         );
+        assert_same(&t.dev_wide, &brute, &rays, &format!("x{s} +{off}: wide"));
         assert_same(&t.cpu_closest, &brute, &rays, &format!("x{s} +{off}: CPU"));
     }
 }
@@ -294,6 +301,8 @@ fn degenerate_triangles_are_never_hit() {
             (t.dev_closest[i], "device closest"),
             (t.dev_stackless[i], "device stackless"),
             (t.dev_any[i], "device any"),
+            (t.dev_wide[i], "device wide"),
+            (t.dev_any_wide[i], "device wide any"),
             (t.cpu_closest[i], "CPU closest"),
         ] {
             assert!(

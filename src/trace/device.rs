@@ -12,6 +12,7 @@
 
 use super::escape::{stackless_layout_into, StacklessNode};
 use super::traverse::check_depth;
+use super::wide::{wide_layout_into, WideNode};
 use super::{Hit, PinholeCamera, Ray, TraceError};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
 use crate::device::{Arg, Device, GrowBuffer};
@@ -29,6 +30,11 @@ pub enum TraceKind {
     /// Closest hit, stackless escape-index traversal (needs
     /// `upload_stackless` after each build).
     ClosestStackless,
+    /// Closest hit, front-to-back stack traversal of the 4-wide layout
+    /// (needs `upload_wide` after each build).
+    ClosestWide,
+    /// Any hit through the 4-wide layout.
+    AnyWide,
 }
 
 /// The cost of making the stackless layout for one tree.
@@ -47,11 +53,16 @@ pub struct DeviceTracer<'d> {
     closest: Kernel,
     any: Kernel,
     stackless: Kernel,
+    closest_wide: Kernel,
+    any_wide: Kernel,
     primary: Kernel,
     nodes: GrowBuffer<BvhNode>,
     snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     snode_count: usize,
+    wnodes: GrowBuffer<WideNode>,
+    wnode_host: Vec<WideNode>,
+    wnode_count: usize,
     depth: Option<u32>,
     /// Scratch for `trace_rays` (tests, tools).
     rays: GrowBuffer<Ray>,
@@ -73,11 +84,16 @@ impl<'d> DeviceTracer<'d> {
             closest: k("trace_closest")?,
             any: k("trace_any")?,
             stackless: k("trace_closest_stackless")?,
+            closest_wide: k("trace_closest_wide")?,
+            any_wide: k("trace_any_wide")?,
             primary: k("generate_primary")?,
             nodes: GrowBuffer::new(),
             snodes: GrowBuffer::new(),
             snode_host: Vec::new(),
             snode_count: 0,
+            wnodes: GrowBuffer::new(),
+            wnode_host: Vec::new(),
+            wnode_count: 0,
             depth: None,
             rays: GrowBuffer::new(),
             hits: GrowBuffer::new(),
@@ -90,6 +106,7 @@ impl<'d> DeviceTracer<'d> {
     pub fn allocations(&self) -> usize {
         self.nodes.allocations()
             + self.snodes.allocations()
+            + self.wnodes.allocations()
             + self.rays.allocations()
             + self.hits.allocations()
     }
@@ -123,6 +140,22 @@ impl<'d> DeviceTracer<'d> {
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
             entries: n,
         })
+    }
+
+    /// Collapses the tree into the 4-wide layout on the host and uploads it:
+    /// needed after every build before `ClosestWide`/`AnyWide`. Returns the
+    /// host time of the collapse, in milliseconds.
+    pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<f64, TraceError> {
+        self.wnode_count = 0;
+        check_depth(bvh)?;
+        let start = Instant::now();
+        wide_layout_into(bvh, &mut self.wnode_host)?;
+        let layout_ms = start.elapsed().as_secs_f64() * 1e3;
+        let n = self.wnode_host.len();
+        let buf = self.wnodes.ensure(self.device, n)?;
+        self.device.write(buf, &self.wnode_host)?;
+        self.wnode_count = n;
+        Ok(layout_ms)
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
@@ -166,6 +199,35 @@ impl<'d> DeviceTracer<'d> {
                     self.local_size,
                     &[
                         Arg::Buf(nodes),
+                        Arg::Buf(prim_ids),
+                        Arg::Buf(positions),
+                        Arg::Buf(rays),
+                        Arg::Buf(hits),
+                        Arg::U32(count),
+                    ],
+                )?;
+            }
+            TraceKind::ClosestWide | TraceKind::AnyWide => {
+                let wnodes = match self.wnodes.buffer() {
+                    Some(b) if self.wnode_count > 0 => b,
+                    _ => {
+                        return Err(TraceError::Malformed(
+                            "no 4-wide layout uploaded (upload_wide)".into(),
+                        ))
+                    }
+                };
+                let (stage, kernel) = if kind == TraceKind::ClosestWide {
+                    ("trace/closest_wide", &self.closest_wide)
+                } else {
+                    ("trace/any_wide", &self.any_wide)
+                };
+                self.device.launch(
+                    stage,
+                    kernel,
+                    groups,
+                    self.local_size,
+                    &[
+                        Arg::Buf(wnodes),
                         Arg::Buf(prim_ids),
                         Arg::Buf(positions),
                         Arg::Buf(rays),

@@ -28,11 +28,16 @@ pub mod render;
 pub mod sampling;
 pub mod texture;
 pub mod traverse;
+pub mod wide;
 
 pub use camera::PinholeCamera;
 pub use device::{DeviceTracer, TraceKind};
 pub use escape::{stackless_layout, StacklessNode};
-pub use traverse::{check_depth, trace_any, trace_closest, trace_closest_stackless};
+pub use traverse::{
+    check_depth, trace_any, trace_any_wide, trace_closest, trace_closest_stackless,
+    trace_closest_wide,
+};
+pub use wide::{wide_layout, WideNode};
 
 use bytemuck::{Pod, Zeroable};
 
@@ -140,5 +145,10 @@ pub fn trace_layout() -> Vec<u32> {
         v(offset_of!(StacklessNode, escape)),
         v(offset_of!(StacklessNode, hi)),
         v(offset_of!(StacklessNode, leaf)),
+        v(size_of::<WideNode>()),
+        v(offset_of!(WideNode, lo)),
+        v(offset_of!(WideNode, hi)),
+        v(offset_of!(WideNode, child)),
+        v(offset_of!(WideNode, count)),
     ]
 }

@@ -38,6 +38,7 @@ use super::lights::{
 use super::material::{device_materials, DeviceMaterial};
 use super::texture::{Slot, TextureBinding, TextureSet};
 use super::traverse::check_depth;
+use super::wide::{wide_layout_into, WideNode};
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh, BvhNode, MAX_DEPTH};
@@ -47,14 +48,20 @@ use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
 
-/// Which closest-hit traversal the integrator compiles in.
+/// Which traversal the integrator compiles in. All three find the same
+/// hits and the same occlusion, so they make the same image.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Traversal {
-    /// Front-to-back stack traversal; shadow rays use any-hit traversal.
-    #[default]
+    /// Front-to-back stack traversal of the builder's binary tree as it is;
+    /// shadow rays use any-hit traversal.
     Stack,
     /// Escape-index traversal for every ray (no stack).
     Stackless,
+    /// The default: front-to-back stack traversal of the tree collapsed into
+    /// 4-wide nodes (`trace::wide`), closest and any hit: four boxes per
+    /// node fetch, half as many steps. The fastest of the three here.
+    #[default]
+    Wide,
 }
 
 /// Where light comes from when rays leave the scene.
@@ -95,7 +102,7 @@ impl Default for RenderSettings {
             seed: 0,
             max_depth: 8,
             clay: false,
-            traversal: Traversal::Stack,
+            traversal: Traversal::Wide,
             environment: Environment::Default,
             aovs: Aovs::NONE,
         }
@@ -266,6 +273,8 @@ pub struct PathTracer<'d> {
     dummy_u32: Buffer<u32>,
     dummy_f4: Buffer<[f32; 4]>,
     nodes: GrowBuffer<BvhNode>,
+    wnodes: GrowBuffer<WideNode>,
+    wnode_host: Vec<WideNode>,
     snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     lights: GrowBuffer<DeviceLight>,
@@ -382,8 +391,10 @@ impl<'d> PathTracer<'d> {
         }
 
         let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
-        if settings.traversal == Traversal::Stackless {
-            defines.push(("TRAVERSAL_STACKLESS", "1".to_owned()));
+        match settings.traversal {
+            Traversal::Stack => {}
+            Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
+            Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
         }
         if textures.is_some() {
             defines.push(("HAS_TEXTURES", "1".to_owned()));
@@ -457,6 +468,8 @@ impl<'d> PathTracer<'d> {
             dummy_u32,
             dummy_f4,
             nodes: GrowBuffer::new(),
+            wnodes: GrowBuffer::new(),
+            wnode_host: Vec::new(),
             snodes: GrowBuffer::new(),
             snode_host: Vec::new(),
             lights: GrowBuffer::new(),
@@ -592,6 +605,7 @@ impl<'d> PathTracer<'d> {
         let snode_count = match s.traversal {
             _ if empty => {
                 d.write(self.nodes.ensure(d, 1)?, &[BvhNode::empty()])?;
+                d.write(self.wnodes.ensure(d, 1)?, &[WideNode::empty()])?;
                 self.snodes.ensure(d, 1)?;
                 0
             }
@@ -599,6 +613,16 @@ impl<'d> PathTracer<'d> {
                 check_depth(bvh)?;
                 let buf = self.nodes.ensure(d, bvh.nodes.len())?;
                 d.write(buf, &bvh.nodes)?;
+                self.wnodes.ensure(d, 1)?;
+                self.snodes.ensure(d, 1)?;
+                0
+            }
+            Traversal::Wide => {
+                check_depth(bvh)?;
+                wide_layout_into(bvh, &mut self.wnode_host)?;
+                let buf = self.wnodes.ensure(d, self.wnode_host.len())?;
+                d.write(buf, &self.wnode_host)?;
+                self.nodes.ensure(d, 1)?;
                 self.snodes.ensure(d, 1)?;
                 0
             }
@@ -607,6 +631,7 @@ impl<'d> PathTracer<'d> {
                 let buf = self.snodes.ensure(d, self.snode_host.len())?;
                 d.write(buf, &self.snode_host)?;
                 self.nodes.ensure(d, 1)?;
+                self.wnodes.ensure(d, 1)?;
                 self.snode_host.len() as u32
             }
         };
@@ -767,6 +792,7 @@ impl<'d> PathTracer<'d> {
                     let items = cw as usize * ch as usize;
                     let mut args = vec![
                         Arg::Buf(self.nodes.get()),
+                        Arg::Buf(self.wnodes.get()),
                         Arg::Buf(self.snodes.get()),
                         Arg::U32(snode_count),
                         Arg::Buf(prim_ids),

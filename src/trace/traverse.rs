@@ -8,6 +8,7 @@
 
 use super::escape::{StacklessNode, LEAF_COUNT_BITS};
 use super::intersect::{intersect_triangle, RayPre, CULL_SCALE};
+use super::wide::WideNode;
 use super::{Hit, Ray, TraceError, MISS};
 use crate::bvh::{Bvh, Child, MAX_DEPTH};
 
@@ -183,6 +184,97 @@ pub fn trace_closest(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray) -> Hit {
 /// Which triangle is reported depends on the tree; occlusion does not.
 pub fn trace_any(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray) -> Hit {
     traverse(bvh, positions, ray, true)
+}
+
+/// `TRAVERSE_WIDE_BODY`: front-to-back stack traversal of the 4-wide
+/// layout. Hit leaves are intersected in slot order as their boxes are
+/// tested; the hit inner children, sorted by entry distance (a stable
+/// insertion, as the kernel's), are entered nearest first, the rest stacked
+/// farthest first.
+fn traverse_wide(
+    wnodes: &[WideNode],
+    prim_ids: &[u32],
+    positions: &[[f32; 4]],
+    ray: &Ray,
+    any: bool,
+) -> Hit {
+    let mut best = Hit::miss(ray.tmax);
+    let Some(r) = RayPre::new(ray) else {
+        return best;
+    };
+    let mut stack: Vec<(u32, f32)> = Vec::with_capacity(3 * MAX_DEPTH as usize);
+    let mut node = 0usize;
+    loop {
+        let n = &wnodes[node];
+        // All four entries first, against the closest hit on entry to the
+        // node, as the kernel tests the four boxes at once.
+        let entries: [f32; 4] = std::array::from_fn(|c| {
+            let lo = [n.lo[0][c], n.lo[1][c], n.lo[2][c]];
+            let hi = [n.hi[0][c], n.hi[1][c], n.hi[2][c]];
+            r.box_entry(&lo, &hi, best.t)
+        });
+        let mut near: Vec<(f32, u32)> = Vec::with_capacity(4);
+        for (c, &t) in entries.iter().enumerate() {
+            if t == f32::INFINITY {
+                continue;
+            }
+            let (child, count) = (n.child[c], n.count[c]);
+            if count > 0 {
+                if any {
+                    if any_leaf(&r, positions, prim_ids, child, count, &mut best) {
+                        return best;
+                    }
+                } else {
+                    closest_leaf(&r, positions, prim_ids, child, count, &mut best);
+                }
+                continue;
+            }
+            let at = near.iter().position(|&(u, _)| u > t).unwrap_or(near.len());
+            near.insert(at, (t, child));
+        }
+        let cull = best.t * CULL_SCALE;
+        while near.len() > 1 {
+            let (t, c) = near.pop().expect("more than one");
+            if t <= cull {
+                stack.push((c, t));
+            }
+        }
+        if let Some(&(t, c)) = near.first() {
+            if t <= cull {
+                node = c as usize;
+                continue;
+            }
+        }
+        loop {
+            let Some((c, t)) = stack.pop() else {
+                return best;
+            };
+            if t <= best.t * CULL_SCALE {
+                node = c as usize;
+                break;
+            }
+        }
+    }
+}
+
+/// The closest hit through the 4-wide layout (`wide::wide_layout_into`).
+pub fn trace_closest_wide(
+    wnodes: &[WideNode],
+    prim_ids: &[u32],
+    positions: &[[f32; 4]],
+    ray: &Ray,
+) -> Hit {
+    traverse_wide(wnodes, prim_ids, positions, ray, false)
+}
+
+/// Any hit through the 4-wide layout.
+pub fn trace_any_wide(
+    wnodes: &[WideNode],
+    prim_ids: &[u32],
+    positions: &[[f32; 4]],
+    ray: &Ray,
+) -> Hit {
+    traverse_wide(wnodes, prim_ids, positions, ray, true)
 }
 
 /// The closest hit by stackless traversal of the escape-index layout.

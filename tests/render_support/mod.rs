@@ -164,7 +164,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         seed: 7,
         max_depth: 8,
         clay: false,
-        traversal: Traversal::Stack,
+        traversal: Traversal::default(),
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
     }

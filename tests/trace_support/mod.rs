@@ -198,14 +198,18 @@ pub struct Traced {
     pub cpu_closest: Vec<Hit>,
     pub cpu_stackless: Vec<Hit>,
     pub cpu_any: Vec<Hit>,
+    pub cpu_wide: Vec<Hit>,
+    pub cpu_any_wide: Vec<Hit>,
     pub dev_closest: Vec<Hit>,
     pub dev_stackless: Vec<Hit>,
     pub dev_any: Vec<Hit>,
+    pub dev_wide: Vec<Hit>,
+    pub dev_any_wide: Vec<Hit>,
     pub bvh: Bvh,
 }
 
 /// Builds `soup`'s tree on the device and traces `rays` on the device and
-/// with the CPU reference, stack and stackless, closest and any.
+/// with the CPU reference: stack, stackless and wide, closest and any.
 pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let mut builder = DeviceBuilder::new(d, BuildParams::default()).unwrap();
     let (bvh, _) = builder.build(soup).unwrap();
@@ -214,12 +218,16 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let mut tracer = DeviceTracer::new(d).unwrap();
     tracer.upload_bvh(&bvh).unwrap();
     tracer.upload_stackless(&bvh).unwrap();
+    tracer.upload_wide(&bvh).unwrap();
     let prim_ids = builder.device_prim_ids().unwrap();
     let mut dev = |k| tracer.trace_rays(k, &positions, prim_ids, rays).unwrap();
     let dev_closest = dev(TraceKind::Closest);
     let dev_stackless = dev(TraceKind::ClosestStackless);
     let dev_any = dev(TraceKind::Any);
+    let dev_wide = dev(TraceKind::ClosestWide);
+    let dev_any_wide = dev(TraceKind::AnyWide);
     let snodes = trace::stackless_layout(&bvh).unwrap();
+    let wnodes = trace::wide_layout(&bvh).unwrap();
     let p = &soup.positions;
     Traced {
         cpu_closest: rays
@@ -231,9 +239,19 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
             .map(|r| trace::trace_closest_stackless(&snodes, &bvh.prim_ids, p, r))
             .collect(),
         cpu_any: rays.iter().map(|r| trace::trace_any(&bvh, p, r)).collect(),
+        cpu_wide: rays
+            .iter()
+            .map(|r| trace::trace_closest_wide(&wnodes, &bvh.prim_ids, p, r))
+            .collect(),
+        cpu_any_wide: rays
+            .iter()
+            .map(|r| trace::trace_any_wide(&wnodes, &bvh.prim_ids, p, r))
+            .collect(),
         dev_closest,
         dev_stackless,
         dev_any,
+        dev_wide,
+        dev_any_wide,
         bvh,
     }
 }
