@@ -1,5 +1,6 @@
-//! Primary-ray closest-hit throughput: soupray's device traversal (stack and
-//! stackless escape-index), the Rust CPU reference, and Embree 3 when built
+//! Primary-ray closest-hit throughput: soupray's device traversals (the
+//! default 4-wide stack traversal, the binary tree's stack traversal and the
+//! stackless escape-index one), the Rust CPU reference, and Embree 3 when built
 //! with `--features embree`, on the same soup, camera and rays, in one run.
 //!
 //!   cargo bench --bench trace_primary                     # soupray only
@@ -8,8 +9,8 @@
 //!
 //! Prints a Markdown table: median device time (profiling events) and wall
 //! time per frame of 512x512 primary rays, Mrays/s, the hit fraction, and
-//! agreement with the CPU reference; plus the cost of recomputing the
-//! stackless layout's escape indices after a build.
+//! agreement with the CPU reference; plus the host cost of the stackless
+//! layout's escape indices and of the 4-wide collapse after a build.
 
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
@@ -141,12 +142,21 @@ fn main() {
         let mut tracer = DeviceTracer::new(&device).unwrap();
         tracer.local_size = local;
         tracer.upload_bvh(&bvh).unwrap();
-        tracer.upload_wide(&bvh).unwrap();
         let mut layout_ms = Vec::new();
+        let mut wide_ms = Vec::new();
         for _ in 0..runs {
             layout_ms.push(tracer.upload_stackless(&bvh).unwrap().layout_ms);
+            wide_ms.push(tracer.upload_wide(&bvh).unwrap());
         }
-        escape_rows.push((name, n, bvh.nodes.len(), median(layout_ms)));
+        let wide_nodes = trace::wide_layout(&bvh).unwrap().len();
+        escape_rows.push((
+            name,
+            n,
+            bvh.nodes.len(),
+            median(layout_ms),
+            wide_nodes,
+            median(wide_ms),
+        ));
         let rays = device.buffer::<Ray>(count).unwrap();
         let hits = device.buffer::<Hit>(count).unwrap();
         tracer.generate_primary(&camera, &rays).unwrap();
@@ -180,7 +190,11 @@ fn main() {
         });
 
         for (kind, label, stage) in [
-            (TraceKind::Closest, "soupray device, stack", "trace/closest"),
+            (
+                TraceKind::Closest,
+                "soupray device, stack (binary tree)",
+                "trace/closest",
+            ),
             (
                 TraceKind::ClosestStackless,
                 "soupray device, stackless",
@@ -188,7 +202,7 @@ fn main() {
             ),
             (
                 TraceKind::ClosestWide,
-                "soupray device, stack, 4-wide layout",
+                "soupray device, wide (stack, 4-wide layout; the default)",
                 "trace/closest_wide",
             ),
         ] {
@@ -269,9 +283,9 @@ fn main() {
         );
     }
     println!();
-    println!("| mesh | triangles | BVH nodes | escape-index layout (host ms, median) |");
-    println!("|---|---:|---:|---:|");
-    for (name, n, nodes, ms) in escape_rows {
-        println!("| {name} | {n} | {nodes} | {ms:.2} |");
+    println!("| mesh | triangles | BVH nodes | escape-index layout (host ms, median) | 4-wide nodes | 4-wide collapse (host ms, median) |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for (name, n, nodes, ms, wide_nodes, wide_ms) in escape_rows {
+        println!("| {name} | {n} | {nodes} | {ms:.2} | {wide_nodes} | {wide_ms:.2} |");
     }
 }
