@@ -308,11 +308,7 @@ fn bench_gltf(
             },
             bins: c.params.bins,
             leaf_size: c.params.leaf_size,
-            traversal: match c.traversal {
-                Traversal::Stack => "stack",
-                Traversal::Stackless => "stackless",
-                Traversal::Wide => "wide",
-            },
+            traversal: c.traversal.name(),
             spp: c.spp,
             triangles: soup.triangle_count(),
             build_ms: tree.build_ms,

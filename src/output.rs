@@ -327,7 +327,8 @@ pub const LOG_SCHEMA: u32 = 1;
 ///   "build": { "builder": "device", "bins": 16, "leaf_size": 4, "nodes": 45000,
 ///              "leaves": 22500, "max_depth": 24, "sah_cost": 61.2,
 ///              "stages_ms": { "large": 2.0, "medium": 4.1, "small": 2.9 } },
-///   "render": { "width": 1920, "height": 1080, "spp": 64, "rays": 398000000, "mrays_per_s": 261.8 },
+///   "render": { "width": 1920, "height": 1080, "spp": 64, "rays": 398000000, "mrays_per_s": 261.8,
+///               "traversal": "wide" },
 ///   "camera": { "projection": "perspective", "position": [0, 1, 5],
 ///               "forward": [0, 0, -1], "up": [0, 1, 0], "yfov_deg": 39.6 },
 ///   "output": { "exr": "out/walk/walk.0012.exr", "png": null, "half": false, "aovs": [] },
@@ -412,6 +413,8 @@ pub struct RenderLog {
     pub rays: u64,
     /// `rays / trace time`, millions per second.
     pub mrays_per_s: f64,
+    /// The BVH traversal (`--traversal`): `wide`, `stack` or `stackless`.
+    pub traversal: String,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

@@ -294,9 +294,9 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
         return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
     }
     let traversal = match args.traversal.as_str() {
+        "wide" => Traversal::Wide,
         "stack" => Traversal::Stack,
         "stackless" => Traversal::Stackless,
-        "wide" => Traversal::Wide,
         other => {
             return Err(UsageError(format!(
                 "--traversal {other:?}: use `wide` (the default), `stack` or `stackless`"
@@ -622,6 +622,7 @@ fn render_frame(
         spp: job.settings.spp,
         rays: traced.rays,
         mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
+        traversal: job.settings.traversal.name().to_owned(),
     };
     log.camera = camera_log(&info.camera);
     log.output = output::OutputLog {

@@ -64,6 +64,17 @@ pub enum Traversal {
     Wide,
 }
 
+impl Traversal {
+    /// The `--traversal` value that selects it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Traversal::Stack => "stack",
+            Traversal::Stackless => "stackless",
+            Traversal::Wide => "wide",
+        }
+    }
+}
+
 /// Where light comes from when rays leave the scene.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub enum Environment {
