@@ -1086,21 +1086,6 @@ fn soupray(scene: &Path, out: &Path, frames: &str, extra: &[&str]) -> std::proce
         .unwrap()
 }
 
-fn read_exr(path: &Path) -> Image {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
-            (img, res.width())
-        },
-        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    image.layer_data.channel_data.pixels.0
-}
-
 fn read_log(path: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
@@ -1132,12 +1117,12 @@ fn a_frame_with_everything_scaled_to_zero_renders_the_sky() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let first = read_exr(&out.join("f.0000.exr"));
+    let first = common::read_exr(&out.join("f.0000.exr"));
     assert!(
         coverage(&first).0 > first.rgba.len() / 2,
         "frame 0 shows the scene"
     );
-    let empty = read_exr(&out.join("f.0024.exr"));
+    let empty = common::read_exr(&out.join("f.0024.exr"));
     for (i, p) in empty.rgba.iter().enumerate() {
         assert_eq!(*p, [0.2, 0.3, 0.4, 0.0], "frame 24 pixel {i}");
     }
@@ -1243,13 +1228,13 @@ fn nan_and_infinite_vertices_are_errors_naming_mesh_and_accessor_unless_sanitize
             warnings.iter().any(|w| w.contains(" 2 triangle")),
             "{what}: the log's warnings do not count 2 triangles: {warnings:?}"
         );
-        let image = read_exr(&out.join("f.0000.exr"));
+        let image = common::read_exr(&out.join("f.0000.exr"));
         assert!(image.rgba.iter().flatten().all(|v| v.is_finite()));
         let (clean, _) = bad_vertex_scene(dir.path(), "clean", 0.0, false);
         let clean_out = dir.path().join(format!("clean-{what}"));
         let run = soupray(&clean, &clean_out, "0", &[]);
         assert!(run.status.success());
-        let reference = read_exr(&clean_out.join("f.0000.exr"));
+        let reference = common::read_exr(&clean_out.join("f.0000.exr"));
         assert!(
             image.rgba == reference.rgba,
             "{what} --sanitize: the image differs from the scene without the bad triangles"

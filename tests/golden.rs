@@ -18,7 +18,7 @@ mod scene_support;
 
 use scene_support::Builder;
 use serde_json::json;
-use soupray::film::{Aovs, Image};
+use soupray::film::Image;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -69,22 +69,7 @@ fn render(scene: &Path, frame: i64, spp: u32, seed: u64, extra: &[&str]) -> Imag
         scene.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-    read_exr(&dir.path().join(format!("golden.{frame:04}.exr")))
-}
-
-fn read_exr(path: &Path) -> Image {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
-            (img, res.width())
-        },
-        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    image.layer_data.channel_data.pixels.0
+    common::read_exr(&dir.path().join(format!("golden.{frame:04}.exr")))
 }
 
 fn write_exr(path: &Path, img: &Image) {
@@ -157,7 +142,7 @@ fn check(name: &str, scene: &Path, frame: i64, spp: u32, extra: &[&str]) {
         "{name}: no reference {}; create the references with SOUPRAY_UPDATE_GOLDEN=1 cargo test --test golden",
         reference_path.display()
     );
-    let reference = read_exr(&reference_path);
+    let reference = common::read_exr(&reference_path);
     let t: Threshold = serde_json::from_value(
         thresholds()
             .get(name)
