@@ -177,91 +177,56 @@ impl<'d> DeviceTracer<'d> {
         let count = u32::try_from(n)
             .map_err(|_| TraceError::Unsupported(format!("{n} rays in one launch")))?;
         let groups = n.div_ceil(self.local_size);
-        match kind {
+        let missing =
+            |what: &str, fix: &str| TraceError::Malformed(format!("no {what} uploaded ({fix})"));
+        // The tree's arguments for this kind, then the ones all kernels share.
+        let (stage, kernel, mut args) = match kind {
             TraceKind::Closest | TraceKind::Any => {
                 let nodes = match (self.nodes.buffer(), self.depth) {
                     (Some(b), Some(_)) => b,
-                    _ => {
-                        return Err(TraceError::Malformed(
-                            "no tree uploaded (upload_bvh)".into(),
-                        ))
-                    }
+                    _ => return Err(missing("tree", "upload_bvh")),
                 };
                 let (stage, kernel) = if kind == TraceKind::Closest {
                     ("trace/closest", &self.closest)
                 } else {
                     ("trace/any", &self.any)
                 };
-                self.device.launch(
-                    stage,
-                    kernel,
-                    groups,
-                    self.local_size,
-                    &[
-                        Arg::Buf(nodes),
-                        Arg::Buf(prim_ids),
-                        Arg::Buf(positions),
-                        Arg::Buf(rays),
-                        Arg::Buf(hits),
-                        Arg::U32(count),
-                    ],
-                )?;
+                (stage, kernel, vec![Arg::Buf(nodes)])
             }
             TraceKind::ClosestWide | TraceKind::AnyWide => {
                 let wnodes = match self.wnodes.buffer() {
                     Some(b) if self.wnode_count > 0 => b,
-                    _ => {
-                        return Err(TraceError::Malformed(
-                            "no 4-wide layout uploaded (upload_wide)".into(),
-                        ))
-                    }
+                    _ => return Err(missing("4-wide layout", "upload_wide")),
                 };
                 let (stage, kernel) = if kind == TraceKind::ClosestWide {
                     ("trace/closest_wide", &self.closest_wide)
                 } else {
                     ("trace/any_wide", &self.any_wide)
                 };
-                self.device.launch(
-                    stage,
-                    kernel,
-                    groups,
-                    self.local_size,
-                    &[
-                        Arg::Buf(wnodes),
-                        Arg::Buf(prim_ids),
-                        Arg::Buf(positions),
-                        Arg::Buf(rays),
-                        Arg::Buf(hits),
-                        Arg::U32(count),
-                    ],
-                )?;
+                (stage, kernel, vec![Arg::Buf(wnodes)])
             }
             TraceKind::ClosestStackless => {
                 let snodes = match self.snodes.buffer() {
                     Some(b) if self.snode_count > 0 => b,
-                    _ => {
-                        return Err(TraceError::Malformed(
-                            "no stackless layout uploaded (upload_stackless)".into(),
-                        ))
-                    }
+                    _ => return Err(missing("stackless layout", "upload_stackless")),
                 };
-                self.device.launch(
+                let entries = Arg::U32(self.snode_count as u32);
+                (
                     "trace/stackless",
                     &self.stackless,
-                    groups,
-                    self.local_size,
-                    &[
-                        Arg::Buf(snodes),
-                        Arg::U32(self.snode_count as u32),
-                        Arg::Buf(prim_ids),
-                        Arg::Buf(positions),
-                        Arg::Buf(rays),
-                        Arg::Buf(hits),
-                        Arg::U32(count),
-                    ],
-                )?;
+                    vec![Arg::Buf(snodes), entries],
+                )
             }
-        }
+        };
+        args.extend([
+            Arg::Buf(prim_ids),
+            Arg::Buf(positions),
+            Arg::Buf(rays),
+            Arg::Buf(hits),
+            Arg::U32(count),
+        ]);
+        self.device
+            .launch(stage, kernel, groups, self.local_size, &args)?;
         Ok(())
     }
 
