@@ -250,6 +250,40 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
     return false;
 }
 
+// The pieces every traversal below shares, as macros over the caller's
+// `ray`, `prim_ids` and `positions`:
+// RAY_START: the closest hit so far (none, at tmax) and the prepared ray;
+// an all-zero direction returns at once.
+#define RAY_START                                                                 \
+    Hit best;                                                                     \
+    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;            \
+    RayPre r;                                                                     \
+    if (!ray_prepare(&r, ray)) return best;
+// STACK_START(SIZE): an empty stack of nodes and their entry distances, at
+// the root.
+#define STACK_START(SIZE)                                                         \
+    uint stack_node[SIZE];                                                        \
+    float stack_t[SIZE];                                                          \
+    int sp = 0;                                                                   \
+    uint node = 0;
+// VISIT_LEAF: intersects a leaf whose box the ray hits; any-hit returns at
+// its first hit.
+#define VISIT_LEAF(ANY, first, count)                                             \
+    if (ANY) {                                                                    \
+        if (any_leaf(&r, prim_ids, positions, first, count, &best)) return best;  \
+    } else {                                                                      \
+        closest_leaf(&r, prim_ids, positions, first, count, &best);               \
+    }
+// POP_NODE: the most recently stacked node that may still hold a closer hit
+// goes into `node`; the traversal returns when none is left.
+#define POP_NODE                                                                  \
+    for (;;) {                                                                    \
+        if (sp == 0) return best;                                                 \
+        sp--;                                                                     \
+        if (stack_t[sp] <= best.t * CULL_SCALE) break;                            \
+    }                                                                             \
+    node = stack_node[sp];
+
 // Front-to-back stack traversal of the BVH2 (node 0 = root). Leaf children
 // are intersected as soon as their box is hit; of the inner children the
 // nearer is entered and the farther pushed with its entry distance, and
@@ -257,14 +291,8 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
 // first hit (shadow rays). The stack holds at most one entry per tree level,
 // and the host refuses trees deeper than STACK_SIZE.
 #define TRAVERSE_BODY(ANY)                                                        \
-    Hit best;                                                                     \
-    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;            \
-    RayPre r;                                                                     \
-    if (!ray_prepare(&r, ray)) return best;                                       \
-    uint stack_node[STACK_SIZE];                                                  \
-    float stack_t[STACK_SIZE];                                                    \
-    int sp = 0;                                                                   \
-    uint node = 0;                                                                \
+    RAY_START                                                                     \
+    STACK_START(STACK_SIZE)                                                       \
     for (;;) {                                                                    \
         const __global BvhNode* n = nodes + node;                                 \
         float tl = box_entry(&r, n->left_min[0], n->left_min[1], n->left_min[2],  \
@@ -283,22 +311,14 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
         uint next = NO_NODE;                                                      \
         if (tl != INFINITY) {                                                     \
             if (n0 > 0) {                                                         \
-                if (ANY) {                                                        \
-                    if (any_leaf(&r, prim_ids, positions, c0, n0, &best)) return best; \
-                } else {                                                          \
-                    closest_leaf(&r, prim_ids, positions, c0, n0, &best);         \
-                }                                                                 \
+                VISIT_LEAF(ANY, c0, n0)                                           \
             } else {                                                              \
                 next = c0;                                                        \
             }                                                                     \
         }                                                                         \
         if (tr != INFINITY && tr <= best.t * CULL_SCALE) {                        \
             if (n1 > 0) {                                                         \
-                if (ANY) {                                                        \
-                    if (any_leaf(&r, prim_ids, positions, c1, n1, &best)) return best; \
-                } else {                                                          \
-                    closest_leaf(&r, prim_ids, positions, c1, n1, &best);         \
-                }                                                                 \
+                VISIT_LEAF(ANY, c1, n1)                                           \
             } else if (next == NO_NODE) {                                         \
                 next = c1;                                                        \
             } else {                                                              \
@@ -311,12 +331,7 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
             node = next;                                                          \
             continue;                                                             \
         }                                                                         \
-        for (;;) {                                                                \
-            if (sp == 0) return best;                                             \
-            sp--;                                                                 \
-            if (stack_t[sp] <= best.t * CULL_SCALE) break;                        \
-        }                                                                         \
-        node = stack_node[sp];                                                    \
+        POP_NODE                                                                  \
     }
 
 // The closest hit of `ray` (prim == MISS when none).
@@ -330,14 +345,6 @@ inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* pri
                          const __global float* positions, Ray ray) {
     TRAVERSE_BODY(1)
 }
-
-// Front-to-back stack traversal of the 4-wide layout (node 0 = root): the
-// node's four boxes are tested, hit leaves intersected at once, and of the
-// hit inner children the nearest is entered and the others pushed, farthest
-// first, with their entry distances (skipped on pop if a closer hit has been
-// found since). A node pushes at most three entries and a path holds at
-// most one node per binary-tree level: WIDE_STACK_SIZE = 3 * STACK_SIZE.
-#define WIDE_STACK_SIZE (3 * STACK_SIZE)
 
 // box_entry for the four boxes of a wide node at once, lane by lane the
 // same operations, so the same four results.
@@ -355,15 +362,17 @@ inline float4 box_entry_wide(const RayPre* r, const __global WideNode* n, float 
     int4 hit = (tn <= tf) & (tn <= (float4)(best * CULL_SCALE));
     return select((float4)(INFINITY), tn, hit);
 }
+
+// Front-to-back stack traversal of the 4-wide layout (node 0 = root): the
+// node's four boxes are tested, hit leaves intersected at once, and of the
+// hit inner children the nearest is entered and the others pushed, farthest
+// first, with their entry distances (skipped on pop if a closer hit has been
+// found since). A node pushes at most three entries and a path holds at
+// most one node per binary-tree level: WIDE_STACK_SIZE = 3 * STACK_SIZE.
+#define WIDE_STACK_SIZE (3 * STACK_SIZE)
 #define TRAVERSE_WIDE_BODY(ANY)                                                   \
-    Hit best;                                                                     \
-    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;            \
-    RayPre r;                                                                     \
-    if (!ray_prepare(&r, ray)) return best;                                       \
-    uint stack_node[WIDE_STACK_SIZE];                                             \
-    float stack_t[WIDE_STACK_SIZE];                                               \
-    int sp = 0;                                                                   \
-    uint node = 0;                                                                \
+    RAY_START                                                                     \
+    STACK_START(WIDE_STACK_SIZE)                                                  \
     for (;;) {                                                                    \
         const __global WideNode* n = wnodes + node;                               \
         /* the hit inner children, nearest first */                               \
@@ -377,11 +386,7 @@ inline float4 box_entry_wide(const RayPre* r, const __global WideNode* n, float 
             if (t == INFINITY) continue; /* missed, culled, or an empty slot */   \
             uint child = n->child[c], count = n->count[c];                        \
             if (count > 0) {                                                      \
-                if (ANY) {                                                        \
-                    if (any_leaf(&r, prim_ids, positions, child, count, &best)) return best; \
-                } else {                                                          \
-                    closest_leaf(&r, prim_ids, positions, child, count, &best);   \
-                }                                                                 \
+                VISIT_LEAF(ANY, child, count)                                     \
                 continue;                                                         \
             }                                                                     \
             uint j = k++;                                                         \
@@ -406,12 +411,7 @@ inline float4 box_entry_wide(const RayPre* r, const __global WideNode* n, float 
             node = near_node[0];                                                  \
             continue;                                                             \
         }                                                                         \
-        for (;;) {                                                                \
-            if (sp == 0) return best;                                             \
-            sp--;                                                                 \
-            if (stack_t[sp] <= best.t * CULL_SCALE) break;                        \
-        }                                                                         \
-        node = stack_node[sp];                                                    \
+        POP_NODE                                                                  \
     }
 
 // The closest hit of `ray` through the 4-wide layout.
@@ -433,10 +433,7 @@ inline Hit trace_any_wide_bvh(const __global WideNode* wnodes, const __global ui
 inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uint entries,
                                        const __global uint* prim_ids,
                                        const __global float* positions, Ray ray) {
-    Hit best;
-    best.t = ray.tmax; best.prim = MISS; best.u = 0.0f; best.v = 0.0f;
-    RayPre r;
-    if (!ray_prepare(&r, ray)) return best;
+    RAY_START
     uint i = 0;
     while (i < entries) {
         const __global StacklessNode* e = snodes + i;
