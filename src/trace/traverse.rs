@@ -110,6 +110,36 @@ fn any_leaf(
     false
 }
 
+/// `VISIT_LEAF`: intersects a leaf whose box the ray hits. True when an
+/// any-hit query has its answer in `best`.
+#[inline(always)]
+fn visit_leaf(
+    r: &RayPre,
+    positions: &[[f32; 4]],
+    prim_ids: &[u32],
+    (first, count): (u32, u32),
+    any: bool,
+    best: &mut Hit,
+) -> bool {
+    if any {
+        any_leaf(r, positions, prim_ids, first, count, best)
+    } else {
+        closest_leaf(r, positions, prim_ids, first, count, best);
+        false
+    }
+}
+
+/// `POP_NODE`: the most recently stacked node that may still hold a closer
+/// hit than `best`, or `None` when the traversal is done.
+fn pop_node(stack: &mut Vec<(u32, f32)>, best: &Hit) -> Option<u32> {
+    while let Some((c, t)) = stack.pop() {
+        if t <= best.t * CULL_SCALE {
+            return Some(c);
+        }
+    }
+    None
+}
+
 fn traverse(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray, any: bool) -> Hit {
     let mut best = Hit::miss(ray.tmax);
     let Some(r) = RayPre::new(ray) else {
@@ -133,12 +163,8 @@ fn traverse(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray, any: bool) -> Hit {
         let mut next = None;
         if tl != f32::INFINITY {
             if n0 > 0 {
-                if any {
-                    if any_leaf(&r, positions, &bvh.prim_ids, c0, n0, &mut best) {
-                        return best;
-                    }
-                } else {
-                    closest_leaf(&r, positions, &bvh.prim_ids, c0, n0, &mut best);
+                if visit_leaf(&r, positions, &bvh.prim_ids, (c0, n0), any, &mut best) {
+                    return best;
                 }
             } else {
                 next = Some(c0);
@@ -146,12 +172,8 @@ fn traverse(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray, any: bool) -> Hit {
         }
         if tr != f32::INFINITY && tr <= best.t * CULL_SCALE {
             if n1 > 0 {
-                if any {
-                    if any_leaf(&r, positions, &bvh.prim_ids, c1, n1, &mut best) {
-                        return best;
-                    }
-                } else {
-                    closest_leaf(&r, positions, &bvh.prim_ids, c1, n1, &mut best);
+                if visit_leaf(&r, positions, &bvh.prim_ids, (c1, n1), any, &mut best) {
+                    return best;
                 }
             } else if next.is_none() {
                 next = Some(c1);
@@ -159,18 +181,9 @@ fn traverse(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray, any: bool) -> Hit {
                 stack.push((c1, tr));
             }
         }
-        if let Some(c) = next {
-            node = c;
-            continue;
-        }
-        loop {
-            let Some((c, t)) = stack.pop() else {
-                return best;
-            };
-            if t <= best.t * CULL_SCALE {
-                node = c;
-                break;
-            }
+        match next.or_else(|| pop_node(&mut stack, &best)) {
+            Some(c) => node = c,
+            None => return best,
         }
     }
 }
@@ -220,12 +233,8 @@ fn traverse_wide(
             }
             let (child, count) = (n.child[c], n.count[c]);
             if count > 0 {
-                if any {
-                    if any_leaf(&r, positions, prim_ids, child, count, &mut best) {
-                        return best;
-                    }
-                } else {
-                    closest_leaf(&r, positions, prim_ids, child, count, &mut best);
+                if visit_leaf(&r, positions, prim_ids, (child, count), any, &mut best) {
+                    return best;
                 }
                 continue;
             }
@@ -239,20 +248,10 @@ fn traverse_wide(
                 stack.push((c, t));
             }
         }
-        if let Some(&(t, c)) = near.first() {
-            if t <= cull {
-                node = c as usize;
-                continue;
-            }
-        }
-        loop {
-            let Some((c, t)) = stack.pop() else {
-                return best;
-            };
-            if t <= best.t * CULL_SCALE {
-                node = c as usize;
-                break;
-            }
+        let next = near.first().filter(|&&(t, _)| t <= cull).map(|&(_, c)| c);
+        match next.or_else(|| pop_node(&mut stack, &best)) {
+            Some(c) => node = c as usize,
+            None => return best,
         }
     }
 }
