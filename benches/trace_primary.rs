@@ -144,11 +144,13 @@ fn main() {
         tracer.upload_bvh(&bvh).unwrap();
         let mut layout_ms = Vec::new();
         let mut wide_ms = Vec::new();
+        let mut wide_nodes = 0;
         for _ in 0..runs {
             layout_ms.push(tracer.upload_stackless(&bvh).unwrap().layout_ms);
-            wide_ms.push(tracer.upload_wide(&bvh).unwrap());
+            let wide = tracer.upload_wide(&bvh).unwrap();
+            wide_ms.push(wide.layout_ms);
+            wide_nodes = wide.entries;
         }
-        let wide_nodes = trace::wide_layout(&bvh).unwrap().len();
         escape_rows.push((
             name,
             n,

@@ -37,13 +37,14 @@ pub enum TraceKind {
     AnyWide,
 }
 
-/// The cost of making the stackless layout for one tree.
+/// The cost of making a traversal layout (stackless or 4-wide) for one tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct EscapeStats {
-    /// Host time to compute the escape indices and the preorder layout.
+pub struct LayoutStats {
+    /// Host time to compute the layout from the tree.
     pub layout_ms: f64,
     /// Wall time of the upload.
     pub upload_ms: f64,
+    /// Entries (stackless) or nodes (4-wide) of the layout.
     pub entries: usize,
 }
 
@@ -125,7 +126,7 @@ impl<'d> DeviceTracer<'d> {
 
     /// Computes the tree's escape-index layout on the host and uploads it:
     /// needed after every build before `TraceKind::ClosestStackless`.
-    pub fn upload_stackless(&mut self, bvh: &Bvh) -> Result<EscapeStats, TraceError> {
+    pub fn upload_stackless(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
         self.snode_count = 0;
         let start = Instant::now();
         stackless_layout_into(bvh, &mut self.snode_host)?;
@@ -135,7 +136,7 @@ impl<'d> DeviceTracer<'d> {
         let buf = self.snodes.ensure(self.device, n)?;
         self.device.write(buf, &self.snode_host)?;
         self.snode_count = n;
-        Ok(EscapeStats {
+        Ok(LayoutStats {
             layout_ms,
             upload_ms: start.elapsed().as_secs_f64() * 1e3,
             entries: n,
@@ -143,19 +144,23 @@ impl<'d> DeviceTracer<'d> {
     }
 
     /// Collapses the tree into the 4-wide layout on the host and uploads it:
-    /// needed after every build before `ClosestWide`/`AnyWide`. Returns the
-    /// host time of the collapse, in milliseconds.
-    pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<f64, TraceError> {
+    /// needed after every build before `ClosestWide`/`AnyWide`.
+    pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
         self.wnode_count = 0;
         check_depth(bvh)?;
         let start = Instant::now();
         wide_layout_into(bvh, &mut self.wnode_host)?;
         let layout_ms = start.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
         let n = self.wnode_host.len();
         let buf = self.wnodes.ensure(self.device, n)?;
         self.device.write(buf, &self.wnode_host)?;
         self.wnode_count = n;
-        Ok(layout_ms)
+        Ok(LayoutStats {
+            layout_ms,
+            upload_ms: start.elapsed().as_secs_f64() * 1e3,
+            entries: n,
+        })
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
