@@ -55,9 +55,14 @@ impl WideNode {
     }
 }
 
-fn half_area(b: &Aabb) -> f32 {
-    let d = [b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]];
-    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+/// The present (not empty) children of binary node `index`.
+fn children(bvh: &Bvh, index: u32) -> Result<impl Iterator<Item = (Child, Aabb)>, TraceError> {
+    let node = bvh.nodes.get(index as usize).ok_or_else(|| {
+        TraceError::Malformed(format!("the tree refers to a missing node {index}"))
+    })?;
+    Ok([node.left(), node.right()]
+        .into_iter()
+        .filter(|(c, _)| *c != Child::Empty))
 }
 
 /// The 4-wide layout of `bvh`.
@@ -79,34 +84,23 @@ pub fn wide_layout_into(bvh: &Bvh, out: &mut Vec<WideNode>) -> Result<(), TraceE
     let mut work = vec![(0u32, 0usize)];
     let mut slots: Vec<(Child, Aabb)> = Vec::with_capacity(4);
     while let Some((binary, wide)) = work.pop() {
-        let node = bvh.nodes.get(binary as usize).ok_or_else(|| {
-            TraceError::Malformed(format!("the tree refers to a missing node {binary}"))
-        })?;
         slots.clear();
-        slots.extend(
-            [node.left(), node.right()]
-                .into_iter()
-                .filter(|(c, _)| *c != Child::Empty),
-        );
+        slots.extend(children(bvh, binary)?);
         while slots.len() < 4 {
-            let Some(open) = (0..slots.len())
-                .filter(|&k| matches!(slots[k].0, Child::Inner(_)))
-                .max_by(|&a, &b| half_area(&slots[a].1).total_cmp(&half_area(&slots[b].1)))
-            else {
+            // The inner child of largest surface area is opened.
+            let open = slots
+                .iter()
+                .enumerate()
+                .filter_map(|(k, (c, b))| match c {
+                    Child::Inner(index) => Some((k, *index, b.area())),
+                    _ => None,
+                })
+                .max_by(|a, b| a.2.total_cmp(&b.2));
+            let Some((k, index, _)) = open else {
                 break;
             };
-            let Child::Inner(index) = slots[open].0 else {
-                unreachable!("filtered to inner children")
-            };
-            let inner = bvh.nodes.get(index as usize).ok_or_else(|| {
-                TraceError::Malformed(format!("the tree refers to a missing node {index}"))
-            })?;
-            slots.swap_remove(open);
-            slots.extend(
-                [inner.left(), inner.right()]
-                    .into_iter()
-                    .filter(|(c, _)| *c != Child::Empty),
-            );
+            slots.swap_remove(k);
+            slots.extend(children(bvh, index)?);
         }
         let mut w = WideNode::empty();
         for (k, (child, b)) in slots.iter().enumerate() {
