@@ -6,7 +6,8 @@
 //! "trace/stackless", "trace/primary").
 //!
 //! The renderer's frame loop: `DeviceBuilder::build_from_device` →
-//! `upload_bvh(&bvh)` (and `upload_stackless` for `--traversal stackless`) →
+//! `upload_bvh(&bvh)` (or `upload_wide` / `upload_stackless` for the other
+//! traversals; `TreeLayouts` keeps all three) →
 //! `generate_primary` / `trace(kind, positions, builder.device_prim_ids(),
 //! rays, hits, n)` as often as the bounces need, all on the device.
 
@@ -48,6 +49,126 @@ pub struct LayoutStats {
     pub entries: usize,
 }
 
+/// A frame's tree on the device in the layout each traversal reads: the
+/// binary nodes as built, their 4-wide collapse, the stackless entries.
+/// Buffers (and the host scratch of the layouts) are kept from frame to
+/// frame and grow only when a tree outgrows them. Shared by `DeviceTracer`
+/// and the path tracer.
+#[derive(Default)]
+pub struct TreeLayouts {
+    nodes: GrowBuffer<BvhNode>,
+    /// The depth of the uploaded binary tree; `None`: none uploaded.
+    depth: Option<u32>,
+    wnodes: GrowBuffer<WideNode>,
+    wnode_host: Vec<WideNode>,
+    wnode_count: usize,
+    snodes: GrowBuffer<StacklessNode>,
+    snode_host: Vec<StacklessNode>,
+    snode_count: usize,
+}
+
+impl TreeLayouts {
+    /// Device buffer (re)allocations so far.
+    pub fn allocations(&self) -> usize {
+        self.nodes.allocations() + self.wnodes.allocations() + self.snodes.allocations()
+    }
+
+    /// Checks the tree's depth against the stack and uploads its nodes.
+    /// Returns the depth.
+    pub fn upload_binary(&mut self, device: &Device, bvh: &Bvh) -> Result<u32, TraceError> {
+        self.depth = None;
+        let depth = check_depth(bvh)?;
+        device.write(self.nodes.ensure(device, bvh.nodes.len())?, &bvh.nodes)?;
+        self.depth = Some(depth);
+        Ok(depth)
+    }
+
+    /// Computes the escape-index layout on the host and uploads it.
+    pub fn upload_stackless(
+        &mut self,
+        device: &Device,
+        bvh: &Bvh,
+    ) -> Result<LayoutStats, TraceError> {
+        self.snode_count = 0;
+        let start = Instant::now();
+        stackless_layout_into(bvh, &mut self.snode_host)?;
+        let stats = upload_layout(device, &mut self.snodes, &self.snode_host, start)?;
+        self.snode_count = stats.entries;
+        Ok(stats)
+    }
+
+    /// Checks the tree's depth, collapses it into the 4-wide layout on the
+    /// host and uploads that.
+    pub fn upload_wide(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
+        self.wnode_count = 0;
+        check_depth(bvh)?;
+        let start = Instant::now();
+        wide_layout_into(bvh, &mut self.wnode_host)?;
+        let stats = upload_layout(device, &mut self.wnodes, &self.wnode_host, start)?;
+        self.wnode_count = stats.entries;
+        Ok(stats)
+    }
+
+    /// The tree of an empty soup in every layout: an empty root for the
+    /// binary and 4-wide traversals, no stackless entries. Nothing is hit.
+    pub fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
+        device.write(self.nodes.ensure(device, 1)?, &[BvhNode::empty()])?;
+        device.write(self.wnodes.ensure(device, 1)?, &[WideNode::empty()])?;
+        self.snodes.ensure(device, 1)?;
+        self.depth = Some(0);
+        self.wnode_count = 1;
+        self.snode_count = 0;
+        Ok(())
+    }
+
+    /// Makes sure all three buffers exist, for a kernel that takes them all
+    /// though its traversal reads one (see `buffers`).
+    pub fn ensure_all(&mut self, device: &Device) -> Result<(), TraceError> {
+        self.nodes.ensure(device, 1)?;
+        self.wnodes.ensure(device, 1)?;
+        self.snodes.ensure(device, 1)?;
+        Ok(())
+    }
+
+    /// The three buffers, after `ensure_all`; those never uploaded are unread.
+    pub fn buffers(&self) -> (&Buffer<BvhNode>, &Buffer<WideNode>, &Buffer<StacklessNode>) {
+        (self.nodes.get(), self.wnodes.get(), self.snodes.get())
+    }
+
+    /// The binary nodes, once uploaded.
+    pub fn binary(&self) -> Option<&Buffer<BvhNode>> {
+        self.depth.and(self.nodes.buffer())
+    }
+
+    /// The 4-wide nodes, once uploaded.
+    pub fn wide(&self) -> Option<&Buffer<WideNode>> {
+        self.wnodes.buffer().filter(|_| self.wnode_count > 0)
+    }
+
+    /// The stackless entries and their count, once uploaded.
+    pub fn stackless(&self) -> Option<(&Buffer<StacklessNode>, u32)> {
+        let buffer = self.snodes.buffer().filter(|_| self.snode_count > 0)?;
+        Some((buffer, self.snode_count as u32))
+    }
+}
+
+/// Uploads a layout made on the host since `start` into `buffer`.
+fn upload_layout<T>(
+    device: &Device,
+    buffer: &mut GrowBuffer<T>,
+    host: &[T],
+    start: Instant,
+) -> Result<LayoutStats, TraceError> {
+    let layout_ms = start.elapsed().as_secs_f64() * 1e3;
+    let start = Instant::now();
+    device.write(buffer.ensure(device, host.len())?, host)?;
+    Ok(LayoutStats {
+        layout_ms,
+        upload_ms: start.elapsed().as_secs_f64() * 1e3,
+        entries: host.len(),
+    })
+}
+
 /// The trace kernels and the current tree, on one device.
 pub struct DeviceTracer<'d> {
     device: &'d Device,
@@ -57,14 +178,7 @@ pub struct DeviceTracer<'d> {
     closest_wide: Kernel,
     any_wide: Kernel,
     primary: Kernel,
-    nodes: GrowBuffer<BvhNode>,
-    snodes: GrowBuffer<StacklessNode>,
-    snode_host: Vec<StacklessNode>,
-    snode_count: usize,
-    wnodes: GrowBuffer<WideNode>,
-    wnode_host: Vec<WideNode>,
-    wnode_count: usize,
-    depth: Option<u32>,
+    layouts: TreeLayouts,
     /// Scratch for `trace_rays` (tests, tools).
     rays: GrowBuffer<Ray>,
     hits: GrowBuffer<Hit>,
@@ -88,14 +202,7 @@ impl<'d> DeviceTracer<'d> {
             closest_wide: k("trace_closest_wide")?,
             any_wide: k("trace_any_wide")?,
             primary: k("generate_primary")?,
-            nodes: GrowBuffer::new(),
-            snodes: GrowBuffer::new(),
-            snode_host: Vec::new(),
-            snode_count: 0,
-            wnodes: GrowBuffer::new(),
-            wnode_host: Vec::new(),
-            wnode_count: 0,
-            depth: None,
+            layouts: TreeLayouts::default(),
             rays: GrowBuffer::new(),
             hits: GrowBuffer::new(),
             local_size: 64,
@@ -105,62 +212,26 @@ impl<'d> DeviceTracer<'d> {
     /// Device buffer (re)allocations so far: only when a frame outgrows the
     /// buffers, never every frame.
     pub fn allocations(&self) -> usize {
-        self.nodes.allocations()
-            + self.snodes.allocations()
-            + self.wnodes.allocations()
-            + self.rays.allocations()
-            + self.hits.allocations()
+        self.layouts.allocations() + self.rays.allocations() + self.hits.allocations()
     }
 
     /// Checks the tree's depth against the stack and uploads its nodes into
     /// the reused node buffer. Returns the depth. The primitive-index array
     /// stays where the builder left it (`DeviceBuilder::device_prim_ids`).
     pub fn upload_bvh(&mut self, bvh: &Bvh) -> Result<u32, TraceError> {
-        self.depth = None;
-        let depth = check_depth(bvh)?;
-        let buf = self.nodes.ensure(self.device, bvh.nodes.len())?;
-        self.device.write(buf, &bvh.nodes)?;
-        self.depth = Some(depth);
-        Ok(depth)
+        self.layouts.upload_binary(self.device, bvh)
     }
 
     /// Computes the tree's escape-index layout on the host and uploads it:
     /// needed after every build before `TraceKind::ClosestStackless`.
     pub fn upload_stackless(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.snode_count = 0;
-        let start = Instant::now();
-        stackless_layout_into(bvh, &mut self.snode_host)?;
-        let layout_ms = start.elapsed().as_secs_f64() * 1e3;
-        let start = Instant::now();
-        let n = self.snode_host.len();
-        let buf = self.snodes.ensure(self.device, n)?;
-        self.device.write(buf, &self.snode_host)?;
-        self.snode_count = n;
-        Ok(LayoutStats {
-            layout_ms,
-            upload_ms: start.elapsed().as_secs_f64() * 1e3,
-            entries: n,
-        })
+        self.layouts.upload_stackless(self.device, bvh)
     }
 
     /// Collapses the tree into the 4-wide layout on the host and uploads it:
     /// needed after every build before `ClosestWide`/`AnyWide`.
     pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.wnode_count = 0;
-        check_depth(bvh)?;
-        let start = Instant::now();
-        wide_layout_into(bvh, &mut self.wnode_host)?;
-        let layout_ms = start.elapsed().as_secs_f64() * 1e3;
-        let start = Instant::now();
-        let n = self.wnode_host.len();
-        let buf = self.wnodes.ensure(self.device, n)?;
-        self.device.write(buf, &self.wnode_host)?;
-        self.wnode_count = n;
-        Ok(LayoutStats {
-            layout_ms,
-            upload_ms: start.elapsed().as_secs_f64() * 1e3,
-            entries: n,
-        })
+        self.layouts.upload_wide(self.device, bvh)
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
@@ -187,10 +258,10 @@ impl<'d> DeviceTracer<'d> {
         // The tree's arguments for this kind, then the ones all kernels share.
         let (stage, kernel, mut args) = match kind {
             TraceKind::Closest | TraceKind::Any => {
-                let nodes = match (self.nodes.buffer(), self.depth) {
-                    (Some(b), Some(_)) => b,
-                    _ => return Err(missing("tree", "upload_bvh")),
-                };
+                let nodes = self
+                    .layouts
+                    .binary()
+                    .ok_or_else(|| missing("tree", "upload_bvh"))?;
                 let (stage, kernel) = if kind == TraceKind::Closest {
                     ("trace/closest", &self.closest)
                 } else {
@@ -199,10 +270,10 @@ impl<'d> DeviceTracer<'d> {
                 (stage, kernel, vec![Arg::Buf(nodes)])
             }
             TraceKind::ClosestWide | TraceKind::AnyWide => {
-                let wnodes = match self.wnodes.buffer() {
-                    Some(b) if self.wnode_count > 0 => b,
-                    _ => return Err(missing("4-wide layout", "upload_wide")),
-                };
+                let wnodes = self
+                    .layouts
+                    .wide()
+                    .ok_or_else(|| missing("4-wide layout", "upload_wide"))?;
                 let (stage, kernel) = if kind == TraceKind::ClosestWide {
                     ("trace/closest_wide", &self.closest_wide)
                 } else {
@@ -211,11 +282,11 @@ impl<'d> DeviceTracer<'d> {
                 (stage, kernel, vec![Arg::Buf(wnodes)])
             }
             TraceKind::ClosestStackless => {
-                let snodes = match self.snodes.buffer() {
-                    Some(b) if self.snode_count > 0 => b,
-                    _ => return Err(missing("stackless layout", "upload_stackless")),
-                };
-                let entries = Arg::U32(self.snode_count as u32);
+                let (snodes, entries) = self
+                    .layouts
+                    .stackless()
+                    .ok_or_else(|| missing("stackless layout", "upload_stackless"))?;
+                let entries = Arg::U32(entries);
                 (
                     "trace/stackless",
                     &self.stackless,

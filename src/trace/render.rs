@@ -31,17 +31,15 @@ use opencl3::kernel::Kernel;
 use opencl3::memory::Buffer;
 use opencl3::program::Program;
 
-use super::escape::{stackless_layout_into, StacklessNode};
+use super::device::TreeLayouts;
 use super::lights::{
     DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap, ENV_CONSTANT, ENV_MAP, ENV_NONE,
 };
 use super::material::{device_materials, DeviceMaterial};
 use super::texture::{Slot, TextureBinding, TextureSet};
-use super::traverse::check_depth;
-use super::wide::{wide_layout_into, WideNode};
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
-use crate::bvh::{BuildParams, Bvh, BvhNode, MAX_DEPTH};
+use crate::bvh::{BuildParams, Bvh, MAX_DEPTH};
 use crate::device::{Arg, Device, GrowBuffer};
 use crate::film::{self, Aovs, Image, BACKGROUND_DEPTH};
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
@@ -283,11 +281,8 @@ pub struct PathTracer<'d> {
     dummy_f32: Buffer<f32>,
     dummy_u32: Buffer<u32>,
     dummy_f4: Buffer<[f32; 4]>,
-    nodes: GrowBuffer<BvhNode>,
-    wnodes: GrowBuffer<WideNode>,
-    wnode_host: Vec<WideNode>,
-    snodes: GrowBuffer<StacklessNode>,
-    snode_host: Vec<StacklessNode>,
+    /// The frame's tree in the layout of `settings.traversal`.
+    layouts: TreeLayouts,
     lights: GrowBuffer<DeviceLight>,
     power: GrowBuffer<f32>,
     power_host: Vec<f32>,
@@ -478,11 +473,7 @@ impl<'d> PathTracer<'d> {
             dummy_f32,
             dummy_u32,
             dummy_f4,
-            nodes: GrowBuffer::new(),
-            wnodes: GrowBuffer::new(),
-            wnode_host: Vec::new(),
-            snodes: GrowBuffer::new(),
-            snode_host: Vec::new(),
+            layouts: TreeLayouts::default(),
             lights: GrowBuffer::new(),
             power: GrowBuffer::new(),
             power_host: Vec::new(),
@@ -615,37 +606,20 @@ impl<'d> PathTracer<'d> {
         let empty = soup.triangles == 0 || bvh.nodes.is_empty();
         let snode_count = match s.traversal {
             _ if empty => {
-                d.write(self.nodes.ensure(d, 1)?, &[BvhNode::empty()])?;
-                d.write(self.wnodes.ensure(d, 1)?, &[WideNode::empty()])?;
-                self.snodes.ensure(d, 1)?;
+                self.layouts.upload_empty(d)?;
                 0
             }
             Traversal::Stack => {
-                check_depth(bvh)?;
-                let buf = self.nodes.ensure(d, bvh.nodes.len())?;
-                d.write(buf, &bvh.nodes)?;
-                self.wnodes.ensure(d, 1)?;
-                self.snodes.ensure(d, 1)?;
+                self.layouts.upload_binary(d, bvh)?;
                 0
             }
             Traversal::Wide => {
-                check_depth(bvh)?;
-                wide_layout_into(bvh, &mut self.wnode_host)?;
-                let buf = self.wnodes.ensure(d, self.wnode_host.len())?;
-                d.write(buf, &self.wnode_host)?;
-                self.nodes.ensure(d, 1)?;
-                self.snodes.ensure(d, 1)?;
+                self.layouts.upload_wide(d, bvh)?;
                 0
             }
-            Traversal::Stackless => {
-                stackless_layout_into(bvh, &mut self.snode_host)?;
-                let buf = self.snodes.ensure(d, self.snode_host.len())?;
-                d.write(buf, &self.snode_host)?;
-                self.nodes.ensure(d, 1)?;
-                self.wnodes.ensure(d, 1)?;
-                self.snode_host.len() as u32
-            }
+            Traversal::Stackless => self.layouts.upload_stackless(d, bvh)?.entries as u32,
         };
+        self.layouts.ensure_all(d)?;
 
         // Lights.
         let host_lights: Vec<DeviceLight> =
@@ -802,9 +776,9 @@ impl<'d> PathTracer<'d> {
                     let ch = th.min(h - ty);
                     let items = cw as usize * ch as usize;
                     let mut args = vec![
-                        Arg::Buf(self.nodes.get()),
-                        Arg::Buf(self.wnodes.get()),
-                        Arg::Buf(self.snodes.get()),
+                        Arg::Buf(self.layouts.buffers().0),
+                        Arg::Buf(self.layouts.buffers().1),
+                        Arg::Buf(self.layouts.buffers().2),
                         Arg::U32(snode_count),
                         Arg::Buf(prim_ids),
                         Arg::Buf(positions),
