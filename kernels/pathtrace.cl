@@ -20,6 +20,7 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
+#include "pt_types.h"
 #include "sampling.h"
 #include "bsdf.h"
 #include "lights.h"
@@ -30,31 +31,6 @@
 // Crossings of cut-out or culled surfaces allowed per ray segment before
 // the segment counts as blocked (camera rays: the path ends).
 #define MAX_CROSSINGS 64u
-
-// PtFrame.flags
-#define FRAME_NORMALS 1u
-#define FRAME_UVS 2u
-#define FRAME_CLAY 4u
-
-// The camera (mirrored by `DeviceCamera` in src/trace/render.rs). For a
-// perspective camera `right` and `up` are scaled by the half extents of the
-// image plane at distance 1; for an orthographic one by xmag and ymag.
-typedef struct {
-    float origin[4];
-    float right[4];
-    float up[4];
-    float forward[4];
-    uint ortho;
-    float znear;
-    uint pad[2];
-} PtCamera;
-
-// Per-frame constants (mirrored by `DeviceFrame`).
-typedef struct {
-    uint seed_lo, seed_hi, frame_lo, frame_hi;
-    uint width, height, max_depth, flags;
-    uint light_count, emit_count, material_count, select_count;
-} PtFrame;
 
 // Everything a path needs, gathered once per work-item.
 typedef struct {
@@ -72,6 +48,7 @@ typedef struct {
     const __global uint* emit_prims;
     const __global float* emit_cdf;
     const __global float* emit_pmf;
+    const __global float* select_cdf;
     PtEnv env;
     const __global float4* env_texels;
     const __global float* env_marginal;
@@ -233,7 +210,7 @@ inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_
     float pmf = s->emit_pmf[prim];
     if (!(pmf > 0.0f) || !(cos_l > 0.0f)) return 0.0f;
     float area = pt_triangle_area(s->positions, prim);
-    return ((pmf / (float)s->frame.select_count) * (dist * dist)) / (area * cos_l);
+    return ((pmf * s->frame.emit_select_pmf) * (dist * dist)) / (area * cos_l);
 }
 
 #ifdef HAS_TEXTURES
@@ -344,6 +321,91 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
     return p;
 }
 
+// A light sample's contribution at a vertex: the BSDF times the cosine
+// times `contrib` (radiance or irradiance over the sampling pdf), weighted
+// by MIS against the BSDF sample when `light_pdf` > 0 (0: a delta light),
+// if the shadow ray from `above` along `shadow_dir` (to `shadow_t`) is
+// clear.
+inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo, float3 t,
+                             float3 b, float3 above, float3 beta, float3 wi_w, float3 contrib,
+                             float light_pdf, float3 shadow_dir, float shadow_t, SampleRng rng,
+                             uint bounce TEX_DECL) {
+    if (!(dot(wi_w, sf.ng) > 0.0f)) return (float3)(0.0f);
+    float3 wi = to_local(wi_w, t, b, sf.ns);
+    if (!(wi.z > 0.0f)) return (float3)(0.0f);
+    float3 f = bsdf_eval(bp, wo, wi);
+    if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) return (float3)(0.0f);
+    float w = 1.0f;
+    if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
+    float3 c = beta * f * (wi.z * w) * contrib;
+    if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return (float3)(0.0f);
+    if (pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS)) return (float3)(0.0f);
+    return c;
+}
+
+// Punctual light `i`, chosen with probability `pmf`.
+inline float3 pt_punctual_direct(PtScene* s, uint i, float pmf, PtSurface sf, BsdfParams bp,
+                                 float3 wo, float3 t, float3 b, float3 above, float3 beta,
+                                 SampleRng rng, uint bounce TEX_DECL) {
+    float3 wi_w, e;
+    float dist;
+    if (!(pmf > 0.0f) || !punctual_incident(s->lights[i], sf.p, &wi_w, &dist, &e))
+        return (float3)(0.0f);
+    float3 shadow_dir = wi_w;
+    float shadow_t = INFINITY;
+    if (!isinf(dist)) {
+        float3 lp = (float3)(s->lights[i].position[0], s->lights[i].position[1],
+                             s->lights[i].position[2]);
+        shadow_dir = lp - above;
+        shadow_t = 1.0f;
+    }
+    return pt_shade_light(s, sf, bp, wo, t, b, above, beta, wi_w, e / pmf, 0.0f, shadow_dir,
+                          shadow_t, rng, bounce TEX_PASS);
+}
+
+// A point on an emissive triangle, chosen by power (the selection
+// probability is in pt_emissive_pdf).
+inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfParams bp,
+                                 float3 wo, float3 t, float3 b, float3 above, float3 beta,
+                                 SampleRng rng, uint bounce TEX_DECL) {
+    uint k = cdf_search(s->emit_cdf, s->frame.emit_count, u1);
+    float c0 = s->emit_cdf[k], c1 = s->emit_cdf[k + 1u];
+    float ur = (u1 - c0) / (c1 - c0);
+    uint prim = s->emit_prims[k];
+    float2 bc = sample_triangle(ur, u2);
+    float3 q = hit_point(s->positions, prim, bc.x, bc.y);
+    float3 to = q - sf.p;
+    float d = sqrt(dot(to, to));
+    if (!(d > 0.0f)) return (float3)(0.0f);
+    float3 wi_w = to / d;
+    PtMaterial lm = pt_material(s, prim);
+    float3 nl = geometric_normal(s->positions, prim);
+    float cos_l = -dot(wi_w, nl);
+    if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
+    float pdf = pt_emissive_pdf(s, prim, d, cos_l);
+    if (!(pdf > 0.0f)) return (float3)(0.0f);
+    float2 luv = pt_uv(s, prim, bc.x, bc.y);
+    float3 contrib = pt_emission(lm, luv TEX_PASS) / pdf;
+    // Stop just short of the emitter itself.
+    return pt_shade_light(s, sf, bp, wo, t, b, above, beta, wi_w, contrib, pdf, q - above,
+                          1.0f - 1.0e-4f, rng, bounce TEX_PASS);
+}
+
+// A direction towards the environment map, by its importance (a constant
+// environment is left to the BSDF sample: see LightSelection).
+inline float3 pt_env_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfParams bp, float3 wo,
+                            float3 t, float3 b, float3 above, float3 beta, SampleRng rng,
+                            uint bounce TEX_DECL) {
+    float3 wi_w;
+    float pdf;
+    float3 le = env_sample(s->env, s->env_texels, s->env_marginal, s->env_conditional, u1, u2,
+                           &wi_w, &pdf);
+    pdf = pdf * s->frame.env_select_pmf;
+    if (!(pdf > 0.0f)) return (float3)(0.0f);
+    return pt_shade_light(s, sf, bp, wo, t, b, above, beta, wi_w, le / pdf, pdf, wi_w, INFINITY,
+                          rng, bounce TEX_PASS);
+}
+
 // Results of one camera sample.
 typedef struct {
     float3 radiance;
@@ -370,10 +432,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     float ox, oy;
     {
         float n = 1024.0f;
-        float fu = rng_1d(rng, DIM_FILTER_X) * n;
+        float4 uc = rng_4d(rng, SET_CAMERA);
+        float fu = uc.x * n;
         uint i = min((uint)floor(fu), 1023u);
         ox = filter[i] + (fu - (float)i) * (filter[i + 1u] - filter[i]);
-        float fv = rng_1d(rng, DIM_FILTER_Y) * n;
+        float fv = uc.y * n;
         uint j = min((uint)floor(fv), 1023u);
         oy = filter[j] + (fv - (float)j) * (filter[j + 1u] - filter[j]);
     }
@@ -405,7 +468,6 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     float3 beta = (float3)(1.0f);
     float prev_pdf = 0.0f;
     uint max_depth = s->frame.max_depth;
-    float n_select = (float)s->frame.select_count;
     for (uint bounce = 0u;; ++bounce) {
         Hit h;
         float travelled;
@@ -415,8 +477,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             if (!blocked && s->env.kind != ENV_NONE) {
                 float3 le = env_radiance(s->env, s->env_texels, dir);
                 float w = 1.0f;
-                if (bounce > 0u) {
-                    float pl = env_pdf(s->env, s->env_marginal, s->env_conditional, dir) / n_select;
+                if (bounce > 0u && s->frame.env_select_pmf > 0.0f) {
+                    float pl = s->frame.env_select_pmf *
+                               env_pdf(s->env, s->env_marginal, s->env_conditional, dir);
                     w = power_heuristic(prev_pdf, pl);
                 }
                 out.radiance += beta * le * w;
@@ -450,95 +513,35 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 wo = to_local(wo_w, t, b, sf.ns);
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(s->positions, h.prim));
 
-        // Next-event estimation: one light, chosen uniformly among the
-        // punctual lights, the emissive triangles (as one entry) and the
-        // environment.
+        // Next-event estimation: every punctual light when the frame loops
+        // over them, then one light from the selection distribution.
+        if (s->frame.light_loop != 0u) {
+            for (uint i = 0u; i < s->frame.light_count; ++i)
+                out.radiance += pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
+                                                   bounce TEX_PASS);
+        }
         if (s->frame.select_count > 0u) {
-            uint pick = min((uint)(rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_PICK)) * n_select),
-                            s->frame.select_count - 1u);
-            float u1 = rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_U));
-            float u2 = rng_1d(rng, dim_bounce(bounce, DIM_LIGHT_V));
-            float3 wi_w = (float3)(0.0f);
-            float3 contrib = (float3)(0.0f);
-            float light_pdf = 0.0f; // 0: a delta light (no MIS)
-            float shadow_t = 0.0f;
-            float3 shadow_dir = (float3)(0.0f);
-            bool have = false;
-            if (pick < s->frame.light_count) {
-                float dist;
-                float3 e;
-                if (punctual_incident(s->lights[pick], sf.p, &wi_w, &dist, &e)) {
-                    contrib = e * n_select;
-                    have = true;
-                    if (isinf(dist)) {
-                        shadow_dir = wi_w;
-                        shadow_t = INFINITY;
-                    } else {
-                        float3 lp = (float3)(s->lights[pick].position[0], s->lights[pick].position[1],
-                                             s->lights[pick].position[2]);
-                        shadow_dir = lp - above;
-                        shadow_t = 1.0f;
-                    }
-                }
-            } else if (pick == s->frame.light_count && s->frame.emit_count > 0u) {
-                uint k = cdf_search(s->emit_cdf, s->frame.emit_count, u1);
-                float c0 = s->emit_cdf[k], c1 = s->emit_cdf[k + 1u];
-                float ur = (u1 - c0) / (c1 - c0);
-                uint prim = s->emit_prims[k];
-                float2 bc = sample_triangle(ur, u2);
-                float3 q = hit_point(s->positions, prim, bc.x, bc.y);
-                float3 to = q - sf.p;
-                float d2 = dot(to, to);
-                float d = sqrt(d2);
-                if (d > 0.0f) {
-                    wi_w = to / d;
-                    PtMaterial lm = pt_material(s, prim);
-                    float3 nl = geometric_normal(s->positions, prim);
-                    float cos_l = -dot(wi_w, nl);
-                    if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
-                    float pdf = pt_emissive_pdf(s, prim, d, cos_l);
-                    if (pdf > 0.0f) {
-                        float2 luv = pt_uv(s, prim, bc.x, bc.y);
-                        contrib = pt_emission(lm, luv TEX_PASS) / pdf;
-                        light_pdf = pdf;
-                        have = true;
-                        // Stop just short of the emitter itself.
-                        shadow_dir = q - above;
-                        shadow_t = 1.0f - 1.0e-4f;
-                    }
-                }
-            } else if (s->env.kind != ENV_NONE) {
-                float pdf;
-                float3 le = env_sample(s->env, s->env_texels, s->env_marginal, s->env_conditional,
-                                       u1, u2, &wi_w, &pdf);
-                if (pdf > 0.0f) {
-                    light_pdf = pdf / n_select;
-                    contrib = le / light_pdf;
-                    have = true;
-                    shadow_dir = wi_w;
-                    shadow_t = INFINITY;
-                }
-            }
-            if (have && dot(wi_w, sf.ng) > 0.0f) {
-                float3 wi = to_local(wi_w, t, b, sf.ns);
-                float3 f = bsdf_eval(bp, wo, wi);
-                if (wi.z > 0.0f && (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) {
-                    float w = 1.0f;
-                    if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
-                    float3 c = beta * f * (wi.z * w) * contrib;
-                    if ((c.x > 0.0f || c.y > 0.0f || c.z > 0.0f) &&
-                        !pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS))
-                        out.radiance += c;
-                }
+            float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
+            uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
+            uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
+            if (pick < first) {
+                float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
+                out.radiance += pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta,
+                                                   rng, bounce TEX_PASS);
+            } else if (pick == first && s->frame.emit_count > 0u) {
+                out.radiance += pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
+                                                   bounce TEX_PASS);
+            } else {
+                out.radiance += pt_env_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
+                                              bounce TEX_PASS);
             }
         }
 
         // Continue the path by sampling the BSDF.
         float3 wi, f;
         float pdf;
-        if (!bsdf_sample(bp, wo, rng_1d(rng, dim_bounce(bounce, DIM_LOBE)),
-                         rng_1d(rng, dim_bounce(bounce, DIM_BSDF_U)),
-                         rng_1d(rng, dim_bounce(bounce, DIM_BSDF_V)), &wi, &f, &pdf))
+        float4 ub = rng_4d(rng, set_bounce(bounce, SET_BSDF));
+        if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf))
             break;
         float3 wi_w = to_world(wi, t, b, sf.ns);
         float wl = length(wi_w);
@@ -552,7 +555,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             float q = fmin(fmax(fmax(beta.x, beta.y), beta.z), 1.0f);
             if (!(q > 0.0f)) break;
             if (q < 1.0f) {
-                if (rng_1d(rng, dim_bounce(bounce, DIM_RR)) >= q) break;
+                if (ub.w >= q) break;
                 beta = beta / q;
             }
         }
@@ -576,7 +579,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const float* uvs, __global const uint* material_ids,
                         __global const PtMaterial* materials, __global const PtLight* lights,
                         __global const uint* emit_prims, __global const float* emit_cdf,
-                        __global const float* emit_pmf, __global const PtEnv* env,
+                        __global const float* emit_pmf, __global const float* select_cdf,
+                        __global const PtEnv* env,
                         __global const float4* env_texels, __global const float* env_marginal,
                         __global const float* env_conditional, __global const float* filter,
                         __global const PtCamera* camera, __global const PtFrame* frame,
@@ -603,6 +607,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.emit_prims = emit_prims;
     s.emit_cdf = emit_cdf;
     s.emit_pmf = emit_pmf;
+    s.select_cdf = select_cdf;
     s.env = env[0];
     s.env_texels = env_texels;
     s.env_marginal = env_marginal;

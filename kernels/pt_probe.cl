@@ -5,6 +5,7 @@
 // arrays of inputs the host makes.
 #pragma OPENCL FP_CONTRACT OFF
 
+#include "pt_types.h"
 #include "sampling.h"
 #include "bsdf.h"
 #include "lights.h"
@@ -13,7 +14,8 @@
 #define offsetof(T, field) __builtin_offsetof(T, field)
 #endif
 
-// The layouts: sizes and offsets of PtMaterial, PtLight, PtEnv, ended by
+// The layouts: sizes and offsets of PtMaterial, PtLight, PtEnv, PtCamera,
+// PtFrame, ended by
 // 0xFFFFFFFF.
 __kernel void pt_layout_probe(__global uint* out) {
     uint i = 0;
@@ -34,6 +36,20 @@ __kernel void pt_layout_probe(__global uint* out) {
     out[i++] = (uint)offsetof(PtEnv, kind);
     out[i++] = (uint)offsetof(PtEnv, width);
     out[i++] = (uint)offsetof(PtEnv, height);
+    out[i++] = (uint)sizeof(PtCamera);
+    out[i++] = (uint)offsetof(PtCamera, right);
+    out[i++] = (uint)offsetof(PtCamera, up);
+    out[i++] = (uint)offsetof(PtCamera, forward);
+    out[i++] = (uint)offsetof(PtCamera, ortho);
+    out[i++] = (uint)offsetof(PtCamera, znear);
+    out[i++] = (uint)sizeof(PtFrame);
+    out[i++] = (uint)offsetof(PtFrame, width);
+    out[i++] = (uint)offsetof(PtFrame, flags);
+    out[i++] = (uint)offsetof(PtFrame, light_count);
+    out[i++] = (uint)offsetof(PtFrame, select_count);
+    out[i++] = (uint)offsetof(PtFrame, light_loop);
+    out[i++] = (uint)offsetof(PtFrame, emit_select_pmf);
+    out[i++] = (uint)offsetof(PtFrame, env_select_pmf);
     out[i++] = 0xFFFFFFFFu;
 }
 
@@ -101,8 +117,9 @@ __kernel void env_probe(__global const PtEnv* env, __global const float4* texels
     o[10] = env_pdf(env[0], marginal, conditional, d);
 }
 
-// Random numbers: per case (seed lo, seed hi, frame lo, frame hi, pixel,
-// sample, dim) → the uniform.
+// Random numbers of the sampler the probe was built with (SAMPLER_RANDOM or
+// not): per case (seed lo, seed hi, frame lo, frame hi, pixel, sample, dim)
+// → the uniform.
 __kernel void rng_probe(__global const uint* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;

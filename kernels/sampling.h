@@ -1,9 +1,5 @@
-// Random numbers and warps for the path tracer. Every random number is a
-// pure function of (seed, frame, pixel, sample, dimension): a counter-based
-// generator (the PCG hash of Jarzynski and Olano, "Hash Functions for GPU
-// Rendering", JCGT 2020, chained over the key words), so a sample's value
-// never depends on which work-item, tile or launch computed it. The warps
-// mirror src/trace/sampling.rs operation for operation.
+// Random numbers and warps for the path tracer: the samplers (below) and
+// the warps, mirroring src/trace/sampling.rs operation for operation.
 #ifndef SOUPRAY_SAMPLING_H
 #define SOUPRAY_SAMPLING_H
 
@@ -19,10 +15,42 @@ inline uint pcg_hash(uint v) {
     return (word >> 22u) ^ word;
 }
 
-// The key of one camera sample: the hash chained over every key word, so
-// that neighbouring pixels, samples and frames give unrelated streams.
+// Samplers. Every random number is a pure function of (seed, frame, pixel,
+// sample index, dimension), so a sample's value never depends on which
+// work-item, tile or launch computed it. Two samplers, chosen when the
+// program is built:
+//
+// * The default: Owen-scrambled, shuffled Sobol points (Burley, "Practical
+//   Hash-based Owen Scrambling", JCGT 2020; Cycles' Sobol-Burley). The
+//   dimensions come in sets of four; set k gives the first four Sobol
+//   dimensions at a shuffled index, each Owen-scrambled. Per pixel and per
+//   set, a seed hashed from (seed, frame, pixel, set) drives both the index
+//   shuffle (a nested uniform scramble of the index, which keeps every
+//   power-of-two prefix a (0,m,4)-net of the Sobol sequence) and the
+//   scrambles. So each pixel has its own randomised Sobol sequence (pixels
+//   decorrelated, as in Cycles) and the sets are independent of each other
+//   (padding). Within a set the first two components are the best
+//   stratified pair; the layout below gives them to what needs 2-D
+//   stratification most.
+// * SAMPLER_RANDOM (`--sampler random`): independent uniforms, the PCG hash
+//   (Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020)
+//   chained over the key words and the dimension.
+//
+// Mirrored by src/trace/sampling.rs value for value.
+//
+// The layout of the sets (each `rng_4d` call is one set):
+//   set 0                 camera: (filter x, filter y, -, -)
+//   set 1 + 2 b           bounce b's light sample: (u, v, light choice, -)
+//   set 2 + 2 b           bounce b's BSDF sample: (u, v, lobe, roulette)
+//   SET_PASS + ...        pass-through decisions (stochastic BLEND coverage)
+//                         keyed by bounce, ray kind and crossing count.
+// The pixel filter and the first bounces' light and BSDF samples thus each
+// get a set's first two (best stratified) components.
 typedef struct {
+    // Random: the hash of (seed, frame, pixel, sample). Sobol: the hash of
+    // (seed, frame, pixel).
     uint key;
+    uint sample;
 } SampleRng;
 
 inline SampleRng rng_for_sample(uint seed_lo, uint seed_hi, uint frame_lo, uint frame_hi,
@@ -32,38 +60,127 @@ inline SampleRng rng_for_sample(uint seed_lo, uint seed_hi, uint frame_lo, uint 
     h = pcg_hash(h ^ frame_lo);
     h = pcg_hash(h ^ frame_hi);
     h = pcg_hash(h ^ pixel);
+#ifdef SAMPLER_RANDOM
     h = pcg_hash(h ^ sample);
+#endif
     SampleRng r;
     r.key = h;
+    r.sample = sample;
     return r;
 }
 
-// Uniform in [0, 1): the top 24 bits of the hash of (key, dimension).
-inline float rng_1d(SampleRng r, uint dim) {
-    uint h = pcg_hash(r.key ^ pcg_hash(dim + 0x9E3779B9u));
-    return (float)(h >> 8) * (1.0f / 16777216.0f);
+// The top 24 bits as a uniform in [0, 1).
+inline float u32_to_unit(uint x) { return (float)(x >> 8) * (1.0f / 16777216.0f); }
+
+#ifdef SAMPLER_RANDOM
+inline float4 rng_4d(SampleRng r, uint set) {
+    uint d = set * 4u;
+    return (float4)(u32_to_unit(pcg_hash(r.key ^ pcg_hash(d + 0x9E3779B9u))),
+                    u32_to_unit(pcg_hash(r.key ^ pcg_hash(d + 1u + 0x9E3779B9u))),
+                    u32_to_unit(pcg_hash(r.key ^ pcg_hash(d + 2u + 0x9E3779B9u))),
+                    u32_to_unit(pcg_hash(r.key ^ pcg_hash(d + 3u + 0x9E3779B9u))));
+}
+#else
+// Generator matrices of the first four Sobol dimensions (Joe and Kuo's
+// direction numbers), bit-reversed: column j, the contribution of index
+// bit j, is stored with its first binary digit in bit 0, so the points are
+// built, scrambled and only then reversed once. src/trace/sampling.rs
+// derives the same columns from the primitive polynomials.
+__constant uint SOBOL_REVERSED[4][32] = {
+    {0x00000001u, 0x00000002u, 0x00000004u, 0x00000008u, 0x00000010u, 0x00000020u, 0x00000040u,
+     0x00000080u, 0x00000100u, 0x00000200u, 0x00000400u, 0x00000800u, 0x00001000u, 0x00002000u,
+     0x00004000u, 0x00008000u, 0x00010000u, 0x00020000u, 0x00040000u, 0x00080000u, 0x00100000u,
+     0x00200000u, 0x00400000u, 0x00800000u, 0x01000000u, 0x02000000u, 0x04000000u, 0x08000000u,
+     0x10000000u, 0x20000000u, 0x40000000u, 0x80000000u},
+    {0x00000001u, 0x00000003u, 0x00000005u, 0x0000000fu, 0x00000011u, 0x00000033u, 0x00000055u,
+     0x000000ffu, 0x00000101u, 0x00000303u, 0x00000505u, 0x00000f0fu, 0x00001111u, 0x00003333u,
+     0x00005555u, 0x0000ffffu, 0x00010001u, 0x00030003u, 0x00050005u, 0x000f000fu, 0x00110011u,
+     0x00330033u, 0x00550055u, 0x00ff00ffu, 0x01010101u, 0x03030303u, 0x05050505u, 0x0f0f0f0fu,
+     0x11111111u, 0x33333333u, 0x55555555u, 0xffffffffu},
+    {0x00000001u, 0x00000003u, 0x00000006u, 0x00000009u, 0x00000017u, 0x0000003au, 0x00000071u,
+     0x000000a3u, 0x00000116u, 0x00000339u, 0x00000677u, 0x000009aau, 0x00001601u, 0x00003903u,
+     0x00007706u, 0x0000aa09u, 0x00010117u, 0x0003033au, 0x00060671u, 0x000909a3u, 0x00171616u,
+     0x003a3939u, 0x00717777u, 0x00a3aaaau, 0x01170001u, 0x033a0003u, 0x06710006u, 0x09a30009u,
+     0x16160017u, 0x3939003au, 0x77770071u, 0xaaaa00a3u},
+    {0x00000001u, 0x00000003u, 0x00000004u, 0x0000000au, 0x0000001fu, 0x0000002eu, 0x00000045u,
+     0x000000c9u, 0x0000011bu, 0x000002a4u, 0x0000079au, 0x00000b67u, 0x0000101eu, 0x0000302du,
+     0x00004041u, 0x0000a0c3u, 0x0001f104u, 0x0002e28au, 0x000457dfu, 0x000c9baeu, 0x0011a105u,
+     0x002a7289u, 0x0079e7dbu, 0x00b6dba4u, 0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du,
+     0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
+
+inline uint reverse_bits32(uint x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
 }
 
-// Dimensions: 0..1 the pixel filter; each bounce b owns 16 from
-// DIM_BOUNCE + 16 b; pass-through decisions (stochastic BLEND coverage)
-// live in their own range, keyed by bounce, ray kind and crossing count.
-#define DIM_FILTER_X 0u
-#define DIM_FILTER_Y 1u
-#define DIM_BOUNCE 16u
-#define DIM_LIGHT_PICK 0u
-#define DIM_LIGHT_U 1u
-#define DIM_LIGHT_V 2u
-#define DIM_LOBE 3u
-#define DIM_BSDF_U 4u
-#define DIM_BSDF_V 5u
-#define DIM_RR 6u
-#define DIM_PASS 0x40000000u
+// Owen (nested uniform) scrambling of a bit-reversed value: the
+// Laine-Karras hash in Vegdahl's improved form flips each bit depending
+// only on the bits below it, which in reversed order are the binary
+// digits before it.
+inline uint reversed_bit_owen(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
 
-inline uint dim_bounce(uint bounce, uint slot) { return DIM_BOUNCE + 16u * bounce + slot; }
+// The set's four Sobol dimensions at the shuffled sample index, each
+// Owen-scrambled with its own seed.
+//
+// The shuffle is a nested uniform scramble of the index: bit j of the
+// shuffled index depends only on the sample's bits at and above j, so the
+// samples [0, 2^k) map onto one aligned block of 2^k Sobol indices (a
+// (0,k,2)-net in every pair of the first two dimensions). Only the low 16
+// bits of the shuffle are kept, the sample's own bits above them: the
+// block's high bits add a constant to every point before the scramble,
+// which the scramble absorbs, and dropping them halves the work; past
+// 65536 samples the sample's high bits pick the next block.
+inline float4 rng_4d(SampleRng r, uint set) {
+    uint seed = pcg_hash(r.key ^ pcg_hash(set + 0x9E3779B9u));
+    // The shuffled index, bit-reversed: its bit 31 - j is index bit j.
+    uint shuffled = reversed_bit_owen(reverse_bits32(r.sample), seed ^ 0xc2c1a055u);
+    uint4 x = (uint4)(0u);
+    for (uint j = 0u; j < 16u; ++j) {
+        uint4 column = (uint4)(SOBOL_REVERSED[0][j], SOBOL_REVERSED[1][j], SOBOL_REVERSED[2][j],
+                               SOBOL_REVERSED[3][j]);
+        x ^= column & (uint4)((uint)((int)(shuffled << j) >> 31));
+    }
+    // (OpenCL takes shift counts modulo 32: the bound is explicit.)
+    for (uint j = 16u; j < 32u && (r.sample >> j) != 0u; ++j) {
+        uint4 column = (uint4)(SOBOL_REVERSED[0][j], SOBOL_REVERSED[1][j], SOBOL_REVERSED[2][j],
+                               SOBOL_REVERSED[3][j]);
+        x ^= column & (uint4)(0u - ((r.sample >> j) & 1u));
+    }
+    return (float4)(u32_to_unit(reverse_bits32(reversed_bit_owen(x.x, seed ^ 0x39d8a3b4u))),
+                    u32_to_unit(reverse_bits32(reversed_bit_owen(x.y, seed ^ 0x8c5e8f21u))),
+                    u32_to_unit(reverse_bits32(reversed_bit_owen(x.z, seed ^ 0x3c0a2e6bu))),
+                    u32_to_unit(reverse_bits32(reversed_bit_owen(x.w, seed ^ 0x5b72d8f5u))));
+}
+#endif
 
-// kind: 0 path ray, 1 shadow ray.
+// One dimension: component dim % 4 of set dim / 4.
+inline float rng_1d(SampleRng r, uint dim) {
+    float4 v = rng_4d(r, dim >> 2);
+    uint c = dim & 3u;
+    return c == 0u ? v.x : c == 1u ? v.y : c == 2u ? v.z : v.w;
+}
+
+#define SET_CAMERA 0u
+#define SET_BOUNCE 1u
+#define SET_LIGHT 0u
+#define SET_BSDF 1u
+#define SET_PASS 0x10000000u
+
+inline uint set_bounce(uint bounce, uint slot) { return SET_BOUNCE + 2u * bounce + slot; }
+
+// The dimension of a pass-through decision; kind: 0 path ray, 1 shadow ray.
 inline uint dim_pass(uint bounce, uint kind, uint crossing) {
-    return DIM_PASS + (bounce * 2u + kind) * 256u + min(crossing, 255u);
+    return 4u * SET_PASS + (bounce * 2u + kind) * 256u + min(crossing, 255u);
 }
 
 // Orthonormal basis around unit n (Duff et al., "Building an Orthonormal

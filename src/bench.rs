@@ -1,14 +1,17 @@
 //! `soupray bench`: the speed/accuracy trade, measured. For a scene frame
 //! it renders a high-spp reference, then sweeps the knobs users turn —
 //! SAH bins (and the full sweep builder), leaf size, traversal, samples per
-//! pixel — and records for each point the build time, SAH cost, trace
+//! pixel with each sampler — and records for each point the build time, SAH cost, trace
 //! throughput, total frame time and the error against the reference
 //! (relative MSE and FLIP, from `compare`).
 //!
 //! Bins, leaf size and traversal change only how fast a frame is made, not
 //! which triangle a ray hits (ties are broken by triangle index), so at a
 //! given spp their images are identical and their points differ in time
-//! alone; spp moves along the error axis. The Pareto front of error against
+//! alone; spp moves along the error axis, and the sampler (Sobol or
+//! independent random numbers) moves the whole spp curve. The reference is
+//! rendered with another seed, so its samples are not the test renders'
+//! own. The Pareto front of error against
 //! frame time is what the defaults are chosen from.
 //!
 //! Writes `DIR/bench.csv`, `DIR/bench.png` (error against time, the front
@@ -23,12 +26,13 @@ use crate::report::median;
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
+use crate::trace::sampling::Sampler;
 use crate::UsageError;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Measure the speed/accuracy trade: bins, leaf size, traversal and spp
-/// against a high-spp reference, on one frame of each scene.
+/// Measure the speed/accuracy trade: bins, leaf size, traversal, and spp
+/// with each sampler against a high-spp reference, on one frame of each scene.
 ///
 ///   soupray bench                        # the shipped animation
 ///   soupray bench a.glb b.glb --frame 10 --reference-spp 4096
@@ -68,13 +72,15 @@ pub struct BenchArgs {
 pub struct Point {
     pub scene: String,
     pub frame: i64,
-    /// `bins` | `leaf` | `traversal` | `spp` | `default`.
+    /// `bins` | `leaf` | `traversal` | `spp` | `sampler` | `default`
+    /// (`sampler`: the spp sweep with `--sampler random`).
     pub sweep: &'static str,
     /// `device` or `cpu-sweep`.
     pub builder: &'static str,
     pub bins: u32,
     pub leaf_size: u32,
     pub traversal: &'static str,
+    pub sampler: &'static str,
     pub spp: u32,
     pub triangles: usize,
     pub build_ms: f64,
@@ -93,6 +99,7 @@ struct Config {
     sweep_builder: bool,
     params: BuildParams,
     traversal: Traversal,
+    sampler: Sampler,
     spp: u32,
 }
 
@@ -103,6 +110,7 @@ fn configs(max_spp: u32) -> Vec<Config> {
         sweep_builder: false,
         params: BuildParams::default(),
         traversal: Traversal::Wide,
+        sampler: Sampler::Sobol,
         spp: 16,
     };
     let mut out = vec![base];
@@ -147,20 +155,31 @@ fn configs(max_spp: u32) -> Vec<Config> {
                 ..base
             });
         }
+        out.push(Config {
+            sweep: "sampler",
+            sampler: Sampler::Random,
+            spp,
+            ..base
+        });
         spp *= 2;
     }
     out
 }
 
-fn settings(args: &BenchArgs, spp: u32, traversal: Traversal) -> RenderSettings {
+/// The seed of the test renders; the reference uses another.
+const SEED: u64 = 0;
+const REFERENCE_SEED: u64 = 0x5EED_F00D;
+
+fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
     RenderSettings {
         width: args.width,
         height: args.height,
         spp,
-        seed: 0,
+        seed: SEED,
         max_depth: 8,
         clay: false,
-        traversal,
+        traversal: c.traversal,
+        sampler: c.sampler,
         environment: Environment::Default,
         aovs: Aovs::default(),
     }
@@ -276,7 +295,10 @@ fn bench_gltf(
         let mut tracer = PathTracer::new(
             device,
             &scene,
-            &settings(args, args.reference_spp, Traversal::default()),
+            &RenderSettings {
+                seed: REFERENCE_SEED,
+                ..settings(args, args.reference_spp, &configs(1)[0])
+            },
         )?;
         let input = FrameInput {
             frame,
@@ -291,11 +313,16 @@ fn bench_gltf(
     let mut points = Vec::new();
     for c in configs(args.max_spp) {
         eprintln!(
-            "bench {name}: {} bins={} leaf={} traversal={:?} spp={}",
-            c.sweep, c.params.bins, c.params.leaf_size, c.traversal, c.spp
+            "bench {name}: {} bins={} leaf={} traversal={:?} sampler={} spp={}",
+            c.sweep,
+            c.params.bins,
+            c.params.leaf_size,
+            c.traversal,
+            c.sampler.name(),
+            c.spp
         );
         let tree = build_tree(device, &soup, &host_soup, &c)?;
-        let (image, wall_ms, trace_ms, rays) = render(&tree, &settings(args, c.spp, c.traversal))?;
+        let (image, wall_ms, trace_ms, rays) = render(&tree, &settings(args, c.spp, &c))?;
         let ImageError { rel_mse, flip } = compare::compare(&image, &reference, 0.0)?;
         points.push(Point {
             scene: name.clone(),
@@ -309,6 +336,7 @@ fn bench_gltf(
             bins: c.params.bins,
             leaf_size: c.params.leaf_size,
             traversal: c.traversal.name(),
+            sampler: c.sampler.name(),
             spp: c.spp,
             triangles: soup.triangle_count(),
             build_ms: tree.build_ms,
@@ -381,12 +409,12 @@ fn ply_as_gltf(ply: &Path, dir: &Path) -> anyhow::Result<PathBuf> {
 
 fn csv(points: &[Point]) -> String {
     let mut s = String::from(
-        "scene,frame,sweep,builder,bins,leaf_size,traversal,spp,triangles,build_ms,sah_cost,trace_ms,mrays_per_s,frame_ms,rel_mse,flip,pareto\n",
+        "scene,frame,sweep,builder,bins,leaf_size,traversal,sampler,spp,triangles,build_ms,sah_cost,trace_ms,mrays_per_s,frame_ms,rel_mse,flip,pareto\n",
     );
     let front = pareto_front(points);
     for (i, p) in points.iter().enumerate() {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{:.3},{:.4},{:.3},{:.3},{:.3},{:.6e},{:.6},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{:.3},{:.4},{:.3},{:.3},{:.3},{:.6e},{:.6},{}\n",
             p.scene,
             p.frame,
             p.sweep,
@@ -394,6 +422,7 @@ fn csv(points: &[Point]) -> String {
             p.bins,
             p.leaf_size,
             p.traversal,
+            p.sampler,
             p.spp,
             p.triangles,
             p.build_ms,
@@ -412,18 +441,19 @@ fn csv(points: &[Point]) -> String {
 fn markdown(points: &[Point]) -> String {
     let front = pareto_front(points);
     let mut s = String::from(
-        "| scene | sweep | builder | bins | leaf | traversal | spp | build ms | SAH | trace Mrays/s | frame ms | rel. MSE | FLIP | Pareto |\n\
-         |---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
+        "| scene | sweep | builder | bins | leaf | traversal | sampler | spp | build ms | SAH | trace Mrays/s | frame ms | rel. MSE | FLIP | Pareto |\n\
+         |---|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
     );
     for (i, p) in points.iter().enumerate() {
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2e} | {:.4} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2e} | {:.4} | {} |\n",
             p.scene,
             p.sweep,
             p.builder,
             p.bins,
             p.leaf_size,
             p.traversal,
+            p.sampler,
             p.spp,
             p.build_ms,
             p.sah_cost,
@@ -492,6 +522,7 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
             ("bins", RED),
             ("leaf", RGBColor(0, 140, 0)),
             ("traversal", MAGENTA),
+            ("sampler", RGBColor(230, 140, 0)),
             ("default", BLACK),
         ];
         for (sweep, colour) in colours {

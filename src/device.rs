@@ -50,6 +50,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
         "texture_layout_probe.cl",
         include_str!("../kernels/texture_layout_probe.cl"),
     ),
+    ("pt_types.h", include_str!("../kernels/pt_types.h")),
     ("sampling.h", include_str!("../kernels/sampling.h")),
     ("bsdf.h", include_str!("../kernels/bsdf.h")),
     ("lights.h", include_str!("../kernels/lights.h")),

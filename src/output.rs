@@ -328,7 +328,7 @@ pub const LOG_SCHEMA: u32 = 1;
 ///              "leaves": 22500, "max_depth": 24, "sah_cost": 61.2,
 ///              "stages_ms": { "large": 2.0, "medium": 4.1, "small": 2.9 } },
 ///   "render": { "width": 1920, "height": 1080, "spp": 64, "rays": 398000000, "mrays_per_s": 261.8,
-///               "traversal": "wide" },
+///               "traversal": "wide", "sampler": "sobol" },
 ///   "camera": { "projection": "perspective", "position": [0, 1, 5],
 ///               "forward": [0, 0, -1], "up": [0, 1, 0], "yfov_deg": 39.6 },
 ///   "output": { "exr": "out/walk/walk.0012.exr", "png": null, "half": false, "aovs": [] },
@@ -415,6 +415,8 @@ pub struct RenderLog {
     pub mrays_per_s: f64,
     /// The BVH traversal (`--traversal`): `wide`, `stack` or `stackless`.
     pub traversal: String,
+    /// The sampler (`--sampler`): `sobol` or `random`.
+    pub sampler: String,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

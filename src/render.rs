@@ -22,6 +22,7 @@ use crate::soup::device::DeviceSoup;
 use crate::trace::render::{
     Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
 };
+use crate::trace::sampling::Sampler;
 use crate::UsageError;
 use anyhow::Context as _;
 use std::io::IsTerminal as _;
@@ -175,6 +176,17 @@ pub struct RenderArgs {
         help_heading = "Device"
     )]
     pub traversal: String,
+    /// Sampler of the path tracer's random numbers: `sobol` (the default:
+    /// Owen-scrambled Sobol points, stratified over samples, so the error
+    /// falls faster than 1/spp) or `random` (independent uniforms, the
+    /// sampler before; for comparison). Both converge to the same image.
+    #[arg(
+        long,
+        default_value = "sobol",
+        value_name = "KIND",
+        help_heading = "Image"
+    )]
+    pub sampler: String,
     /// SAH bins per axis for the BVH (power of two, 2 to 64).
     #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Device")]
     pub bins: u32,
@@ -304,6 +316,12 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             .into())
         }
     };
+    let sampler: Sampler = args.sampler.parse().map_err(|_| {
+        UsageError(format!(
+            "--sampler {:?}: use `sobol` (the default) or `random`",
+            args.sampler
+        ))
+    })?;
     let environment = match (&args.env_color, &args.env) {
         (Some(_), Some(_)) => {
             return Err(UsageError("--env-color and --env exclude each other".into()).into())
@@ -345,6 +363,7 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             max_depth: args.max_depth,
             clay: args.clay,
             traversal,
+            sampler,
             environment,
             aovs,
         },
@@ -623,6 +642,7 @@ fn render_frame(
         rays: traced.rays,
         mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
         traversal: job.settings.traversal.name().to_owned(),
+        sampler: job.settings.sampler.name().to_owned(),
     };
     log.camera = camera_log(&info.camera);
     log.output = output::OutputLog {

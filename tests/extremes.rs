@@ -268,6 +268,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         max_depth: 8,
         clay: false,
         traversal: Traversal::default(),
+        sampler: Default::default(),
         environment: Environment::Color([0.2, 0.25, 0.3]),
         aovs: Aovs::NONE,
     }

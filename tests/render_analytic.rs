@@ -2,7 +2,9 @@
 //! spheres under a uniform environment), a point light, a spot cone and a
 //! directional light over a Lambertian plane, an emissive rectangle over a
 //! plane (the rectangle's form factor), and an equirectangular map against
-//! its irradiance summed texel by texel.
+//! its irradiance summed texel by texel; and the light selection: a sun
+//! over a sky (noise-free), more point lights than are looped over, and an
+//! emitter, a sky and a point light together.
 
 mod common;
 mod render_support;
@@ -11,8 +13,10 @@ use glam::Vec3;
 use render_support::*;
 use soupray::scene::LightKind;
 use soupray::soup::Soup;
+use soupray::trace::lights::LOOPED_PUNCTUAL_MAX;
 use soupray::trace::material::{bsdf_eval, bsdf_sample, BsdfParams};
 use soupray::trace::render::{render_soup, Environment};
+use soupray::trace::sampling::Sampler;
 
 const PI: f64 = std::f64::consts::PI;
 
@@ -496,4 +500,145 @@ fn a_black_environment_is_no_light_to_sample() {
     st.environment = Environment::Color([0.0, 0.0, 0.0]);
     let black = render_soup(&d, &s, &table(vec![]), &top_down(6.0), &lights, &st, 0).unwrap();
     assert_eq!(bits(&black.image), bits(&none.image));
+}
+
+#[test]
+fn sun_over_a_sky_lights_a_plane_without_noise() {
+    // A directional light is sampled at every vertex (no on/off noise of a
+    // light chosen or not), and a constant sky over a Lambertian plane by
+    // the cosine-weighted BSDF sample: every sample then returns exactly
+    // albedo * (E cos / pi + L), whichever sampler.
+    let d = common::device();
+    let dir = Vec3::new(1.0, -2.0, 0.5).normalize();
+    let (lux, sky) = (3.0f32, 0.1f32);
+    let l = light(LightKind::Directional, Vec3::ZERO, dir, [1.0; 3], lux);
+    let want = 0.8 / std::f32::consts::PI * lux * (-dir.y) + 0.8 * sky;
+    for sampler in [Sampler::Sobol, Sampler::Random] {
+        let mut st = settings(16, 4);
+        st.clay = true;
+        st.max_depth = 1;
+        st.sampler = sampler;
+        st.environment = Environment::Color([sky; 3]);
+        let img = render_soup(
+            &d,
+            &ground_plane(),
+            &table(vec![]),
+            &top_down(2.0),
+            std::slice::from_ref(&l),
+            &st,
+            0,
+        )
+        .unwrap()
+        .image;
+        for p in &img.rgba {
+            assert!(
+                (p[1] - want).abs() < 1e-4 * want,
+                "{sampler:?}: {} vs {want}",
+                p[1]
+            );
+        }
+    }
+}
+
+#[test]
+fn many_point_lights_are_chosen_by_power_without_bias() {
+    // More punctual lights than are looped over: one is chosen per vertex
+    // in proportion to its power. The sum of their inverse-square
+    // irradiances must come out on average.
+    let (size, half) = (16u32, 2.0f32);
+    let lights: Vec<_> = (0..LOOPED_PUNCTUAL_MAX + 4)
+        .map(|i| {
+            let a = i as f32 * 0.7;
+            let p = Vec3::new(1.5 * a.cos(), 1.0 + 0.2 * i as f32, 1.5 * a.sin());
+            light(
+                LightKind::Point,
+                p,
+                Vec3::NEG_Y,
+                [1.0; 3],
+                1.0 + i as f32 * 2.0,
+            )
+        })
+        .collect();
+    let img = plane_under(&lights, size, 256, half);
+    let (mut rel_sum, mut n) = (0.0f64, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let p = top_down_point(half, size, x, y);
+            let e: f64 = lights
+                .iter()
+                .map(|l| {
+                    let to = l.position - p;
+                    (l.intensity * to.normalize().y / to.length_squared()) as f64
+                })
+                .sum();
+            let want = 0.8 / PI * e;
+            let got = img.rgba[(y * size + x) as usize][1] as f64;
+            assert!(
+                (got - want).abs() < 0.25 * want,
+                "pixel ({x},{y}): {got} vs {want}"
+            );
+            rel_sum += (got - want) / want;
+            n += 1;
+        }
+    }
+    let bias = rel_sum / n as f64;
+    assert!(bias.abs() < 0.01, "mean relative error {bias}");
+}
+
+#[test]
+fn emitter_sky_and_point_light_add_up_under_power_selection() {
+    // An emissive rectangle, a constant sky and a point light together: the
+    // emitter and the sky share the selection distribution by power, and
+    // the MIS weights of BSDF-sampled hits must use those same
+    // probabilities. Radiance = albedo * (Le F + L (1 - F)) plus the point
+    // light's albedo / pi * I cos / d^2, F the rectangle's form factor.
+    let d = common::device();
+    let (size, half) = (16u32, 1.5f32);
+    let (h, a, b) = (1.0f32, 0.6f32, 0.4f32);
+    let (le, sky) = (4.0f32, 0.5f32);
+    let mut s = ground_plane();
+    quad(
+        &mut s,
+        Vec3::new(0.0, h, 0.0),
+        Vec3::X * a,
+        Vec3::Z * b,
+        Vec3::NEG_Y,
+        1,
+    );
+    let mut emitter = material([0.0, 0.0, 0.0, 1.0], 0.0, 1.0);
+    emitter.emissive_factor = [1.0, 1.0, 1.0];
+    emitter.emissive_strength = le;
+    let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0), emitter]);
+    // Off to the side, so that the rectangle shades no pixel in view.
+    let lp = Vec3::new(3.0, 2.0, 0.0);
+    let l = light(LightKind::Point, lp, Vec3::NEG_Y, [1.0; 3], 6.0);
+    let mut st = settings(size, 256);
+    st.clay = true;
+    st.max_depth = 1;
+    st.environment = Environment::Color([sky; 3]);
+    let out = render_soup(&d, &s, &t, &top_down(half), &[l], &st, 0).unwrap();
+    let (mut err_sum, mut n) = (0.0, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let p = top_down_point(half, size, x, y);
+            let (x1, x2) = ((-a - p.x) as f64 / h as f64, (a - p.x) as f64 / h as f64);
+            let (z1, z2) = ((-b - p.z) as f64 / h as f64, (b - p.z) as f64 / h as f64);
+            let f = corner_form_factor(x2, z2)
+                - corner_form_factor(x1, z2)
+                - corner_form_factor(x2, z1)
+                + corner_form_factor(x1, z1);
+            let to = lp - p;
+            let e_point = (6.0 * to.normalize().y / to.length_squared()) as f64;
+            let want = 0.8 * (le as f64 * f + sky as f64 * (1.0 - f)) + 0.8 / PI * e_point;
+            let got = out.image.rgba[(y * size + x) as usize][0] as f64;
+            assert!(
+                (got - want).abs() < 0.15 * want,
+                "pixel ({x},{y}): {got} vs {want}"
+            );
+            err_sum += (got - want) / want;
+            n += 1;
+        }
+    }
+    let bias = err_sum / n as f64;
+    assert!(bias.abs() < 0.008, "mean relative error {bias}");
 }

@@ -12,7 +12,7 @@ use soupray::device::{Arg, Device};
 use soupray::scene::{FrameLight, LightKind};
 use soupray::trace::lights::{punctual_incident, DeviceEnv, DeviceLight, EnvMap, ENV_MAP};
 use soupray::trace::material::{bsdf_eval, bsdf_pdf, bsdf_sample, BsdfParams};
-use soupray::trace::sampling::SampleRng;
+use soupray::trace::sampling::{SampleRng, Sampler};
 
 fn run(d: &Device, kernel: &str, args: &[Arg], n: usize) {
     let program = d.build_program("pt_probe.cl", &[]).unwrap();
@@ -42,6 +42,7 @@ fn struct_layouts_match() {
     let mut got = vec![0u32; 32];
     d.read(&out, &mut got).unwrap();
     use soupray::trace::material::DeviceMaterial as M;
+    use soupray::trace::render::{DeviceCamera as C, DeviceFrame as F};
     use std::mem::{offset_of, size_of};
     let want: Vec<u32> = [
         size_of::<M>(),
@@ -61,6 +62,20 @@ fn struct_layouts_match() {
         offset_of!(DeviceEnv, kind),
         offset_of!(DeviceEnv, width),
         offset_of!(DeviceEnv, height),
+        size_of::<C>(),
+        offset_of!(C, right),
+        offset_of!(C, up),
+        offset_of!(C, forward),
+        offset_of!(C, ortho),
+        offset_of!(C, znear),
+        size_of::<F>(),
+        offset_of!(F, width),
+        offset_of!(F, flags),
+        offset_of!(F, light_count),
+        offset_of!(F, select_count),
+        offset_of!(F, light_loop),
+        offset_of!(F, emit_select_pmf),
+        offset_of!(F, env_select_pmf),
     ]
     .iter()
     .map(|&v| v as u32)
@@ -69,21 +84,17 @@ fn struct_layouts_match() {
     assert_eq!(got[..end], want[..]);
 }
 
-#[test]
-fn random_numbers_are_the_references_bit_for_bit() {
+/// Draws `n` cases of (seed, frame, pixel, sample, dim) on the device
+/// built for `sampler` and returns (device values, reference values).
+fn random_numbers(sampler: Sampler, samples: &[u32]) -> (Vec<f32>, Vec<f32>) {
     let d = common::device();
     let mut rng = Rng::new(5);
-    let n = 4096;
     let mut input = Vec::new();
     let mut want = Vec::new();
-    for i in 0..n {
+    for (i, &sample) in samples.iter().enumerate() {
         let seed = ((rng.f32() * 1e6) as u64) << (i % 40);
         let frame = (rng.f32() * 2000.0) as i64 - 1000;
-        let (pixel, sample, dim) = (
-            (rng.f32() * 1e6) as u32,
-            i as u32 % 97,
-            (rng.f32() * 300.0) as u32,
-        );
+        let (pixel, dim) = ((rng.f32() * 1e6) as u32, (rng.f32() * 300.0) as u32);
         let f = frame as u64;
         input.extend_from_slice(&[
             seed as u32,
@@ -94,25 +105,53 @@ fn random_numbers_are_the_references_bit_for_bit() {
             sample,
             dim,
         ]);
-        want.push(SampleRng::new(seed, frame, pixel, sample).get(dim));
+        want.push(SampleRng::new(sampler, seed, frame, pixel, sample).get(dim));
     }
+    let n = samples.len();
+    let defines: Vec<(&str, String)> = sampler
+        .define()
+        .map(|d| vec![(d, "1".to_owned())])
+        .unwrap_or_default();
+    let program = d.build_program("pt_probe.cl", &defines).unwrap();
+    let k = d.kernel(&program, "rng_probe").unwrap();
     let inb = upload(&d, &input);
     let out = upload(&d, &vec![0.0f32; n]);
-    run(
-        &d,
-        "rng_probe",
+    d.launch(
+        "probe",
+        &k,
+        n.div_ceil(64),
+        64,
         &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(n as u32)],
-        n,
-    );
+    )
+    .unwrap();
+    d.finish().unwrap();
     let mut got = vec![0.0f32; n];
     d.read(&out, &mut got).unwrap();
-    assert_eq!(got, want);
-    // Uniform: the mean and the spread of 4096 values.
-    let m = got.iter().map(|&v| v as f64).sum::<f64>() / n as f64;
-    assert!(
-        (m - 0.5).abs() < 0.02 && got.iter().all(|v| (0.0..1.0).contains(v)),
-        "mean {m}"
-    );
+    (got, want)
+}
+
+#[test]
+fn random_numbers_are_the_references_bit_for_bit() {
+    // Sample indices small and large: past 65536 the Sobol sampler takes
+    // the sample's high bits as they are.
+    let samples: Vec<u32> = (0..4096u32)
+        .map(|i| match i % 4 {
+            0 => i % 97,
+            1 => i * 37,
+            2 => 65_536 + i * 1009,
+            _ => i.wrapping_mul(2_654_435_761),
+        })
+        .collect();
+    for sampler in [Sampler::Sobol, Sampler::Random] {
+        let (got, want) = random_numbers(sampler, &samples);
+        assert_eq!(got, want, "{sampler:?}");
+        // Uniform: the mean and the range of 4096 values.
+        let m = got.iter().map(|&v| v as f64).sum::<f64>() / got.len() as f64;
+        assert!(
+            (m - 0.5).abs() < 0.02 && got.iter().all(|v| (0.0..1.0).contains(v)),
+            "{sampler:?}: mean {m}"
+        );
+    }
 }
 
 fn random_dir(rng: &mut Rng, upper: bool) -> Vec3 {

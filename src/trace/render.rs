@@ -33,9 +33,11 @@ use opencl3::program::Program;
 
 use super::device::TreeLayouts;
 use super::lights::{
-    DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap, ENV_CONSTANT, ENV_MAP, ENV_NONE,
+    environment_power, punctual_power, DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap,
+    LightSelection, ENV_CONSTANT, ENV_MAP, ENV_NONE,
 };
 use super::material::{device_materials, DeviceMaterial};
+use super::sampling::Sampler;
 use super::texture::{Slot, TextureBinding, TextureSet};
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
@@ -98,6 +100,8 @@ pub struct RenderSettings {
     /// (emission, alpha cut-outs and sidedness are kept).
     pub clay: bool,
     pub traversal: Traversal,
+    /// The sampler of the path tracer's random numbers (`--sampler`).
+    pub sampler: Sampler,
     pub environment: Environment,
     pub aovs: Aovs,
 }
@@ -112,6 +116,7 @@ impl Default for RenderSettings {
             max_depth: 8,
             clay: false,
             traversal: Traversal::Wide,
+            sampler: Sampler::Sobol,
             environment: Environment::Default,
             aovs: Aovs::NONE,
         }
@@ -208,6 +213,11 @@ pub struct DeviceFrame {
     pub emit_count: u32,
     pub material_count: u32,
     pub select_count: u32,
+    /// 1: every punctual light is sampled at every vertex.
+    pub light_loop: u32,
+    pub emit_select_pmf: f32,
+    pub env_select_pmf: f32,
+    pub pad: u32,
 }
 
 const FRAME_NORMALS: u32 = 1;
@@ -289,6 +299,7 @@ pub struct PathTracer<'d> {
     emit_prims: GrowBuffer<u32>,
     emit_cdf: GrowBuffer<f32>,
     emit_pmf: GrowBuffer<f32>,
+    select_cdf: GrowBuffer<f32>,
     accum_color: GrowBuffer<[f32; 4]>,
     accum_normal: GrowBuffer<[f32; 4]>,
     accum_albedo: GrowBuffer<[f32; 4]>,
@@ -301,7 +312,9 @@ pub struct PathTracer<'d> {
 }
 
 /// An environment map on the device: its record, texels and CDFs.
-type EnvBuffers = (DeviceEnv, Buffer<[f32; 4]>, Buffer<f32>, Buffer<f32>);
+/// The map's device form, texels, marginal and conditional CDFs, and mean
+/// luminance.
+type EnvBuffers = (DeviceEnv, Buffer<[f32; 4]>, Buffer<f32>, Buffer<f32>, f32);
 
 struct HostSoupBuffers {
     positions: GrowBuffer<[f32; 4]>,
@@ -405,6 +418,9 @@ impl<'d> PathTracer<'d> {
         if textures.is_some() {
             defines.push(("HAS_TEXTURES", "1".to_owned()));
         }
+        if let Some(define) = settings.sampler.define() {
+            defines.push((define, "1".to_owned()));
+        }
         let program = device.build_program("pathtrace.cl", &defines)?;
         let kernels = Kernels {
             render: device.kernel(&program, "pt_render")?,
@@ -433,7 +449,7 @@ impl<'d> PathTracer<'d> {
                     height: map.height,
                     pad: 0,
                 };
-                Some((env, texels, marginal, conditional))
+                Some((env, texels, marginal, conditional, map.mean_luminance()))
             }
             Environment::Color(c) => {
                 if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
@@ -480,6 +496,7 @@ impl<'d> PathTracer<'d> {
             emit_prims: GrowBuffer::new(),
             emit_cdf: GrowBuffer::new(),
             emit_pmf: GrowBuffer::new(),
+            select_cdf: GrowBuffer::new(),
             accum_color: GrowBuffer::new(),
             accum_normal: GrowBuffer::new(),
             accum_albedo: GrowBuffer::new(),
@@ -708,8 +725,27 @@ impl<'d> PathTracer<'d> {
         if s.clay {
             flags |= FRAME_CLAY;
         }
-        let select_count =
-            lights.len() as u32 + (!emit.is_empty()) as u32 + (env.kind != ENV_NONE) as u32;
+
+        // Which light next-event estimation samples, by estimated power.
+        let radius = scene_radius(bvh);
+        let punctual: Vec<f64> = lights.iter().map(|l| punctual_power(l, radius)).collect();
+        let env_power = match env.kind {
+            ENV_MAP => Some(environment_power(
+                self.env_map.as_ref().map_or(0.0, |m| m.4),
+                radius,
+            )),
+            _ => None,
+        };
+        let selection = LightSelection::new(
+            &punctual,
+            (!emit.is_empty()).then_some(emit.power),
+            env_power,
+        );
+        d.write(
+            self.select_cdf.ensure(d, selection.cdf.len())?,
+            &selection.cdf,
+        )?;
+        let select_count = selection.count();
         let fr = DeviceFrame {
             seed_lo: s.seed as u32,
             seed_hi: (s.seed >> 32) as u32,
@@ -723,6 +759,10 @@ impl<'d> PathTracer<'d> {
             emit_count: emit.prims.len() as u32,
             material_count: self.material_count,
             select_count,
+            light_loop: selection.loop_punctual as u32,
+            emit_select_pmf: selection.emit_pmf,
+            env_select_pmf: selection.env_pmf,
+            pad: 0,
         };
         d.write(&mut self.frame, &[fr])?;
         d.write(&mut self.camera, &[device_camera(camera, w, h)])?;
@@ -800,10 +840,11 @@ impl<'d> PathTracer<'d> {
                         Arg::Buf(self.emit_prims.get()),
                         Arg::Buf(self.emit_cdf.get()),
                         Arg::Buf(self.emit_pmf.get()),
+                        Arg::Buf(self.select_cdf.get()),
                         Arg::Buf(&self.env),
                     ];
                     match &self.env_map {
-                        Some((_, t, m, c)) => {
+                        Some((_, t, m, c, _)) => {
                             args.push(Arg::Buf(t));
                             args.push(Arg::Buf(m));
                             args.push(Arg::Buf(c));
@@ -947,4 +988,29 @@ pub fn render_soup(
 ) -> Result<RenderOutput, TraceError> {
     let mut pt = PathTracer::with_materials(device, table, settings)?;
     pt.render_soup(soup, camera, lights, frame)
+}
+
+/// The radius of the scene's bounding sphere: half the diagonal of the
+/// tree's root box (0 for an empty tree). Lights without finite power
+/// (directional, environment) are weighed by it.
+fn scene_radius(bvh: &Bvh) -> f32 {
+    let Some(root) = bvh.nodes.first() else {
+        return 0.0;
+    };
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (min, max) in [
+        (root.left_min, root.left_max),
+        (root.right_min, root.right_max),
+    ] {
+        let (a, b) = (Vec3::from(min), Vec3::from(max));
+        if a.is_finite() && b.is_finite() && a.cmple(b).all() {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    if lo.cmple(hi).all() {
+        0.5 * (hi - lo).length()
+    } else {
+        0.0
+    }
 }

@@ -165,6 +165,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         max_depth: 8,
         clay: false,
         traversal: Traversal::default(),
+        sampler: Default::default(),
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
     }
