@@ -91,6 +91,8 @@ inline float bsdf_spec_probability(BsdfParams p, float cos_o) {
 // The BSDF value (without the cosine) for wo, wi in the local frame.
 inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
+    // Pure Lambert (--clay): the same value as below, without the lobe.
+    if (p.specular == 0.0f && p.metallic == 0.0f) return p.base * PT_INV_PI;
     float3 hv = wo + wi;
     float hl = length(hv);
     if (hl == 0.0f) return (float3)(0.0f);
@@ -120,6 +122,7 @@ inline float ggx_vndf_pdf(float a, float3 wo, float3 wi) {
 
 inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
+    if (p.specular == 0.0f && p.metallic == 0.0f) return wi.z * PT_INV_PI;
     float ps = bsdf_spec_probability(p, wo.z);
     float spec = ps > 0.0f ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
     return ps * spec + (1.0f - ps) * (wi.z * PT_INV_PI);
@@ -133,9 +136,9 @@ inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
                              : (float3)(1.0f, 0.0f, 0.0f);
     float3 t2 = cross(vh, t1);
     float r = sqrt(u1);
-    float phi = PT_TWO_PI * u2;
-    float p1 = r * cos(phi);
-    float p2 = r * sin(phi);
+    float2 cs = cos_sin_turns(u2);
+    float p1 = r * cs.x;
+    float p2 = r * cs.y;
     float s = 0.5f * (1.0f + vh.z);
     p2 = (1.0f - s) * sqrt(fmax(0.0f, 1.0f - p1 * p1)) + s * p2;
     float3 nh = (t1 * p1 + t2 * p2) + vh * sqrt(fmax(0.0f, (1.0f - p1 * p1) - p2 * p2));

@@ -16,7 +16,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::sampling::{luminance, sample_cosine_hemisphere, INV_PI, PI, TWO_PI};
+use super::sampling::{cos_sin_turns, luminance, sample_cosine_hemisphere, INV_PI, PI};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 
 pub const MAT_DOUBLE_SIDED: u32 = 1;
@@ -175,6 +175,10 @@ pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return Vec3::ZERO;
     }
+    // Pure Lambert (--clay): the same value as below, without the lobe.
+    if p.specular == 0.0 && p.metallic == 0.0 {
+        return p.base * INV_PI;
+    }
     let hv = wo + wi;
     let hl = hv.length();
     if hl == 0.0 {
@@ -209,6 +213,9 @@ pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return 0.0;
     }
+    if p.specular == 0.0 && p.metallic == 0.0 {
+        return wi.z * INV_PI;
+    }
     let ps = spec_probability(p, wo.z);
     let spec = if ps > 0.0 {
         ggx_vndf_pdf(p.alpha, wo, wi)
@@ -228,9 +235,9 @@ fn ggx_sample_vndf(a: f32, wo: Vec3, u1: f32, u2: f32) -> Vec3 {
     };
     let t2 = vh.cross(t1);
     let r = u1.sqrt();
-    let phi = TWO_PI * u2;
-    let p1 = r * phi.cos();
-    let mut p2 = r * phi.sin();
+    let (c, s) = cos_sin_turns(u2);
+    let p1 = r * c;
+    let mut p2 = r * s;
     let s = 0.5 * (1.0 + vh.z);
     p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2;
     let nh = (t1 * p1 + t2 * p2) + vh * ((1.0 - p1 * p1) - p2 * p2).max(0.0).sqrt();

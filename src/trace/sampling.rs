@@ -211,18 +211,54 @@ pub fn onb(n: Vec3) -> (Vec3, Vec3) {
     )
 }
 
+/// cos and sin of `a` in [-pi/4, pi/4] by their Taylor polynomials
+/// (`cos_sin_quarter`: the same float operations, so bit for bit).
+#[allow(clippy::excessive_precision)]
+pub fn cos_sin_quarter(a: f32) -> (f32, f32) {
+    let a2 = a * a;
+    let c = 1.0
+        + a2 * (-5.000000000e-01
+            + a2 * (4.166666791e-02 + a2 * (-1.388888923e-03 + a2 * 2.480158764e-05)));
+    let s = a
+        * (1.0
+            + a2 * (-1.666666716e-01
+                + a2 * (8.333333768e-03 + a2 * (-1.984127011e-04 + a2 * 2.755731884e-06))));
+    (c, s)
+}
+
+/// cos and sin of 2 pi u for u in [0, 1] (`cos_sin_turns`).
+#[allow(clippy::excessive_precision)]
+pub fn cos_sin_turns(u: f32) -> (f32, f32) {
+    let q = u * 4.0;
+    let k = q.floor();
+    let f = q - k;
+    let (c, s) = if f < 0.5 {
+        cos_sin_quarter(f * 1.570796371e+00)
+    } else {
+        let (c, s) = cos_sin_quarter((1.0 - f) * 1.570796371e+00);
+        (s, c)
+    };
+    match (k as i32) & 3 {
+        1 => (-s, c),
+        2 => (-c, -s),
+        3 => (s, -c),
+        _ => (c, s),
+    }
+}
+
+#[allow(clippy::excessive_precision)]
 pub fn sample_cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
     let ox = 2.0 * u1 - 1.0;
     let oy = 2.0 * u2 - 1.0;
-    let (r, phi) = if ox == 0.0 && oy == 0.0 {
+    let (x, y) = if ox == 0.0 && oy == 0.0 {
         (0.0, 0.0)
     } else if ox.abs() > oy.abs() {
-        (ox, (PI / 4.0) * (oy / ox))
+        let (c, s) = cos_sin_quarter(7.853981853e-01 * (oy / ox));
+        (ox * c, ox * s)
     } else {
-        (oy, (PI / 2.0) - (PI / 4.0) * (ox / oy))
+        let (c, s) = cos_sin_quarter(7.853981853e-01 * (ox / oy));
+        (oy * s, oy * c)
     };
-    let x = r * phi.cos();
-    let y = r * phi.sin();
     let z = ((1.0 - x * x) - y * y).max(0.0).sqrt();
     Vec3::new(x, y, z)
 }
@@ -230,8 +266,8 @@ pub fn sample_cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
 pub fn sample_uniform_sphere(u1: f32, u2: f32) -> Vec3 {
     let z = 1.0 - 2.0 * u1;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = TWO_PI * u2;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (c, s) = cos_sin_turns(u2);
+    Vec3::new(r * c, r * s, z)
 }
 
 /// Uniform barycentrics (b1, b2) on a triangle.
@@ -303,6 +339,23 @@ mod tests {
                 !std::mem::replace(&mut seen[cell], true)
             })
         })
+    }
+
+    #[test]
+    fn polynomial_cos_sin_are_accurate() {
+        for i in 0..=4096 {
+            let u = i as f32 / 4096.0;
+            let (c, s) = cos_sin_turns(u);
+            let a = std::f64::consts::TAU * u as f64;
+            assert!((c as f64 - a.cos()).abs() < 3e-7, "cos at {u}: {c}");
+            assert!((s as f64 - a.sin()).abs() < 3e-7, "sin at {u}: {s}");
+        }
+        for i in -1024..=1024 {
+            let a = i as f32 / 1024.0 * (PI / 4.0);
+            let (c, s) = cos_sin_quarter(a);
+            assert!((c as f64 - (a as f64).cos()).abs() < 2e-7, "cos({a})");
+            assert!((s as f64 - (a as f64).sin()).abs() < 2e-7, "sin({a})");
+        }
     }
 
     #[test]
