@@ -178,8 +178,9 @@ pub struct RenderArgs {
     pub traversal: String,
     /// Sampler of the path tracer's random numbers: `sobol` (the default:
     /// Owen-scrambled Sobol points, stratified over samples, so the error
-    /// falls faster than 1/spp) or `random` (independent uniforms, the
-    /// sampler before; for comparison). Both converge to the same image.
+    /// falls faster with spp than with independent samples) or `random`
+    /// (independent uniforms, the sampler before; for comparison). Both
+    /// converge to the same image.
     #[arg(
         long,
         default_value = "sobol",
