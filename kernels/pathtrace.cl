@@ -579,7 +579,10 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 // One sample pass over one tile: samples [sample_begin, sample_end) of
 // every pixel of the tile, added to the pixel's sums in sample order.
 // accum_color: rgb, alpha; accum_normal / accum_albedo: rgb; accum_aux:
-// depth sum over hits, hit count, dropped samples, unused.
+// depth sum over hits, hit count, dropped samples, samples taken;
+// accum_half: rgb sums of the odd-numbered samples (the second half-buffer
+// of the noise estimate). With `adaptive`, pixels whose `active` flag is 0
+// have converged and take no more samples.
 __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* wnodes,
                         __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
@@ -594,8 +597,9 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const PtCamera* camera, __global const PtFrame* frame,
                         __global float4* accum_color, __global float4* accum_normal,
                         __global float4* accum_albedo, __global float4* accum_aux,
-                        __global uint* ray_counts, uint tile_x, uint tile_y, uint tile_w,
-                        uint tile_h, uint sample_begin, uint sample_end TEX_DECL) {
+                        __global uint* ray_counts, __global float4* accum_half,
+                        __global const uint* active, uint adaptive, uint tile_x, uint tile_y,
+                        uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL) {
     uint gid = get_global_id(0);
     if (gid >= tile_w * tile_h) return;
     uint px = tile_x + gid % tile_w;
@@ -624,6 +628,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.rays = 0u;
     if (px >= s.frame.width || py >= s.frame.height) return;
     uint i = py * s.frame.width + px;
+    if (adaptive != 0u && active[i] == 0u) return;
+    float4 half_sum = accum_half[i];
     float4 color = accum_color[i];
     float4 nrm = accum_normal[i];
     float4 alb = accum_albedo[i];
@@ -639,6 +645,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
             continue;
         }
         color += (float4)(r.radiance, r.alpha);
+        if ((k & 1u) != 0u) half_sum += (float4)(r.radiance, 0.0f);
         nrm += (float4)(r.normal, 0.0f);
         alb += (float4)(r.albedo, 0.0f);
         if (r.alpha > 0.0f) {
@@ -646,17 +653,20 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
             aux.y += 1.0f;
         }
     }
+    aux.w += (float)(sample_end - sample_begin);
     accum_color[i] = color;
+    accum_half[i] = half_sum;
     accum_normal[i] = nrm;
     accum_albedo[i] = alb;
     accum_aux[i] = aux;
     ray_counts[i] += s.rays;
 }
 
-// Clears the sums of a frame.
+// Clears the sums of a frame; every pixel starts active.
 __kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
                        __global float4* accum_albedo, __global float4* accum_aux,
-                       __global uint* ray_counts, uint n) {
+                       __global uint* ray_counts, __global float4* accum_half,
+                       __global uint* active, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
     accum_color[i] = (float4)(0.0f);
@@ -664,6 +674,54 @@ __kernel void pt_clear(__global float4* accum_color, __global float4* accum_norm
     accum_albedo[i] = (float4)(0.0f);
     accum_aux[i] = (float4)(0.0f);
     ray_counts[i] = 0u;
+    accum_half[i] = (float4)(0.0f);
+    active[i] = 1u;
+}
+
+// The estimated relative error of a pixel's mean (Rust twin:
+// film::noise_estimate): the mean over all samples I against twice the mean
+// of the odd-numbered ones A (Dammertz et al. 2010, as in Cycles). I - A is
+// (S_even - S_odd) / n, whose spread is the standard error of I; it is
+// taken relative to the pixel as the relative MSE is (RMS over the three
+// channels, over sqrt(I^2 + 0.01)). Infinite below two kept samples.
+inline float pt_noise_estimate(float4 color, float4 half_sum, float4 aux) {
+    float n = aux.w - aux.z;
+    if (!(n >= 2.0f)) return INFINITY;
+    float3 mean = color.xyz / n;
+    float3 d = mean - half_sum.xyz * (2.0f / n);
+    float num = ((d.x * d.x + d.y * d.y) + d.z * d.z) / 3.0f;
+    float den = ((mean.x * mean.x + mean.y * mean.y) + mean.z * mean.z) / 3.0f + 0.01f;
+    return sqrt(num / den);
+}
+
+// A convergence check: whether each pixel's estimated error is at or above
+// `threshold`.
+__kernel void pt_converge(__global const float4* accum_color, __global const float4* accum_half,
+                          __global const float4* accum_aux, __global uint* unconverged,
+                          float threshold, uint width, uint height) {
+    uint i = get_global_id(0);
+    if (i >= width * height) return;
+    float e = pt_noise_estimate(accum_color[i], accum_half[i], accum_aux[i]);
+    unconverged[i] = e < threshold ? 0u : 1u;
+}
+
+// Grows the unconverged region by a pixel: a pixel keeps sampling while it
+// or any of its eight neighbours is unconverged, so isolated pixels do not
+// stop early next to noisy ones.
+__kernel void pt_dilate(__global const uint* unconverged, __global uint* active, uint width,
+                        uint height) {
+    uint i = get_global_id(0);
+    if (i >= width * height) return;
+    int x = (int)(i % width), y = (int)(i / width);
+    uint any = 0u;
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            int nx = x + dx, ny = y + dy;
+            if (nx >= 0 && ny >= 0 && nx < (int)width && ny < (int)height)
+                any |= unconverged[ny * (int)width + nx];
+        }
+    }
+    active[i] = any;
 }
 
 // Each triangle's emitted power up to a constant factor (luminance of the

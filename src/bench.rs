@@ -180,6 +180,8 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
         clay: false,
         traversal: c.traversal,
         sampler: c.sampler,
+        adaptive: None,
+        time_limit: None,
         environment: Environment::Default,
         aovs: Aovs::default(),
     }

@@ -214,6 +214,10 @@ pub struct Aovs {
     pub depth: bool,
     pub normal: bool,
     pub albedo: bool,
+    /// Samples each pixel took (EXR channel `sample_count`).
+    pub sample_count: bool,
+    /// Each pixel's estimated relative error (`noise`; `noise_estimate`).
+    pub noise: bool,
 }
 
 impl Aovs {
@@ -221,14 +225,20 @@ impl Aovs {
         depth: false,
         normal: false,
         albedo: false,
+        sample_count: false,
+        noise: false,
     };
+    /// The first-hit AOVs: depth, normal and albedo.
     pub const ALL: Aovs = Aovs {
         depth: true,
         normal: true,
         albedo: true,
+        sample_count: false,
+        noise: false,
     };
 
-    /// Parses `--aov depth,normal,albedo` (any subset, any order).
+    /// Parses `--aov depth,normal,albedo,sample_count,noise` (any subset,
+    /// any order).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
         for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
@@ -236,10 +246,12 @@ impl Aovs {
                 "depth" | "z" => aovs.depth = true,
                 "normal" | "n" => aovs.normal = true,
                 "albedo" => aovs.albedo = true,
+                "sample_count" | "samples" => aovs.sample_count = true,
+                "noise" => aovs.noise = true,
                 _ => {
                     return Err(UsageError(format!(
-                        "--aov: unknown AOV {item:?}; choose from depth, normal, albedo \
-                         (e.g. --aov depth,normal,albedo)"
+                        "--aov: unknown AOV {item:?}; choose from depth, normal, albedo, \
+                         sample_count, noise (e.g. --aov depth,normal,albedo)"
                     )))
                 }
             }
@@ -258,6 +270,12 @@ impl Aovs {
         }
         if self.albedo {
             v.push("albedo");
+        }
+        if self.sample_count {
+            v.push("sample_count");
+        }
+        if self.noise {
+            v.push("noise");
         }
         v
     }
@@ -335,6 +353,8 @@ pub struct Image {
     pub depth: Option<Vec<f32>>,
     pub normal: Option<Vec<[f32; 3]>>,
     pub albedo: Option<Vec<[f32; 3]>>,
+    pub sample_count: Option<Vec<f32>>,
+    pub noise: Option<Vec<f32>>,
 }
 
 impl Image {
@@ -348,6 +368,8 @@ impl Image {
             depth: aovs.depth.then(|| vec![BACKGROUND_DEPTH; n]),
             normal: aovs.normal.then(|| vec![[0.0; 3]; n]),
             albedo: aovs.albedo.then(|| vec![[0.0; 3]; n]),
+            sample_count: aovs.sample_count.then(|| vec![0.0; n]),
+            noise: aovs.noise.then(|| vec![0.0; n]),
         }
     }
 
@@ -357,6 +379,91 @@ impl Image {
             depth: self.depth.is_some(),
             normal: self.normal.is_some(),
             albedo: self.albedo.is_some(),
+            sample_count: self.sample_count.is_some(),
+            noise: self.noise.is_some(),
+        }
+    }
+}
+
+/// The estimated relative error of a pixel's mean from its sums
+/// (`pt_noise_estimate` in kernels/pathtrace.cl, the same float
+/// operations): `color` the sum of all samples, `half` the sum of the
+/// odd-numbered ones, `aux` (.., .., dropped samples, samples taken). The
+/// mean I against twice the odd samples' mean A (Dammertz et al. 2010, as in
+/// Cycles): I - A = (S_even - S_odd) / n, whose spread is the standard
+/// error of I, taken relative to the pixel as the relative MSE is (RMS
+/// over the channels over sqrt(I^2 + 0.01)). Infinite below two samples.
+pub fn noise_estimate(color: [f32; 4], half: [f32; 4], aux: [f32; 4]) -> f32 {
+    let n = aux[3] - aux[2];
+    if !(n >= 2.0) {
+        return f32::INFINITY;
+    }
+    let mean = [color[0] / n, color[1] / n, color[2] / n];
+    let h = 2.0 / n;
+    let d = [
+        mean[0] - half[0] * h,
+        mean[1] - half[1] * h,
+        mean[2] - half[2] * h,
+    ];
+    let num = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) / 3.0;
+    let den = ((mean[0] * mean[0] + mean[1] * mean[1]) + mean[2] * mean[2]) / 3.0 + 0.01;
+    (num / den).sqrt()
+}
+
+/// How close a frame came to its noise target, for the frame log's `noise`
+/// object.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct NoiseStats {
+    /// `--noise-threshold`, or `null` for a uniform render.
+    pub target: Option<f32>,
+    /// Mean and 99th percentile over the pixels of the estimated relative
+    /// error (`noise_estimate`) of the finished frame. Their squares are
+    /// comparable with a relative MSE against a converged reference.
+    pub estimated_mean: f64,
+    pub estimated_p99: f64,
+    /// Fraction of the pixels whose estimate is below the target (`null`
+    /// without one).
+    pub converged_fraction: Option<f64>,
+    /// Samples taken per pixel.
+    pub spp_min: u32,
+    pub spp_mean: f64,
+    pub spp_max: u32,
+    /// Why sampling stopped: `threshold` (every pixel converged), `max_spp`
+    /// (some pixels reached `--spp` unconverged, or a uniform render took
+    /// its `--spp`), or `time_limit` (`--time-limit`; not reproducible).
+    pub stopped: String,
+}
+
+impl NoiseStats {
+    /// From each pixel's estimate and sample count.
+    pub fn new(target: Option<f32>, estimates: &[f32], counts: &[u32], stopped: &str) -> Self {
+        let mut finite: Vec<f32> = estimates
+            .iter()
+            .copied()
+            .filter(|e| e.is_finite())
+            .collect();
+        finite.sort_by(f32::total_cmp);
+        let mean = if finite.is_empty() {
+            0.0
+        } else {
+            finite.iter().map(|&e| e as f64).sum::<f64>() / finite.len() as f64
+        };
+        let p99 = finite
+            .get(((finite.len() as f64 * 0.99).ceil() as usize).saturating_sub(1))
+            .map_or(0.0, |&e| e as f64);
+        let n = counts.len().max(1) as f64;
+        NoiseStats {
+            target,
+            estimated_mean: mean,
+            estimated_p99: p99,
+            converged_fraction: target.map(|t| {
+                estimates.iter().filter(|&&e| e < t).count() as f64 / estimates.len().max(1) as f64
+            }),
+            spp_min: counts.iter().copied().min().unwrap_or(0),
+            spp_mean: counts.iter().map(|&c| c as f64).sum::<f64>() / n,
+            spp_max: counts.iter().copied().max().unwrap_or(0),
+            stopped: stopped.to_owned(),
         }
     }
 }

@@ -15,7 +15,8 @@
 //! premultiplied by coverage), and with the AOVs `Z` (camera distance),
 //! `N.X`, `N.Y`, `N.Z` (world-space normal) and `albedo.R`, `albedo.G`,
 //! `albedo.B`: the layer.channel names Nuke splits into layers and Blender
-//! reads. EXR stores channels sorted by name, so a reader lists them as
+//! reads; `sample_count` (samples the pixel took) and `noise` (its estimated
+//! relative error, `film::noise_estimate`), always f32. EXR stores channels sorted by name, so a reader lists them as
 //! `A, B, G, N.X, ..., R, Z, albedo.B, ...`. With `--half` every channel is
 //! f16 except `Z`, which stays f32: depths beyond 65504 (including the
 //! 1e10 background) do not fit a half float, as in Blender.
@@ -174,6 +175,16 @@ pub fn write_exr(
     }
     if let Some(z) = &image.depth {
         channels.push(AnyChannel::new("Z", samples(z.clone(), false)));
+    }
+    // Counts and error estimates stay f32: half floats would round counts
+    // past 2048.
+    for (buf, name) in [
+        (&image.sample_count, "sample_count"),
+        (&image.noise, "noise"),
+    ] {
+        if let Some(v) = buf {
+            channels.push(AnyChannel::new(name, samples(v.clone(), false)));
+        }
     }
     for (buf, names) in [
         (&image.normal, ["N.X", "N.Y", "N.Z"]),
@@ -357,6 +368,12 @@ pub struct FrameLog {
     pub timings_ms: Timings,
     pub build: BuildLog,
     pub render: RenderLog,
+    /// The frame's estimated error and its samples per pixel
+    /// (`film::NoiseStats`): `target` (`--noise-threshold` or null),
+    /// `estimated_mean` and `estimated_p99` (relative error of the pixels'
+    /// means), `converged_fraction`, `spp_min`, `spp_mean`, `spp_max`, and
+    /// `stopped` (`threshold`, `max_spp` or `time_limit`).
+    pub noise: crate::film::NoiseStats,
     pub camera: CameraLog,
     pub output: OutputLog,
     /// Anything the user should know about this frame (clamped or dropped

@@ -19,6 +19,7 @@ use crate::frames::{self, FrameArgs, FramePaths, NamePattern};
 use crate::output::{self, CameraLog, FrameLog, FrameMetadata};
 use crate::scene::{LoadOptions, Projection, Scene};
 use crate::soup::device::DeviceSoup;
+use crate::trace::render::Adaptive;
 use crate::trace::render::{
     Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
 };
@@ -113,7 +114,8 @@ pub struct RenderArgs {
     #[arg(long, help_heading = "Output")]
     pub half: bool,
     /// Extra EXR channels, comma-separated: depth (Z), normal (N.X N.Y N.Z),
-    /// albedo (albedo.R albedo.G albedo.B).
+    /// albedo (albedo.R albedo.G albedo.B), sample_count (samples each pixel
+    /// took), noise (each pixel's estimated relative error).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
     /// Also write a tonemapped sRGB PNG preview beside each EXR.
@@ -127,9 +129,34 @@ pub struct RenderArgs {
     /// camera's aspect ratio when the file gives one.
     #[arg(long, value_name = "PX", help_heading = "Image")]
     pub height: Option<u32>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
+    /// Samples per pixel; with --noise-threshold, the most a pixel takes.
+    #[arg(
+        long,
+        visible_alias = "max-spp",
+        default_value_t = 16,
+        value_name = "N",
+        help_heading = "Image"
+    )]
     pub spp: u32,
+    /// Adaptive sampling: a pixel stops once the estimated relative error of
+    /// its mean is below T (e.g. 0.02; the frame's relative MSE then comes
+    /// out near T^2 or below). Checks run every 8 samples after --min-spp,
+    /// at fixed sample counts, so the image stays reproducible bit for bit.
+    /// Raise --spp to let hard pixels go further: `--spp 1024
+    /// --noise-threshold 0.02`. The frame log's `noise` says how close the
+    /// frame came.
+    #[arg(long, value_name = "T", help_heading = "Image")]
+    pub noise_threshold: Option<f32>,
+    /// With --noise-threshold: samples every pixel takes before its first
+    /// convergence check.
+    #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
+    pub min_spp: u32,
+    /// Stop sampling each frame after this many seconds of path tracing,
+    /// wherever it is (combine with --noise-threshold or --spp as the other
+    /// limits). NOT reproducible: where a frame stops depends on the
+    /// machine's speed and load; the log records the samples it reached.
+    #[arg(long, value_name = "SECONDS", help_heading = "Image")]
+    pub time_limit: Option<f64>,
     /// Random seed; the same seed, frame and device give the same image.
     #[arg(long, default_value_t = 0, value_name = "N", help_heading = "Image")]
     pub seed: u64,
@@ -303,6 +330,29 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
     if args.spp == 0 {
         return Err(UsageError("--spp 0: render at least one sample per pixel".into()).into());
     }
+    let adaptive = match args.noise_threshold {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 => Some(Adaptive {
+            threshold: t,
+            min_spp: args.min_spp.clamp(1, args.spp),
+        }),
+        Some(t) => {
+            return Err(UsageError(format!(
+                "--noise-threshold {t}: must be a positive number, e.g. 0.02"
+            ))
+            .into())
+        }
+    };
+    let time_limit = match args.time_limit {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 => Some(std::time::Duration::from_secs_f64(t)),
+        Some(t) => {
+            return Err(UsageError(format!(
+                "--time-limit {t}: must be a positive number of seconds"
+            ))
+            .into())
+        }
+    };
     if !(args.fps.is_finite() && args.fps > 0.0) {
         return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
     }
@@ -365,6 +415,8 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             clay: args.clay,
             traversal,
             sampler,
+            adaptive,
+            time_limit,
             environment,
             aovs,
         },
@@ -652,6 +704,7 @@ fn render_frame(
         half: false,
         aovs: job.aov_names.clone(),
     };
+    log.noise = traced.noise.clone();
     log.warnings = info.warnings.clone();
     log.warnings.extend(traced.warnings.iter().cloned());
     if progress.verbose {

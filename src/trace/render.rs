@@ -43,7 +43,7 @@ use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh, MAX_DEPTH};
 use crate::device::{Arg, Device, GrowBuffer};
-use crate::film::{self, Aovs, Image, BACKGROUND_DEPTH};
+use crate::film::{self, noise_estimate, Aovs, Image, NoiseStats, BACKGROUND_DEPTH};
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
@@ -102,6 +102,13 @@ pub struct RenderSettings {
     pub traversal: Traversal,
     /// The sampler of the path tracer's random numbers (`--sampler`).
     pub sampler: Sampler,
+    /// Adaptive sampling (`--noise-threshold`); `None`: every pixel takes
+    /// `spp` samples. With it, `spp` is the most a pixel takes.
+    pub adaptive: Option<Adaptive>,
+    /// Stop sampling a frame once this much wall time has passed
+    /// (`--time-limit`). The only setting that makes a frame depend on
+    /// more than its inputs: where it stops depends on the machine's speed.
+    pub time_limit: Option<std::time::Duration>,
     pub environment: Environment,
     pub aovs: Aovs,
 }
@@ -117,11 +124,31 @@ impl Default for RenderSettings {
             clay: false,
             traversal: Traversal::Wide,
             sampler: Sampler::Sobol,
+            adaptive: None,
+            time_limit: None,
             environment: Environment::Default,
             aovs: Aovs::NONE,
         }
     }
 }
+
+/// Adaptive sampling: each pixel stops once the estimated relative error
+/// of its mean (`film::noise_estimate`) is below `threshold`.
+///
+/// Every pixel first takes `min_spp` samples; from then on a convergence
+/// check runs every `ADAPTIVE_STEP` samples (at fixed sample counts, so the
+/// image depends only on the samples' values: reproducible bit for bit,
+/// whatever the tiling or pass sizes). A pixel keeps sampling while it or
+/// one of its eight neighbours is above the threshold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    pub threshold: f32,
+    pub min_spp: u32,
+}
+
+/// Samples between two convergence checks: a multiple of 8 keeps each
+/// pixel's Sobol points whole nets of 8.
+pub const ADAPTIVE_STEP: u32 = 8;
 
 /// One frame to render: its soup and tree on the device, camera and lights.
 pub struct FrameInput<'a> {
@@ -144,6 +171,8 @@ pub struct RenderOutput {
     pub rays: u64,
     /// Device time of the frame's path tracing launches (profiling events).
     pub trace_ms: f64,
+    /// The frame's estimated error and samples (the log's `noise`).
+    pub noise: NoiseStats,
     pub warnings: Vec<String>,
 }
 
@@ -269,6 +298,8 @@ struct SoupBuffers<'a> {
 struct Kernels {
     render: Kernel,
     clear: Kernel,
+    converge: Kernel,
+    dilate: Kernel,
     emissive_power: Kernel,
     _program: Program,
 }
@@ -305,6 +336,11 @@ pub struct PathTracer<'d> {
     accum_albedo: GrowBuffer<[f32; 4]>,
     accum_aux: GrowBuffer<[f32; 4]>,
     ray_counts: GrowBuffer<u32>,
+    /// Sums of the odd-numbered samples (the noise estimate's half buffer).
+    accum_half: GrowBuffer<[f32; 4]>,
+    /// Per pixel: 1 while it takes samples (adaptive sampling).
+    active: GrowBuffer<u32>,
+    unconverged: GrowBuffer<u32>,
     /// Warnings of `new`, repeated in the first frame's output.
     setup_warnings: Vec<String>,
     /// Host soup uploads for `render_soup`.
@@ -425,6 +461,8 @@ impl<'d> PathTracer<'d> {
         let kernels = Kernels {
             render: device.kernel(&program, "pt_render")?,
             clear: device.kernel(&program, "pt_clear")?,
+            converge: device.kernel(&program, "pt_converge")?,
+            dilate: device.kernel(&program, "pt_dilate")?,
             emissive_power: device.kernel(&program, "pt_emissive_power")?,
             _program: program,
         };
@@ -502,6 +540,9 @@ impl<'d> PathTracer<'d> {
             accum_albedo: GrowBuffer::new(),
             accum_aux: GrowBuffer::new(),
             ray_counts: GrowBuffer::new(),
+            accum_half: GrowBuffer::new(),
+            active: GrowBuffer::new(),
+            unconverged: GrowBuffer::new(),
             setup_warnings: warnings,
             host_soup: None,
         })
@@ -773,6 +814,9 @@ impl<'d> PathTracer<'d> {
         self.accum_albedo.ensure(d, pixels)?;
         self.accum_aux.ensure(d, pixels)?;
         self.ray_counts.ensure(d, pixels)?;
+        self.accum_half.ensure(d, pixels)?;
+        self.active.ensure(d, pixels)?;
+        self.unconverged.ensure(d, pixels)?;
         let first_event = d.pending_events().len();
         d.launch(
             "pathtrace/clear",
@@ -785,20 +829,16 @@ impl<'d> PathTracer<'d> {
                 Arg::Buf(self.accum_albedo.get()),
                 Arg::Buf(self.accum_aux.get()),
                 Arg::Buf(self.ray_counts.get()),
+                Arg::Buf(self.accum_half.get()),
+                Arg::Buf(self.active.get()),
                 Arg::U32(pixels as u32),
             ],
         )?;
 
-        // Sample passes over tiles.
+        // Sample passes over tiles, ending at every convergence check. One
+        // pass is queued ahead of the one the host waits for, so the device
+        // never idles, and a time limit stops within a pass.
         let spp = s.spp;
-        let per_pass = if self.schedule.samples_per_pass > 0 {
-            self.schedule.samples_per_pass
-        } else {
-            (PATHS_PER_LAUNCH / pixels as u64).clamp(1, spp as u64) as u32
-        };
-        let (tw, th) = self.schedule.tile.unwrap_or((w, h));
-        let (tw, th) = (tw.clamp(1, w), th.clamp(1, h));
-        let local = self.schedule.local_size.max(1);
         let empty_soup_positions;
         let positions: &Buffer<[f32; 4]> = if empty {
             empty_soup_positions = &self.dummy_f4;
@@ -806,101 +846,32 @@ impl<'d> PathTracer<'d> {
         } else {
             soup.positions
         };
-        let mut pass_ends: Vec<(usize, u32)> = Vec::new();
+        let passes = self.pass_ends(pixels, spp);
+        let started = std::time::Instant::now();
+        let mut queued: std::collections::VecDeque<(usize, u32)> = Default::default();
         let mut begin = 0;
-        while begin < spp {
-            let end = (begin + per_pass).min(spp);
-            for ty in (0..h).step_by(th as usize) {
-                for tx in (0..w).step_by(tw as usize) {
-                    let cw = tw.min(w - tx);
-                    let ch = th.min(h - ty);
-                    let items = cw as usize * ch as usize;
-                    let mut args = vec![
-                        Arg::Buf(self.layouts.buffers().0),
-                        Arg::Buf(self.layouts.buffers().1),
-                        Arg::Buf(self.layouts.buffers().2),
-                        Arg::U32(snode_count),
-                        Arg::Buf(prim_ids),
-                        Arg::Buf(positions),
-                        match soup.normals {
-                            Some(b) => Arg::Buf(b),
-                            None => Arg::Buf(&self.dummy_f32),
-                        },
-                        match soup.uvs {
-                            Some(b) => Arg::Buf(b),
-                            None => Arg::Buf(&self.dummy_f32),
-                        },
-                        Arg::Buf(if empty {
-                            &self.dummy_u32
-                        } else {
-                            soup.material_ids
-                        }),
-                        Arg::Buf(&self.materials),
-                        Arg::Buf(self.lights.get()),
-                        Arg::Buf(self.emit_prims.get()),
-                        Arg::Buf(self.emit_cdf.get()),
-                        Arg::Buf(self.emit_pmf.get()),
-                        Arg::Buf(self.select_cdf.get()),
-                        Arg::Buf(&self.env),
-                    ];
-                    match &self.env_map {
-                        Some((_, t, m, c, _)) => {
-                            args.push(Arg::Buf(t));
-                            args.push(Arg::Buf(m));
-                            args.push(Arg::Buf(c));
-                        }
-                        None => {
-                            args.push(Arg::Buf(&self.dummy_f4));
-                            args.push(Arg::Buf(&self.dummy_f32));
-                            args.push(Arg::Buf(&self.dummy_f32));
-                        }
-                    }
-                    args.extend([
-                        Arg::Buf(&self.filter),
-                        Arg::Buf(&self.camera),
-                        Arg::Buf(&self.frame),
-                        Arg::Buf(self.accum_color.get()),
-                        Arg::Buf(self.accum_normal.get()),
-                        Arg::Buf(self.accum_albedo.get()),
-                        Arg::Buf(self.accum_aux.get()),
-                        Arg::Buf(self.ray_counts.get()),
-                        Arg::U32(tx),
-                        Arg::U32(ty),
-                        Arg::U32(cw),
-                        Arg::U32(ch),
-                        Arg::U32(begin),
-                        Arg::U32(end),
-                    ]);
-                    if let Some((set, bindings)) = &self.textures {
-                        args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
-                        args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
-                        args.push(Arg::Buf(bindings));
-                    }
-                    d.launch(
-                        "pathtrace/render",
-                        &self.kernels.render,
-                        items.div_ceil(local),
-                        local,
-                        &args,
-                    )?;
-                }
+        let mut timed_out = false;
+        for (end, check) in passes {
+            self.enqueue_pass(soup, prim_ids, positions, snode_count, empty, begin, end)?;
+            if check {
+                self.enqueue_check(pixels, w, h)?;
             }
             d.flush()?;
-            pass_ends.push((d.pending_events().len(), end));
+            queued.push_back((d.pending_events().len(), end));
             begin = end;
-        }
-        // Report each pass as it completes, while later passes run.
-        for (count, done) in &pass_ends {
-            let events = d.pending_events();
-            if let Some(e) = events.get(count - 1) {
-                opencl3::event::wait_for_events(&[*e]).map_err(|c| {
-                    TraceError::Device(crate::device::DeviceError::Cl {
-                        what: "clWaitForEvents (path tracing pass)".into(),
-                        code: c.to_string(),
-                    })
-                })?;
+            while queued.len() > 1 {
+                let (count, done) = queued.pop_front().expect("queued");
+                wait_pass(d, count)?;
+                progress(done);
             }
-            progress(*done);
+            if s.time_limit.is_some_and(|limit| started.elapsed() >= limit) {
+                timed_out = true;
+                break;
+            }
+        }
+        for (count, done) in queued {
+            wait_pass(d, count)?;
+            progress(done);
         }
         let events = d.pending_events();
         let mut trace_ms = 0.0;
@@ -917,12 +888,14 @@ impl<'d> PathTracer<'d> {
             trace_ms += t1.saturating_sub(t0) as f64 * 1e-6;
         }
 
-        // Resolve: means over the kept samples.
+        // Resolve: means over each pixel's kept samples.
         let mut color = vec![[0.0f32; 4]; pixels];
         let mut aux = vec![[0.0f32; 4]; pixels];
+        let mut half = vec![[0.0f32; 4]; pixels];
         let mut rays = vec![0u32; pixels];
         d.read(self.accum_color.get(), &mut color)?;
         d.read(self.accum_aux.get(), &mut aux)?;
+        d.read(self.accum_half.get(), &mut half)?;
         d.read(self.ray_counts.get(), &mut rays)?;
         let mut normal = Vec::new();
         let mut albedo = Vec::new();
@@ -936,10 +909,24 @@ impl<'d> PathTracer<'d> {
         }
         let mut image = Image::new(w, h, s.aovs);
         let mut dropped = 0u64;
+        let mut taken = 0u64;
+        let mut counts = Vec::with_capacity(pixels);
+        let mut estimates = Vec::with_capacity(pixels);
         for i in 0..pixels {
             let bad = aux[i][2] as u32;
+            let samples = aux[i][3] as u32;
             dropped += bad as u64;
-            let kept = spp.saturating_sub(bad);
+            taken += samples as u64;
+            counts.push(samples);
+            let e = noise_estimate(color[i], half[i], aux[i]);
+            estimates.push(e);
+            if let Some(c) = &mut image.sample_count {
+                c[i] = samples as f32;
+            }
+            if let Some(n) = &mut image.noise {
+                n[i] = e;
+            }
+            let kept = samples.saturating_sub(bad);
             if kept == 0 {
                 continue;
             }
@@ -962,16 +949,199 @@ impl<'d> PathTracer<'d> {
         }
         if dropped > 0 {
             warnings.push(format!(
-                "path tracing: dropped {dropped} of {} samples with NaN or infinite values",
-                pixels as u64 * spp as u64
+                "path tracing: dropped {dropped} of {taken} samples with NaN or infinite values"
             ));
         }
+        let stopped = if timed_out {
+            "time_limit"
+        } else if s.adaptive.is_some() && counts.iter().all(|&c| c < spp) {
+            "threshold"
+        } else {
+            "max_spp"
+        };
+        let noise = NoiseStats::new(
+            s.adaptive.map(|a| a.threshold),
+            &estimates,
+            &counts,
+            stopped,
+        );
         Ok(RenderOutput {
             image,
             rays: rays.iter().map(|&r| r as u64).sum(),
             trace_ms,
+            noise,
             warnings,
         })
+    }
+
+    /// The sample passes of a frame: (end, whether a convergence check
+    /// follows). Passes hold up to the schedule's samples per pass and end
+    /// at every check: `min_spp`, then every `ADAPTIVE_STEP` samples.
+    fn pass_ends(&self, pixels: usize, spp: u32) -> Vec<(u32, bool)> {
+        let per_pass = if self.schedule.samples_per_pass > 0 {
+            self.schedule.samples_per_pass
+        } else {
+            (PATHS_PER_LAUNCH / pixels as u64).clamp(1, spp as u64) as u32
+        };
+        let mut checks: Vec<u32> = Vec::new();
+        if let Some(a) = self.settings.adaptive {
+            let mut c = a.min_spp.max(2);
+            while c < spp {
+                checks.push(c);
+                c += ADAPTIVE_STEP;
+            }
+        }
+        let mut ends = Vec::new();
+        let mut begin = 0;
+        let mut next_check = checks.iter().peekable();
+        while begin < spp {
+            let mut end = (begin + per_pass).min(spp);
+            let mut check = false;
+            if let Some(&&c) = next_check.peek() {
+                if c <= end {
+                    end = c;
+                    check = true;
+                    next_check.next();
+                }
+            }
+            ends.push((end, check));
+            begin = end;
+        }
+        ends
+    }
+
+    /// Queues samples [begin, end) of every pixel, tile by tile.
+    #[allow(clippy::too_many_arguments)]
+    fn enqueue_pass(
+        &self,
+        soup: &SoupBuffers,
+        prim_ids: &Buffer<u32>,
+        positions: &Buffer<[f32; 4]>,
+        snode_count: u32,
+        empty: bool,
+        begin: u32,
+        end: u32,
+    ) -> Result<(), TraceError> {
+        let d = self.device;
+        let (w, h) = (self.settings.width, self.settings.height);
+        let (tw, th) = self.schedule.tile.unwrap_or((w, h));
+        let (tw, th) = (tw.clamp(1, w), th.clamp(1, h));
+        let local = self.schedule.local_size.max(1);
+        let adaptive = self.settings.adaptive.is_some();
+        for ty in (0..h).step_by(th as usize) {
+            for tx in (0..w).step_by(tw as usize) {
+                let cw = tw.min(w - tx);
+                let ch = th.min(h - ty);
+                let items = cw as usize * ch as usize;
+                let mut args = vec![
+                    Arg::Buf(self.layouts.buffers().0),
+                    Arg::Buf(self.layouts.buffers().1),
+                    Arg::Buf(self.layouts.buffers().2),
+                    Arg::U32(snode_count),
+                    Arg::Buf(prim_ids),
+                    Arg::Buf(positions),
+                    match soup.normals {
+                        Some(b) => Arg::Buf(b),
+                        None => Arg::Buf(&self.dummy_f32),
+                    },
+                    match soup.uvs {
+                        Some(b) => Arg::Buf(b),
+                        None => Arg::Buf(&self.dummy_f32),
+                    },
+                    Arg::Buf(if empty {
+                        &self.dummy_u32
+                    } else {
+                        soup.material_ids
+                    }),
+                    Arg::Buf(&self.materials),
+                    Arg::Buf(self.lights.get()),
+                    Arg::Buf(self.emit_prims.get()),
+                    Arg::Buf(self.emit_cdf.get()),
+                    Arg::Buf(self.emit_pmf.get()),
+                    Arg::Buf(self.select_cdf.get()),
+                    Arg::Buf(&self.env),
+                ];
+                match &self.env_map {
+                    Some((_, t, m, c, _)) => {
+                        args.push(Arg::Buf(t));
+                        args.push(Arg::Buf(m));
+                        args.push(Arg::Buf(c));
+                    }
+                    None => {
+                        args.push(Arg::Buf(&self.dummy_f4));
+                        args.push(Arg::Buf(&self.dummy_f32));
+                        args.push(Arg::Buf(&self.dummy_f32));
+                    }
+                }
+                args.extend([
+                    Arg::Buf(&self.filter),
+                    Arg::Buf(&self.camera),
+                    Arg::Buf(&self.frame),
+                    Arg::Buf(self.accum_color.get()),
+                    Arg::Buf(self.accum_normal.get()),
+                    Arg::Buf(self.accum_albedo.get()),
+                    Arg::Buf(self.accum_aux.get()),
+                    Arg::Buf(self.ray_counts.get()),
+                    Arg::Buf(self.accum_half.get()),
+                    Arg::Buf(self.active.get()),
+                    Arg::U32(adaptive as u32),
+                    Arg::U32(tx),
+                    Arg::U32(ty),
+                    Arg::U32(cw),
+                    Arg::U32(ch),
+                    Arg::U32(begin),
+                    Arg::U32(end),
+                ]);
+                if let Some((set, bindings)) = &self.textures {
+                    args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
+                    args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
+                    args.push(Arg::Buf(bindings));
+                }
+                d.launch(
+                    "pathtrace/render",
+                    &self.kernels.render,
+                    items.div_ceil(local),
+                    local,
+                    &args,
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Queues a convergence check: each pixel's estimate against the
+    /// threshold, then the dilation that decides which pixels go on.
+    fn enqueue_check(&self, pixels: usize, w: u32, h: u32) -> Result<(), TraceError> {
+        let d = self.device;
+        let threshold = self.settings.adaptive.map_or(0.0, |a| a.threshold);
+        d.launch(
+            "pathtrace/converge",
+            &self.kernels.converge,
+            pixels.div_ceil(64),
+            64,
+            &[
+                Arg::Buf(self.accum_color.get()),
+                Arg::Buf(self.accum_half.get()),
+                Arg::Buf(self.accum_aux.get()),
+                Arg::Buf(self.unconverged.get()),
+                Arg::F32(threshold),
+                Arg::U32(w),
+                Arg::U32(h),
+            ],
+        )?;
+        d.launch(
+            "pathtrace/dilate",
+            &self.kernels.dilate,
+            pixels.div_ceil(64),
+            64,
+            &[
+                Arg::Buf(self.unconverged.get()),
+                Arg::Buf(self.active.get()),
+                Arg::U32(w),
+                Arg::U32(h),
+            ],
+        )?;
+        Ok(())
     }
 }
 
@@ -1013,4 +1183,18 @@ fn scene_radius(bvh: &Bvh) -> f32 {
     } else {
         0.0
     }
+}
+
+/// Waits for the event that ends a pass (the `count`-th pending event).
+fn wait_pass(d: &Device, count: usize) -> Result<(), TraceError> {
+    let events = d.pending_events();
+    if let Some(e) = events.get(count.wrapping_sub(1)) {
+        opencl3::event::wait_for_events(&[*e]).map_err(|c| {
+            TraceError::Device(crate::device::DeviceError::Cl {
+                what: "clWaitForEvents (path tracing pass)".into(),
+                code: c.to_string(),
+            })
+        })?;
+    }
+    Ok(())
 }

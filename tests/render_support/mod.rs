@@ -166,6 +166,8 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         clay: false,
         traversal: Traversal::default(),
         sampler: Default::default(),
+        adaptive: None,
+        time_limit: None,
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
     }
