@@ -707,7 +707,8 @@ __kernel void pt_converge(__global const float4* accum_color, __global const flo
 
 // Grows the unconverged region by a pixel: a pixel keeps sampling while it
 // or any of its eight neighbours is unconverged, so isolated pixels do not
-// stop early next to noisy ones.
+// stop early next to noisy ones. Stopping is final: a stopped pixel's
+// samples are always the first `count` of its sequence.
 __kernel void pt_dilate(__global const uint* unconverged, __global uint* active, uint width,
                         uint height) {
     uint i = get_global_id(0);
@@ -721,7 +722,7 @@ __kernel void pt_dilate(__global const uint* unconverged, __global uint* active,
                 any |= unconverged[ny * (int)width + nx];
         }
     }
-    active[i] = any;
+    active[i] = active[i] & any;
 }
 
 // Each triangle's emitted power up to a constant factor (luminance of the

@@ -395,6 +395,8 @@ impl Image {
 /// over the channels over sqrt(I^2 + 0.01)). Infinite below two samples.
 pub fn noise_estimate(color: [f32; 4], half: [f32; 4], aux: [f32; 4]) -> f32 {
     let n = aux[3] - aux[2];
+    // Also true for NaN, as in the kernel.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(n >= 2.0) {
         return f32::INFINITY;
     }
