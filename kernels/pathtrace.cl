@@ -582,7 +582,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 // depth sum over hits, hit count, dropped samples, samples taken;
 // accum_half: rgb sums of the odd-numbered samples (the second half-buffer
 // of the noise estimate). With `adaptive`, pixels whose `active` flag is 0
-// have converged and take no more samples.
+// have converged and take no more samples; `listed` > 0 launches over the
+// first `listed` entries of `pixel_list` (the pixels still active at the
+// last check) instead of the tile.
 __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* wnodes,
                         __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
@@ -598,12 +600,21 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global float4* accum_color, __global float4* accum_normal,
                         __global float4* accum_albedo, __global float4* accum_aux,
                         __global uint* ray_counts, __global float4* accum_half,
-                        __global const uint* active, uint adaptive, uint tile_x, uint tile_y,
+                        __global const uint* active, uint adaptive,
+                        __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL) {
     uint gid = get_global_id(0);
-    if (gid >= tile_w * tile_h) return;
-    uint px = tile_x + gid % tile_w;
-    uint py = tile_y + gid / tile_w;
+    uint px, py;
+    if (listed > 0u) {
+        if (gid >= listed) return;
+        uint p = pixel_list[gid];
+        px = p % frame[0].width;
+        py = p / frame[0].width;
+    } else {
+        if (gid >= tile_w * tile_h) return;
+        px = tile_x + gid % tile_w;
+        py = tile_y + gid / tile_w;
+    }
     PtScene s;
     s.nodes = nodes;
     s.wnodes = wnodes;

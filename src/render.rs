@@ -140,8 +140,9 @@ pub struct RenderArgs {
     pub spp: u32,
     /// Adaptive sampling: a pixel stops once the estimated relative error of
     /// its mean is below T (e.g. 0.02; the frame's relative MSE then comes
-    /// out near T^2 or below). Checks run every 8 samples after --min-spp,
-    /// at fixed sample counts, so the image stays reproducible bit for bit.
+    /// out near T^2 or below). Checks run after --min-spp and then at
+    /// steps of half the count so far (16, 24, 32, 48, 72, ...), at fixed
+    /// sample counts, so the image stays reproducible bit for bit.
     /// Raise --spp to let hard pixels go further: `--spp 1024
     /// --noise-threshold 0.02`. The frame log's `noise` says how close the
     /// frame came.

@@ -135,8 +135,8 @@ impl Default for RenderSettings {
 /// Adaptive sampling: each pixel stops once the estimated relative error
 /// of its mean (`film::noise_estimate`) is below `threshold`.
 ///
-/// Every pixel first takes `min_spp` samples; from then on a convergence
-/// check runs every `ADAPTIVE_STEP` samples (at fixed sample counts, so the
+/// Every pixel first takes `min_spp` samples; from then on convergence
+/// checks run at the counts of `check_counts` (fixed sample counts, so the
 /// image depends only on the samples' values: reproducible bit for bit,
 /// whatever the tiling or pass sizes). A pixel keeps sampling while it or
 /// one of its eight neighbours is above the threshold.
@@ -146,9 +146,27 @@ pub struct Adaptive {
     pub min_spp: u32,
 }
 
-/// Samples between two convergence checks: a multiple of 8 keeps each
+/// The granularity of convergence checks: a multiple of 8 keeps each
 /// pixel's Sobol points whole nets of 8.
 pub const ADAPTIVE_STEP: u32 = 8;
+
+/// The sample counts at which convergence is checked, below `spp`: `min_spp`,
+/// then steps of half the count so far (in multiples of `ADAPTIVE_STEP`,
+/// at least one): 16, 24, 32, 48, 72, 104, 152, ... Each check costs a
+/// launch over the whole image, and on PoCL a pass over mostly converged
+/// pixels costs about as much as the launch itself; geometric steps keep the
+/// checks to a dozen up to 1024 spp, for at most 50% more samples in a
+/// pixel than it needed.
+pub fn check_counts(min_spp: u32, spp: u32) -> Vec<u32> {
+    let mut checks = Vec::new();
+    let mut c = min_spp.max(2);
+    while c < spp {
+        checks.push(c);
+        let step = (c / 2 / ADAPTIVE_STEP * ADAPTIVE_STEP).max(ADAPTIVE_STEP);
+        c = c.saturating_add(step);
+    }
+    checks
+}
 
 /// One frame to render: its soup and tree on the device, camera and lights.
 pub struct FrameInput<'a> {
@@ -341,6 +359,8 @@ pub struct PathTracer<'d> {
     /// Per pixel: 1 while it takes samples (adaptive sampling).
     active: GrowBuffer<u32>,
     unconverged: GrowBuffer<u32>,
+    /// The pixels still active after the last check, for compact launches.
+    pixel_list: GrowBuffer<u32>,
     /// Warnings of `new`, repeated in the first frame's output.
     setup_warnings: Vec<String>,
     /// Host soup uploads for `render_soup`.
@@ -543,6 +563,7 @@ impl<'d> PathTracer<'d> {
             accum_half: GrowBuffer::new(),
             active: GrowBuffer::new(),
             unconverged: GrowBuffer::new(),
+            pixel_list: GrowBuffer::new(),
             setup_warnings: warnings,
             host_soup: None,
         })
@@ -817,6 +838,7 @@ impl<'d> PathTracer<'d> {
         self.accum_half.ensure(d, pixels)?;
         self.active.ensure(d, pixels)?;
         self.unconverged.ensure(d, pixels)?;
+        self.pixel_list.ensure(d, pixels)?;
         let first_event = d.pending_events().len();
         d.launch(
             "pathtrace/clear",
@@ -846,15 +868,52 @@ impl<'d> PathTracer<'d> {
         } else {
             soup.positions
         };
-        let passes = self.pass_ends(pixels, spp);
+        let checks = s
+            .adaptive
+            .map_or_else(Vec::new, |a| check_counts(a.min_spp, spp));
+        let mut next_check = checks.iter().copied().peekable();
         let started = std::time::Instant::now();
         let mut queued: std::collections::VecDeque<(usize, u32)> = Default::default();
         let mut begin = 0;
         let mut timed_out = false;
-        for (end, check) in passes {
-            self.enqueue_pass(soup, prim_ids, positions, snode_count, empty, begin, end)?;
+        // After a check, passes launch over the pixels still active only:
+        // a launch over a mostly converged image costs as much as sampling.
+        let mut listed: Option<u32> = None;
+        let mut flags = Vec::new();
+        while begin < spp {
+            if listed == Some(0) {
+                break; // every pixel converged
+            }
+            // A pass holds the schedule's samples per pass (by default sized
+            // to the pixels still sampling) and ends at every check.
+            let items = listed.map_or(pixels, |n| n as usize);
+            let mut end = begin
+                .saturating_add(self.samples_per_pass(items, spp))
+                .min(spp);
+            let check = next_check.peek().is_some_and(|&c| c <= end);
+            if check {
+                end = next_check.next().expect("peeked");
+            }
+            self.enqueue_pass(
+                soup,
+                prim_ids,
+                positions,
+                snode_count,
+                empty,
+                (begin, end),
+                listed,
+            )?;
             if check {
                 self.enqueue_check(pixels, w, h)?;
+                flags.resize(pixels, 0u32);
+                d.read(self.active.get(), &mut flags)?;
+                let list: Vec<u32> = (0..pixels as u32)
+                    .filter(|&i| flags[i as usize] != 0)
+                    .collect();
+                if !list.is_empty() {
+                    d.write(self.pixel_list.ensure(d, pixels)?, &list)?;
+                }
+                listed = Some(list.len() as u32);
             }
             d.flush()?;
             queued.push_back((d.pending_events().len(), end));
@@ -954,7 +1013,7 @@ impl<'d> PathTracer<'d> {
         }
         let stopped = if timed_out {
             "time_limit"
-        } else if s.adaptive.is_some() && counts.iter().all(|&c| c < spp) {
+        } else if listed == Some(0) {
             "threshold"
         } else {
             "max_spp"
@@ -974,43 +1033,17 @@ impl<'d> PathTracer<'d> {
         })
     }
 
-    /// The sample passes of a frame: (end, whether a convergence check
-    /// follows). Passes hold up to the schedule's samples per pass and end
-    /// at every check: `min_spp`, then every `ADAPTIVE_STEP` samples.
-    fn pass_ends(&self, pixels: usize, spp: u32) -> Vec<(u32, bool)> {
-        let per_pass = if self.schedule.samples_per_pass > 0 {
+    /// Samples per pixel in one pass over `items` pixels.
+    fn samples_per_pass(&self, items: usize, spp: u32) -> u32 {
+        if self.schedule.samples_per_pass > 0 {
             self.schedule.samples_per_pass
         } else {
-            (PATHS_PER_LAUNCH / pixels as u64).clamp(1, spp as u64) as u32
-        };
-        let mut checks: Vec<u32> = Vec::new();
-        if let Some(a) = self.settings.adaptive {
-            let mut c = a.min_spp.max(2);
-            while c < spp {
-                checks.push(c);
-                c += ADAPTIVE_STEP;
-            }
+            (PATHS_PER_LAUNCH / items.max(1) as u64).clamp(1, spp as u64) as u32
         }
-        let mut ends = Vec::new();
-        let mut begin = 0;
-        let mut next_check = checks.iter().peekable();
-        while begin < spp {
-            let mut end = (begin + per_pass).min(spp);
-            let mut check = false;
-            if let Some(&&c) = next_check.peek() {
-                if c <= end {
-                    end = c;
-                    check = true;
-                    next_check.next();
-                }
-            }
-            ends.push((end, check));
-            begin = end;
-        }
-        ends
     }
 
-    /// Queues samples [begin, end) of every pixel, tile by tile.
+    /// Queues samples [begin, end) of every pixel, tile by tile, or of the
+    /// first `listed` pixels of the pixel list in one launch.
     #[allow(clippy::too_many_arguments)]
     fn enqueue_pass(
         &self,
@@ -1019,12 +1052,19 @@ impl<'d> PathTracer<'d> {
         positions: &Buffer<[f32; 4]>,
         snode_count: u32,
         empty: bool,
-        begin: u32,
-        end: u32,
+        (begin, end): (u32, u32),
+        listed: Option<u32>,
     ) -> Result<(), TraceError> {
         let d = self.device;
-        let (w, h) = (self.settings.width, self.settings.height);
-        let (tw, th) = self.schedule.tile.unwrap_or((w, h));
+        // A listed launch is one "tile" of `listed` items in a row.
+        let (w, h) = match listed {
+            Some(n) => (n, 1),
+            None => (self.settings.width, self.settings.height),
+        };
+        let (tw, th) = match listed {
+            Some(n) => (n, 1),
+            None => self.schedule.tile.unwrap_or((w, h)),
+        };
         let (tw, th) = (tw.clamp(1, w), th.clamp(1, h));
         let local = self.schedule.local_size.max(1);
         let adaptive = self.settings.adaptive.is_some();
@@ -1085,6 +1125,8 @@ impl<'d> PathTracer<'d> {
                     Arg::Buf(self.accum_half.get()),
                     Arg::Buf(self.active.get()),
                     Arg::U32(adaptive as u32),
+                    Arg::Buf(self.pixel_list.get()),
+                    Arg::U32(listed.unwrap_or(0)),
                     Arg::U32(tx),
                     Arg::U32(ty),
                     Arg::U32(cw),
