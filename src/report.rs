@@ -18,7 +18,7 @@ use anyhow::Context as _;
 use std::path::{Path, PathBuf};
 
 /// Tabulate a render's per-frame build logs: build, trace and total time,
-/// triangles and SAH cost per frame, with medians.
+/// triangles, SAH cost, estimated error and mean spp per frame, with medians.
 ///
 /// DIR is a render's --out directory (its `<name>.####.json` logs). Writes
 /// DIR/report.csv and DIR/report.png unless told otherwise. Example:
@@ -50,6 +50,11 @@ pub struct Row {
     pub total_ms: f64,
     pub triangles: u64,
     pub sah_cost: f64,
+    /// The frame's estimated relative error (the log's
+    /// `noise.estimated_mean`).
+    pub noise: f64,
+    /// Mean samples per pixel (`noise.spp_mean`).
+    pub spp_mean: f64,
     /// The log's file name.
     pub log: String,
 }
@@ -63,6 +68,8 @@ pub struct Medians {
     pub total_ms: f64,
     pub triangles: f64,
     pub sah_cost: f64,
+    pub noise: f64,
+    pub spp_mean: f64,
 }
 
 /// The median of `v` (NaN for none).
@@ -88,6 +95,8 @@ impl Medians {
             total_ms: col(|r| r.total_ms),
             triangles: col(|r| r.triangles as f64),
             sah_cost: col(|r| r.sah_cost),
+            noise: col(|r| r.noise),
+            spp_mean: col(|r| r.spp_mean),
         }
     }
 }
@@ -124,6 +133,8 @@ pub fn collect_rows(dir: &Path) -> anyhow::Result<(Vec<Row>, Vec<String>)> {
                 total_ms: log.timings_ms.total,
                 triangles: log.triangles,
                 sah_cost: log.build.sah_cost,
+                noise: log.noise.estimated_mean,
+                spp_mean: log.noise.spp_mean,
                 log: path
                     .file_name()
                     .unwrap_or_default()
@@ -153,18 +164,32 @@ pub fn collect_rows(dir: &Path) -> anyhow::Result<(Vec<Row>, Vec<String>)> {
 /// The terminal table.
 pub fn format_table(rows: &[Row], m: &Medians) -> String {
     let mut s = format!(
-        "{:>8} {:>11} {:>11} {:>11} {:>11} {:>9}\n",
-        "frame", "build ms", "trace ms", "total ms", "triangles", "SAH cost"
+        "{:>8} {:>11} {:>11} {:>11} {:>11} {:>9} {:>9} {:>9}\n",
+        "frame",
+        "build ms",
+        "trace ms",
+        "total ms",
+        "triangles",
+        "SAH cost",
+        "est. err",
+        "mean spp"
     );
     for r in rows {
         s += &format!(
-            "{:>8} {:>11.2} {:>11.1} {:>11.1} {:>11} {:>9.2}\n",
-            r.frame, r.build_ms, r.trace_ms, r.total_ms, r.triangles, r.sah_cost
+            "{:>8} {:>11.2} {:>11.1} {:>11.1} {:>11} {:>9.2} {:>9.5} {:>9.1}\n",
+            r.frame,
+            r.build_ms,
+            r.trace_ms,
+            r.total_ms,
+            r.triangles,
+            r.sah_cost,
+            r.noise,
+            r.spp_mean
         );
     }
     s += &format!(
-        "{:>8} {:>11.2} {:>11.1} {:>11.1} {:>11} {:>9.2}\n",
-        "median", m.build_ms, m.trace_ms, m.total_ms, m.triangles, m.sah_cost
+        "{:>8} {:>11.2} {:>11.1} {:>11.1} {:>11} {:>9.2} {:>9.5} {:>9.1}\n",
+        "median", m.build_ms, m.trace_ms, m.total_ms, m.triangles, m.sah_cost, m.noise, m.spp_mean
     );
     s
 }
@@ -180,28 +205,32 @@ fn csv_field(s: &str) -> String {
 
 /// The CSV table: full-precision numbers, one row per frame, then medians.
 pub fn format_csv(rows: &[Row], m: &Medians) -> String {
-    let mut s = String::from("frame,build_ms,trace_ms,total_ms,triangles,sah_cost,log\n");
+    let mut s = String::from(
+        "frame,build_ms,trace_ms,total_ms,triangles,sah_cost,noise_estimate,spp_mean,log\n",
+    );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{}\n",
             r.frame,
             r.build_ms,
             r.trace_ms,
             r.total_ms,
             r.triangles,
             r.sah_cost,
+            r.noise,
+            r.spp_mean,
             csv_field(&r.log)
         );
     }
     s += &format!(
-        "median,{},{},{},{},{},\n",
-        m.build_ms, m.trace_ms, m.total_ms, m.triangles, m.sah_cost
+        "median,{},{},{},{},{},{},{},\n",
+        m.build_ms, m.trace_ms, m.total_ms, m.triangles, m.sah_cost, m.noise, m.spp_mean
     );
     s
 }
 
 /// Chart size in pixels.
-pub const CHART_SIZE: (u32, u32) = (1200, 800);
+pub const CHART_SIZE: (u32, u32) = (1200, 1200);
 
 static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
 
@@ -216,7 +245,8 @@ pub(crate) fn register_font() -> anyhow::Result<()> {
 }
 
 /// Draws the chart as RGB pixels: four panels over the frames (build ms;
-/// trace and total ms; triangles; SAH cost), each with its median dashed.
+/// trace and total ms; triangles; SAH cost; estimated relative error; mean
+/// spp), each with its median dashed.
 pub fn render_chart(rows: &[Row]) -> anyhow::Result<Vec<u8>> {
     use plotters::prelude::*;
     register_font()?;
@@ -225,14 +255,14 @@ pub fn render_chart(rows: &[Row]) -> anyhow::Result<Vec<u8>> {
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
-        let panels = root.split_evenly((2, 2));
+        let panels = root.split_evenly((3, 2));
         let frames: Vec<f64> = rows.iter().map(|r| r.frame as f64).collect();
         let (lo, hi) = frames
             .iter()
             .fold((f64::MAX, f64::MIN), |(a, b), &f| (a.min(f), b.max(f)));
         let x_range = if hi > lo { lo..hi } else { lo - 1.0..hi + 1.0 };
         type Series<'a> = (&'a str, RGBColor, Vec<f64>);
-        let panel_specs: [(&str, Vec<Series>); 4] = [
+        let panel_specs: [(&str, Vec<Series>); 6] = [
             (
                 "BVH build (ms)",
                 vec![("build", BLUE, rows.iter().map(|r| r.build_ms).collect())],
@@ -258,6 +288,22 @@ pub fn render_chart(rows: &[Row]) -> anyhow::Result<Vec<u8>> {
                     "SAH cost",
                     MAGENTA,
                     rows.iter().map(|r| r.sah_cost).collect(),
+                )],
+            ),
+            (
+                "estimated relative error",
+                vec![(
+                    "error",
+                    RGBColor(200, 100, 0),
+                    rows.iter().map(|r| r.noise).collect(),
+                )],
+            ),
+            (
+                "mean samples per pixel",
+                vec![(
+                    "spp",
+                    RGBColor(0, 120, 160),
+                    rows.iter().map(|r| r.spp_mean).collect(),
                 )],
             ),
         ];
@@ -409,6 +455,8 @@ mod tests {
             total_ms: build + trace + 1.0,
             triangles: tris,
             sah_cost: sah,
+            noise: 0.01,
+            spp_mean: 16.0,
             log: format!("s.{frame:04}.json"),
         }
     }
@@ -443,10 +491,10 @@ mod tests {
         let c = format_csv(&rows, &m);
         assert_eq!(
             c,
-            "frame,build_ms,trace_ms,total_ms,triangles,sah_cost,log\n\
-             -1,1.5,20,22.5,12,3.25,s.-001.json\n\
-             2,2.5,40,43.5,14,3.75,s.0002.json\n\
-             median,2,30,33,13,3.5,\n"
+            "frame,build_ms,trace_ms,total_ms,triangles,sah_cost,noise_estimate,spp_mean,log\n\
+             -1,1.5,20,22.5,12,3.25,0.01,16,s.-001.json\n\
+             2,2.5,40,43.5,14,3.75,0.01,16,s.0002.json\n\
+             median,2,30,33,13,3.5,0.01,16,\n"
         );
         assert_eq!(csv_field("a,\"b\""), "\"a,\"\"b\"\"\"");
     }
