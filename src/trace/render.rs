@@ -273,6 +273,28 @@ struct Kernels {
     _program: Program,
 }
 
+/// The defines `pathtrace.cl` is compiled with, assembled here and nowhere
+/// else (`tests/kernels_portable.rs` compiles every combination with clang).
+pub fn pathtrace_defines(
+    traversal: Traversal,
+    textures: bool,
+    sampler: Sampler,
+) -> Vec<(&'static str, String)> {
+    let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
+    match traversal {
+        Traversal::Stack => {}
+        Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
+        Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
+    }
+    if textures {
+        defines.push(("HAS_TEXTURES", "1".to_owned()));
+    }
+    if let Some(define) = sampler.define() {
+        defines.push((define, "1".to_owned()));
+    }
+    defines
+}
+
 /// The path tracer of one scene on one device.
 pub struct PathTracer<'d> {
     device: &'d Device,
@@ -409,18 +431,7 @@ impl<'d> PathTracer<'d> {
             }
         }
 
-        let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
-        match settings.traversal {
-            Traversal::Stack => {}
-            Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
-            Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
-        }
-        if textures.is_some() {
-            defines.push(("HAS_TEXTURES", "1".to_owned()));
-        }
-        if let Some(define) = settings.sampler.define() {
-            defines.push((define, "1".to_owned()));
-        }
+        let defines = pathtrace_defines(settings.traversal, textures.is_some(), settings.sampler);
         let program = device.build_program("pathtrace.cl", &defines)?;
         let kernels = Kernels {
             render: device.kernel(&program, "pt_render")?,
