@@ -534,6 +534,23 @@ impl<'d> PathTracer<'d> {
 
     /// Renders one frame; `progress(samples_done)` is called between
     /// sample passes.
+    /// Renders `frame` at one sample per pixel and throws the image away:
+    /// every kernel of a frame is then launched once, with the real frames'
+    /// work-group and grid sizes, so a driver that compiles kernels at their
+    /// first launch (PoCL) does it here, in the run's start-up, and not in
+    /// the first frame's trace time. (An 8x8-pixel pass was not enough: on
+    /// PoCL 3.1 the first full-size frame still traced 1 s slower, a second
+    /// specialisation of the kernel.) Costs 1/spp of a frame's trace.
+    pub fn warm_up(&mut self, frame: &FrameInput) -> Result<(), TraceError> {
+        let saved = self.settings.clone();
+        let warnings = self.setup_warnings.clone();
+        self.settings.spp = 1;
+        let result = self.render(frame, &mut |_| {});
+        self.settings = saved;
+        self.setup_warnings = warnings;
+        result.map(|_| ())
+    }
+
     pub fn render(
         &mut self,
         frame: &FrameInput,
