@@ -738,8 +738,13 @@ fn spawn_writer(
                     done.log.timings_ms.total = ms(done.started);
                     output::write_log(&done.paths.log, &done.log)
                 });
+            // The run's start-up, on the line of the frame whose log has it.
+            let startup = match done.log.timings_ms.startup {
+                ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
+                _ => String::new(),
+            };
             let line = format!(
-                "frame {} done build_ms={:.1} trace_ms={:.1} write_ms={:.1} total_ms={:.1} triangles={} out={}",
+                "frame {} done{startup} build_ms={:.1} trace_ms={:.1} write_ms={:.1} total_ms={:.1} triangles={} out={}",
                 done.frame,
                 done.log.timings_ms.build,
                 done.log.timings_ms.trace,
