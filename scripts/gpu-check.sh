@@ -138,7 +138,10 @@ run_check() {
   local started=$SECONDS budget=${GPU_CHECK_BUDGET:-450}
   local summary="$OUT/summary.txt" failed=0
   : > "$summary"
-  note() { echo "$*" | tee -a "$summary" >&2; }
+  # The summary file is the record; the terminal copy may go away (a closed
+  # pipe, a dropped ssh session) without stopping the check.
+  trap '' PIPE HUP
+  note() { echo "$*" >> "$summary"; echo "$*" >&2 2>/dev/null || true; }
 
   # Drivers: every ICD the machine has, NVIDIA's first.
   local vendors="$OUT/vendors"
@@ -178,7 +181,10 @@ run_check() {
   note "bundle: $(sed -n 2,4p "$B/MANIFEST" | tr '\n' ';')"
   note "ICDs: $(for f in "$vendors"/*.icd; do [ -f "$f" ] && printf '%s ' "$(cat "$f")"; done)"
   [ "$(ls "$vendors" | wc -l)" -gt 0 ] || note "no OpenCL driver (ICD) found on this machine"
-  note "loader: $(ldd "$B/bin/soupray" 2>/dev/null | awk '/libOpenCL/ {print $3}')"
+  # soupray opens libOpenCL.so.1 at run time (dlopen, not a link-time
+  # dependency); the dynamic linker's trace says which one it got.
+  note "loader used: $(LD_DEBUG=libs timeout 30 "$B/bin/soupray" devices 2>&1 >/dev/null \
+    | awk '/calling init: .*libOpenCL/ {print $NF; exit}')"
 
   # One step: NAME, its own time limit (seconds), the command. The limit is
   # cut to what is left of the budget, keeping 10 s to write the summary.
