@@ -219,7 +219,8 @@ impl<'d> DeviceBuilder<'d> {
                 return Err(BuildError::Params(format!(
                     "--bins {} is too many for {}: the builder's {name} kernel needs {} bytes of \
                      local memory with the {mapping:?} mapping and the device has {available}; \
-                     use fewer bins (16 is the default)",
+                     use fewer bins (16 is the default), or the single-lane mapping \
+                     (SOUPRAY_BVH_MAPPING=single-lane), which keeps bins in private memory",
                     params.bins, device.info.name, needed
                 )));
             }
