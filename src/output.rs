@@ -378,7 +378,9 @@ pub struct Timings {
     /// warm-up pass of that frame through every stage at one sample per
     /// pixel, which is where drivers that compile kernels at their first
     /// launch (PoCL) do so. Not part of `total`, `build` or `trace`, which
-    /// then measure the frame alone on every frame of the run.
+    /// then measure the frame alone on every frame of the run. (That
+    /// frame's `evaluate` is then near 0: the device soup keeps a pose that
+    /// has not changed since the warm-up evaluated it.)
     pub startup: f64,
     /// Animation evaluation into the triangle soup.
     pub evaluate: f64,
