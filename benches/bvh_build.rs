@@ -25,28 +25,10 @@ fn mesh(name: &str) -> Soup {
     soupray::ply::read_soup(&p).unwrap()
 }
 
-/// `copies` copies of `base` on a square grid, each turned about the vertical
-/// axis, spaced at 0.7 of the mesh's width so neighbours overlap as in a
-/// crowded scene.
+/// The crowded arrangement of `copies` copies (`Soup::arrangement`, which
+/// `soupray bvh --copies` uses too).
 fn arrangement(base: &Soup, copies: usize) -> Soup {
-    let (lo, hi) = base.bounds().unwrap();
-    let width = (hi[0] - lo[0]).max(hi[2] - lo[2]);
-    let side = (copies as f64).sqrt().ceil() as usize;
-    let mut out = Soup::default();
-    out.positions.reserve(base.positions.len() * copies);
-    for c in 0..copies {
-        let angle = c as f32 * 2.399; // golden angle: no two copies alike
-        let (s, co) = angle.sin_cos();
-        let dx = (c % side) as f32 * width * 0.7;
-        let dz = (c / side) as f32 * width * 0.7;
-        for p in &base.positions {
-            let x = p[0] - lo[0];
-            let z = p[2] - lo[2];
-            out.positions
-                .push([co * x - s * z + dx, p[1], s * x + co * z + dz, 0.0]);
-        }
-    }
-    out
+    base.arrangement(copies)
 }
 
 /// Peak resident memory since the last reset, in MiB (Linux).

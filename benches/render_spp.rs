@@ -49,7 +49,12 @@ fn main() {
     );
     println!("| scene | triangles | textures | samples/s | Mrays/s | trace ms | rays/sample | render wall ms |");
     println!("|---|---:|---|---:|---:|---:|---:|---:|");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // SOUPRAY_TEST_ROOT stands in for the checkout (scripts/gpu-check.sh's
+    // bundle runs this binary far from it).
+    let root = std::env::var_os("SOUPRAY_TEST_ROOT")
+        .filter(|r| !r.is_empty())
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf());
     for rel in SCENES {
         let path = root.join(rel);
         let scene = match Scene::load(&path, &LoadOptions::default()) {

@@ -40,6 +40,8 @@
 // after another, that walk is 16 times the work; there BUILD_WG = BIN_LANES
 // = SMALL_WG = 1, and the one work-item keeps all bins in private memory.
 // Both mappings produce the same bins, bit for bit.
+#pragma OPENCL FP_CONTRACT OFF
+
 #include "bvh_types.h"
 #include "bvh_common.h"
 

@@ -4,6 +4,8 @@
 #ifndef SOUPRAY_BVH_TYPES_H
 #define SOUPRAY_BVH_TYPES_H
 
+#pragma OPENCL FP_CONTRACT OFF
+
 // A BVH2 node laid out for front-to-back traversal (64 bytes, one cache
 // line). A node holds the boxes of BOTH children, so a ray tests the two
 // boxes together, steps into the nearer child and pushes the farther one

@@ -1,5 +1,7 @@
 // Reports sizeof/offsetof of every host-visible struct, so a test can hold
 // the Rust mirrors in src/bvh/layout.rs to the compiler's real layout.
+#pragma OPENCL FP_CONTRACT OFF
+
 #include "bvh_types.h"
 #include "trace_types.h"
 

@@ -5,6 +5,8 @@
 #ifndef SOUPRAY_PT_TYPES_H
 #define SOUPRAY_PT_TYPES_H
 
+#pragma OPENCL FP_CONTRACT OFF
+
 // PtFrame.flags
 #define FRAME_NORMALS 1u
 #define FRAME_UVS 2u

@@ -104,8 +104,6 @@ __kernel void deform_vertices(
 #ifdef HAS_NORMALS
     bool has_normal = (seg.flags & SEG_NORMALS) != 0;
     float3 normal = has_normal ? base_normals[s].xyz : (float3)(0.0f, 0.0f, 0.0f);
-#else
-    float3 normal = (float3)(0.0f, 0.0f, 0.0f);
 #endif
 
 #if MORPH_TARGETS > 0

@@ -1,5 +1,7 @@
 // Reports sizeof/offsetof of every struct in soup_types.h, so a test can hold
 // the Rust mirrors in src/soup/device.rs to the compiler's real layout.
+#pragma OPENCL FP_CONTRACT OFF
+
 #include "soup_types.h"
 
 #ifndef offsetof

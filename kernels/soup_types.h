@@ -5,6 +5,8 @@
 #ifndef SOUPRAY_SOUP_TYPES_H
 #define SOUPRAY_SOUP_TYPES_H
 
+#pragma OPENCL FP_CONTRACT OFF
+
 // Marks an absent base index (no skin, no morph targets).
 #define SOUP_NONE 0xFFFFFFFFu
 

@@ -3,6 +3,8 @@
 // src/trace/texture.rs to the compiler's real layout. `texture_sample_probe`
 // runs texture_uv and sample_texture over a list of (binding, uv0, uv1), so
 // tests can compare the device with the Rust reference sample by sample.
+#pragma OPENCL FP_CONTRACT OFF
+
 #include "texture.h"
 
 #ifndef offsetof

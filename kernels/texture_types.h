@@ -7,6 +7,8 @@
 #ifndef SOUPRAY_TEXTURE_TYPES_H
 #define SOUPRAY_TEXTURE_TYPES_H
 
+#pragma OPENCL FP_CONTRACT OFF
+
 // TextureInfo.wrap_s / wrap_t: the glTF sampler's wrap modes.
 #define TEXTURE_WRAP_REPEAT 0u
 #define TEXTURE_WRAP_CLAMP_TO_EDGE 1u

@@ -5,6 +5,8 @@
 #ifndef SOUPRAY_TRACE_TYPES_H
 #define SOUPRAY_TRACE_TYPES_H
 
+#pragma OPENCL FP_CONTRACT OFF
+
 // One ray: hits count when tmin < t < tmax (tmin >= 0). The direction need
 // not be normalised (t is in units of it); an all-zero direction never hits.
 // Scalar arrays rather than float3 keep the struct 32 bytes with no padding

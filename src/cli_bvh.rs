@@ -91,6 +91,11 @@ pub struct BvhArgs {
     /// the same every time).
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub repeat: u32,
+    /// Build N copies of a PLY INPUT on a grid instead (the build
+    /// benchmark's crowded arrangement: `--copies 10` and `--copies 25` of
+    /// tests/assets/meshes/nefertiti.ply are its 1M and 2.5M soups).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub copies: usize,
     /// Also print each kernel's device time (of the last build) on stderr.
     #[arg(long, short)]
     pub verbose: bool,
@@ -107,6 +112,9 @@ pub struct BvhReport {
     pub input: String,
     pub builder: &'static str,
     pub device: Option<String>,
+    /// The device builder's thread mapping (`Paper` or `SingleLane`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mapping: Option<bvh::device_builder::Mapping>,
     pub bins: u32,
     pub leaf_size: u32,
     pub triangles: usize,
@@ -139,15 +147,17 @@ pub fn run_devices(args: &DevicesArgs) -> anyhow::Result<()> {
     let default = devices.iter().position(|d| d.kind == "GPU").unwrap_or(0);
     for d in &devices {
         println!(
-            "{} {}: {} [{}] {} compute units, {} MiB, {}{}",
+            "{} {}: {} [{}] {} compute units, {} MiB, {} KiB local, {} ({}, driver {})",
             if d.index == default { "*" } else { " " },
             d.index,
             d.name,
             d.kind,
             d.compute_units,
             d.global_mem_mib,
+            d.local_mem_kib,
             d.version,
-            format_args!(" ({})", d.platform),
+            d.platform,
+            d.driver,
         );
     }
     println!("\n* the default; choose another with --device INDEX or --device NAME-SUBSTRING");
@@ -161,7 +171,11 @@ pub fn load_soup(args: &BvhArgs) -> anyhow::Result<Soup> {
         return Ok(scene.evaluate(time)?.soup);
     }
     if extension(&args.input) == "ply" {
-        return Ok(crate::ply::read_soup(&args.input)?);
+        let soup = crate::ply::read_soup(&args.input)?;
+        return Ok(match args.copies {
+            0 | 1 => soup,
+            n => soup.arrangement(n),
+        });
     }
     anyhow::bail!(
         "{}: unknown input type; soupray bvh reads .ply triangle meshes and .gltf/.glb scenes",
@@ -198,15 +212,24 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
         leaf_size: args.leaf_size,
     };
     params.check().map_err(crate::UsageError)?;
+    if args.copies == 0 || (args.copies > 1 && extension(&args.input) != "ply") {
+        return Err(crate::UsageError(format!(
+            "--copies {}: use 1 or more copies, of a .ply INPUT",
+            args.copies
+        ))
+        .into());
+    }
     let repeat = args.repeat.max(1);
     let mut times = Vec::new();
     let mut stages = Vec::new();
     let mut device_name = None;
+    let mut mapping = None;
     let (soup, tree) = match args.builder {
         BuilderKind::Device => {
             let device = Device::open(args.device.as_deref())?;
             device_name = Some(device.info.name.clone());
             let mut builder = DeviceBuilder::new(&device, params)?;
+            mapping = Some(builder.mapping());
             // A glTF frame is evaluated on the device straight into the
             // builder's input, as `render` does; a PLY is uploaded.
             let mut device_soup = None;
@@ -270,6 +293,7 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
         input: args.input.display().to_string(),
         builder: args.builder.name(),
         device: device_name,
+        mapping,
         bins: params.bins,
         leaf_size: params.leaf_size,
         triangles: soup.triangle_count(),
@@ -304,11 +328,14 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
 fn print_report(r: &BvhReport) {
     println!("input      {}", r.input);
     println!(
-        "builder    {}{} (bins {}, leaf {})",
+        "builder    {}{}{} (bins {}, leaf {})",
         r.builder,
         r.device
             .as_deref()
             .map(|d| format!(" on {d}"))
+            .unwrap_or_default(),
+        r.mapping
+            .map(|m| format!(", {m:?} mapping"))
             .unwrap_or_default(),
         r.bins,
         r.leaf_size

@@ -10,7 +10,7 @@ use opencl3::command_queue::{CommandQueue, CL_QUEUE_PROFILING_ENABLE};
 use opencl3::context::Context;
 use opencl3::device::{
     Device as ClDevice, CL_DEVICE_TYPE_ACCELERATOR, CL_DEVICE_TYPE_ALL, CL_DEVICE_TYPE_CPU,
-    CL_DEVICE_TYPE_GPU,
+    CL_DEVICE_TYPE_GPU, CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT,
 };
 use opencl3::event::Event;
 use opencl3::kernel::{ExecuteKernel, Kernel};
@@ -102,6 +102,12 @@ pub struct DeviceInfo {
     pub local_mem_kib: u64,
     pub max_work_group_size: usize,
     pub version: String,
+    /// The driver's version string (`CL_DRIVER_VERSION`).
+    pub driver: String,
+    /// Whether single-precision division and sqrt can be correctly rounded
+    /// (`CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT` in `CL_DEVICE_SINGLE_FP_CONFIG`).
+    /// Programs are then built with `-cl-fp32-correctly-rounded-divide-sqrt`.
+    pub correctly_rounded_divide_sqrt: bool,
 }
 
 fn kind_name(t: u64) -> &'static str {
@@ -140,6 +146,10 @@ fn enumerate() -> Result<Vec<(DeviceInfo, ClDevice)>> {
                 local_mem_kib: d.local_mem_size().unwrap_or(0) >> 10,
                 max_work_group_size: d.max_work_group_size().unwrap_or(0),
                 version: d.version().unwrap_or_default().trim().to_owned(),
+                driver: d.driver_version().unwrap_or_default().trim().to_owned(),
+                correctly_rounded_divide_sqrt: d
+                    .single_fp_config()
+                    .is_ok_and(|c| c & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT != 0),
             };
             out.push((info, d));
         }
@@ -277,14 +287,50 @@ impl Device {
     /// original files.
     pub fn build_program(&self, entry: &str, defines: &[(&str, String)]) -> Result<Program> {
         let source = assemble_source(entry);
-        let options = build_options(defines);
-        Program::create_and_build_from_source(&self.context, &source, &options).map_err(|log| {
-            DeviceError::Build {
+        let options = build_options(defines, self.info.correctly_rounded_divide_sqrt);
+        let program = Program::create_and_build_from_source(&self.context, &source, &options)
+            .map_err(|log| DeviceError::Build {
                 program: entry.to_owned(),
                 device: self.info.name.clone(),
                 log,
-            }
-        })
+            })?;
+        if let Some(dir) = std::env::var_os("SOUPRAY_BUILD_LOG_DIR").filter(|d| !d.is_empty()) {
+            self.save_build_log(std::path::Path::new(&dir), entry, &options, &program);
+        }
+        Ok(program)
+    }
+
+    /// The options `program` was built with, as the driver reports them
+    /// (`CL_PROGRAM_BUILD_OPTIONS`).
+    pub fn program_build_options(&self, program: &Program) -> Result<String> {
+        cl(
+            "clGetProgramBuildInfo(CL_PROGRAM_BUILD_OPTIONS)",
+            program.get_build_options(self.device.id()),
+        )
+    }
+
+    /// `SOUPRAY_BUILD_LOG_DIR`: appends the program's options and the
+    /// driver's build log (warnings, register use where the driver reports
+    /// it) to `DIR/<entry>.log`, for device checks (`scripts/gpu-check.sh`).
+    /// Best effort: a log that cannot be written never fails the build.
+    fn save_build_log(&self, dir: &std::path::Path, entry: &str, options: &str, program: &Program) {
+        use std::io::Write;
+        let log = program.get_build_log(self.device.id()).unwrap_or_default();
+        let _ = std::fs::create_dir_all(dir);
+        if let Ok(mut f) = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(dir.join(format!("{entry}.log")))
+        {
+            let _ = writeln!(
+                f,
+                "=== {entry} on {} ({}; driver {})\noptions: {options}\n{}\n",
+                self.info.name,
+                self.info.platform,
+                self.info.driver,
+                log.trim_end()
+            );
+        }
     }
 
     pub fn kernel(&self, program: &Program, name: &str) -> Result<Kernel> {
@@ -292,6 +338,20 @@ impl Device {
             &format!("creating kernel {name}"),
             Kernel::create(program, name),
         )
+    }
+
+    /// The local memory `kernel` needs on this device, in bytes
+    /// (`CL_KERNEL_LOCAL_MEM_SIZE`: its `__local` arrays).
+    pub fn kernel_local_mem(&self, kernel: &Kernel) -> Result<u64> {
+        cl(
+            "clGetKernelWorkGroupInfo(CL_KERNEL_LOCAL_MEM_SIZE)",
+            kernel.get_local_mem_size(self.device.id()),
+        )
+    }
+
+    /// The device's local memory per work-group, in bytes.
+    pub fn local_mem_bytes(&self) -> u64 {
+        self.device.local_mem_size().unwrap_or(0)
     }
 
     /// A device buffer of `len` elements (at least one, as OpenCL forbids
@@ -509,9 +569,17 @@ impl<T> GrowBuffer<T> {
 /// The build options, assembled in one place. Fast-relaxed math is never
 /// used: frames must be reproducible and the builder must agree bit for bit
 /// with its Rust reference. Contraction into FMA is switched off in the
-/// sources themselves (`#pragma OPENCL FP_CONTRACT OFF`).
-pub fn build_options(defines: &[(&str, String)]) -> String {
+/// sources themselves (`#pragma OPENCL FP_CONTRACT OFF` in every file).
+/// Where the device can (`correctly_rounded`, from
+/// `CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT`), division and sqrt are correctly
+/// rounded as in Rust: OpenCL 1.2 otherwise allows 2.5 ulp for `x / y`
+/// (NVIDIA's driver uses that licence), and the device tree would stop
+/// matching the reference. `tests/kernels_portable.rs` holds these rules.
+pub fn build_options(defines: &[(&str, String)], correctly_rounded: bool) -> String {
     let mut options = String::from("-cl-std=CL1.2");
+    if correctly_rounded {
+        options.push_str(" -cl-fp32-correctly-rounded-divide-sqrt");
+    }
     for (name, value) in defines {
         options.push_str(&format!(" -D {name}={value}"));
     }
@@ -566,8 +634,11 @@ mod tests {
 
     #[test]
     fn build_options_have_no_relaxed_math() {
-        let o = build_options(&[("BINS", "16".into())]);
+        let o = build_options(&[("BINS", "16".into())], false);
         assert!(o.contains("-D BINS=16"));
         assert!(!o.contains("fast-relaxed"));
+        assert!(!o.contains("correctly-rounded"));
+        let o = build_options(&[("BINS", "16".into())], true);
+        assert!(o.contains(" -cl-fp32-correctly-rounded-divide-sqrt"));
     }
 }

@@ -334,7 +334,8 @@ pub const LOG_SCHEMA: u32 = 1;
 ///   "schema": 1, "soupray": "0.1.0",
 ///   "frame": 12, "time": 0.5, "scene": "walk.glb", "device": "pthread-cpu (PoCL)",
 ///   "triangles": 88000,
-///   "timings_ms": { "evaluate": 3.1, "build": 9.8, "trace": 1520.0, "write": 41.0, "total": 1574.2 },
+///   "timings_ms": { "startup": 0.0, "evaluate": 3.1, "build": 9.8, "trace": 1520.0,
+///                   "write": 41.0, "total": 1574.2 },
 ///   "build": { "builder": "device", "bins": 16, "leaf_size": 4, "nodes": 45000,
 ///              "leaves": 22500, "max_depth": 24, "sah_cost": 61.2,
 ///              "stages_ms": { "large": 2.0, "medium": 4.1, "small": 2.9 } },
@@ -383,10 +384,21 @@ pub struct FrameLog {
 
 /// Wall-clock times of a frame's stages. `total` covers the frame from the
 /// start of evaluation to the end of writing its EXR (and PNG); it is at
-/// least the sum of the others.
+/// least the sum of the others, `startup` excepted.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Timings {
+    /// The run's start-up, in the first frame a `soupray render` process
+    /// renders and 0 in the others: opening the device, compiling the
+    /// OpenCL programs (the driver's program cache makes this fast on a
+    /// warm node: `POCL_CACHE_DIR`, `CUDA_CACHE_PATH`, docs/farm.md) and a
+    /// warm-up pass of that frame through every stage at one sample per
+    /// pixel, which is where drivers that compile kernels at their first
+    /// launch (PoCL) do so. Not part of `total`, `build` or `trace`, which
+    /// then measure the frame alone on every frame of the run. (That
+    /// frame's `evaluate` is then near 0: the device soup keeps a pose that
+    /// has not changed since the warm-up evaluated it.)
+    pub startup: f64,
     /// Animation evaluation into the triangle soup.
     pub evaluate: f64,
     /// BVH build, upload to readback, as `soupray bvh` measures it.

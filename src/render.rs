@@ -573,6 +573,31 @@ struct FrameResult {
 }
 
 impl<'d> Pipeline<'d> {
+    /// One pass of `frame` through every stage, its results discarded
+    /// (the trace at one sample per pixel): the first launch of every
+    /// kernel happens here, where drivers that compile at first launch
+    /// (PoCL) do so, and is counted as start-up rather than as the first
+    /// frame's build and trace. Evaluation and build are deterministic, so
+    /// the frame then renders exactly as it would have.
+    fn warm_up(&mut self, frame: i64) -> Result<(), anyhow::Error> {
+        let info = self.evaluate(self.scene.time_of_frame(frame))?;
+        let (tree, _) = self.build()?;
+        let prim_ids = self
+            .builder
+            .device_prim_ids()
+            .context("the BVH builder has no primitive buffer")?;
+        let input = FrameInput {
+            frame,
+            soup: &self.soup,
+            bvh: &tree,
+            prim_ids,
+            camera: &info.camera,
+            lights: &info.lights,
+        };
+        self.tracer.warm_up(&input)?;
+        Ok(())
+    }
+
     fn evaluate(&mut self, time: f64) -> Result<crate::soup::device::FrameInfo, anyhow::Error> {
         Ok(self.soup.evaluate(self.scene, time)?)
     }
@@ -768,8 +793,13 @@ fn spawn_writer(
                     done.log.timings_ms.total = ms(done.started);
                     output::write_log(&done.paths.log, &done.log)
                 });
+            // The run's start-up, on the line of the frame whose log has it.
+            let startup = match done.log.timings_ms.startup {
+                ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
+                _ => String::new(),
+            };
             let line = format!(
-                "frame {} done build_ms={:.1} trace_ms={:.1} write_ms={:.1} total_ms={:.1} triangles={} out={}",
+                "frame {} done{startup} build_ms={:.1} trace_ms={:.1} write_ms={:.1} total_ms={:.1} triangles={} out={}",
                 done.frame,
                 done.log.timings_ms.build,
                 done.log.timings_ms.trace,
@@ -849,6 +879,10 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let job = resolve_job(args, &scene, &scene_path)?;
     // Fail on an unusable output directory before any rendering starts.
     frames::check_output_dir(&job.out_dir)?;
+    // Start-up: opening the device, compiling the programs (from the
+    // driver's cache when it has them) and the warm-up pass before the
+    // first frame; the first rendered frame's log reports it apart.
+    let startup = Instant::now();
     let device = Device::open(args.device.as_deref())?;
     let progress = Progress::new(job.frames.len(), job.settings.spp, args);
     let stale = remove_stale_temporaries(&job);
@@ -881,6 +915,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         spawn_writer(args.half, args.png, job.settings.spp, job.settings.seed);
     let mut failed = Vec::new();
     let mut interrupted = None;
+    let mut startup_ms = None;
     for &frame in &job.frames {
         let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
         if args.skip_existing && output::is_frame_done(&paths.exr, &paths.log) {
@@ -892,7 +927,23 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             continue;
         }
         progress.frame_started(frame);
-        match render_frame(&mut pipe, &job, frame, &progress, &signals) {
+        let result = match startup_ms {
+            Some(_) => render_frame(&mut pipe, &job, frame, &progress, &signals),
+            // A frame whose warm-up fails fails the same way when rendered,
+            // which reports the stage; the next frame warms up again.
+            None => match pipe.warm_up(frame) {
+                Ok(()) => {
+                    let ms = ms(startup);
+                    startup_ms = Some(ms);
+                    render_frame(&mut pipe, &job, frame, &progress, &signals).map(|mut r| {
+                        r.log.timings_ms.startup = ms;
+                        r
+                    })
+                }
+                Err(_) => render_frame(&mut pipe, &job, frame, &progress, &signals),
+            },
+        };
+        match result {
             Ok(result) => {
                 if writer.send(result).is_err() {
                     break;

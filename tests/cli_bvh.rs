@@ -141,6 +141,9 @@ fn devices_lists_the_default_device() {
     assert!(!list.is_empty());
     assert_eq!(list[0]["index"], 0);
     assert!(list[0]["name"].as_str().is_some_and(|n| !n.is_empty()));
+    // What a device check records: the driver and the rounding it offers.
+    assert!(list[0]["driver"].as_str().is_some_and(|n| !n.is_empty()));
+    assert!(list[0]["correctly_rounded_divide_sqrt"].is_boolean());
     let text = soupray(&["devices"]);
     assert!(String::from_utf8_lossy(&text.stdout).contains("--device"));
 }
@@ -160,4 +163,27 @@ fn bvh_builds_a_gltf_frame() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["triangles"], 4672);
     assert_eq!(v["valid"], true);
+}
+
+#[test]
+fn bvh_copies_builds_the_benchmark_arrangement() {
+    let one = soupray(&["bvh", &mesh_path("beast.ply"), "--json"]);
+    let three = soupray(&["bvh", &mesh_path("beast.ply"), "--copies", "3", "--json"]);
+    assert!(
+        three.status.success(),
+        "{}",
+        String::from_utf8_lossy(&three.stderr)
+    );
+    let one: serde_json::Value = serde_json::from_slice(&one.stdout).unwrap();
+    let three: serde_json::Value = serde_json::from_slice(&three.stdout).unwrap();
+    assert_eq!(
+        three["triangles"].as_u64().unwrap(),
+        3 * one["triangles"].as_u64().unwrap()
+    );
+    assert_eq!(three["valid"], true);
+    assert!(three["mapping"].is_string(), "{three}");
+    let scene = common::repo().join("tests/assets/CesiumMan/CesiumMan.gltf");
+    let out = soupray(&["bvh", scene.to_str().unwrap(), "--copies", "2"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--copies"));
 }

@@ -131,6 +131,28 @@ fn frames_split_over_runs_give_identical_files() {
     assert!(log["render"]["rays"].as_u64().unwrap() >= 48 * 27 * 2);
     assert!(log["camera"]["position"].is_array());
     assert!(log["warnings"].is_array());
+
+    // Start-up (device, program compilation, the warm-up pass) is reported
+    // in the first frame each run renders, apart from that frame's build and
+    // trace, and is 0 in the others.
+    let timings = |dir: &Path, frame: u32| {
+        let log: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(dir.join(format!("BoxAnimated.{frame:04}.json"))).unwrap(),
+        )
+        .unwrap();
+        log["timings_ms"].clone()
+    };
+    for (dir, first) in [(one.path(), 0), (two.path(), 0), (two.path(), 3)] {
+        let t = timings(dir, first);
+        let startup = t["startup"].as_f64().unwrap();
+        assert!(
+            startup > 0.0 && startup > t["build"].as_f64().unwrap(),
+            "frame {first}: {t}"
+        );
+    }
+    for frame in [1, 2, 4, 5] {
+        assert_eq!(timings(one.path(), frame)["startup"], 0.0, "frame {frame}");
+    }
 }
 
 #[test]

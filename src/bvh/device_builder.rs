@@ -135,6 +135,24 @@ impl Mapping {
     }
 }
 
+/// The defines `bvh_build.cl` is compiled with, assembled here and nowhere
+/// else (`tests/kernels_portable.rs` compiles every combination with clang).
+pub fn program_defines(
+    params: BuildParams,
+    mapping: Mapping,
+    int64_atomics: bool,
+) -> Vec<(&'static str, String)> {
+    let lanes = mapping.bin_lanes(params.bins);
+    vec![
+        ("BINS", params.bins.to_string()),
+        ("BUILD_WG", mapping.build_wg().to_string()),
+        ("BIN_LANES", lanes.to_string()),
+        ("SMALL_WG", lanes.to_string()),
+        ("LEAF_SIZE", params.leaf_size.to_string()),
+        ("HAVE_INT64_ATOMICS", (int64_atomics as u32).to_string()),
+    ]
+}
+
 /// The builder: compiled kernels and reusable buffers for one device.
 pub struct DeviceBuilder<'d> {
     device: &'d Device,
@@ -173,18 +191,7 @@ impl<'d> DeviceBuilder<'d> {
         mapping: Mapping,
     ) -> Result<DeviceBuilder<'d>, BuildError> {
         params.check().map_err(BuildError::Params)?;
-        let lanes = mapping.bin_lanes(params.bins);
-        let defines = [
-            ("BINS", params.bins.to_string()),
-            ("BUILD_WG", mapping.build_wg().to_string()),
-            ("BIN_LANES", lanes.to_string()),
-            ("SMALL_WG", lanes.to_string()),
-            ("LEAF_SIZE", params.leaf_size.to_string()),
-            (
-                "HAVE_INT64_ATOMICS",
-                (device.has_int64_atomics() as u32).to_string(),
-            ),
-        ];
+        let defines = program_defines(params, mapping, device.has_int64_atomics());
         let program = device.build_program("bvh_build.cl", &defines)?;
         let k = |name| device.kernel(&program, name);
         let kernels = Kernels {
@@ -198,6 +205,26 @@ impl<'d> DeviceBuilder<'d> {
             build_small: k("build_small")?,
             pack_small_nodes: k("pack_small_nodes")?,
         };
+        // The local arrays grow with the bin count (3 * bins bins per group
+        // in build_small); refuse a count the device cannot hold, by name,
+        // rather than fail at the first launch.
+        let available = device.local_mem_bytes();
+        for (name, kernel) in [
+            ("bin_triangles", &kernels.bin_triangles),
+            ("find_split", &kernels.find_split),
+            ("build_small", &kernels.build_small),
+        ] {
+            let needed = device.kernel_local_mem(kernel)?;
+            if available > 0 && needed > available {
+                return Err(BuildError::Params(format!(
+                    "--bins {} is too many for {}: the builder's {name} kernel needs {} bytes of \
+                     local memory with the {mapping:?} mapping and the device has {available}; \
+                     use fewer bins (16 is the default), or the single-lane mapping \
+                     (SOUPRAY_BVH_MAPPING=single-lane), which keeps bins in private memory",
+                    params.bins, device.info.name, needed
+                )));
+            }
+        }
         Ok(DeviceBuilder {
             device,
             params,

@@ -807,7 +807,10 @@ impl<'d> DeviceSoup<'d> {
 
     /// The exact build options the program was compiled with.
     pub fn build_options(&self) -> String {
-        build_options(&self.features.defines())
+        build_options(
+            &self.features.defines(),
+            self.device.info.correctly_rounded_divide_sqrt,
+        )
     }
 
     /// Device buffers allocated so far; all are made by `new`, so this never

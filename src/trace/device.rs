@@ -169,6 +169,12 @@ fn upload_layout<T>(
     })
 }
 
+/// The defines `trace.cl` is compiled with: the traversal stack holds one
+/// entry per inner-node level.
+pub fn trace_defines() -> Vec<(&'static str, String)> {
+    vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())]
+}
+
 /// The trace kernels and the current tree, on one device.
 pub struct DeviceTracer<'d> {
     device: &'d Device,
@@ -191,8 +197,7 @@ impl<'d> DeviceTracer<'d> {
     /// inner-node level: `STACK_SIZE = MAX_DEPTH + 1`, and `upload_bvh`
     /// refuses deeper trees.
     pub fn new(device: &'d Device) -> Result<DeviceTracer<'d>, TraceError> {
-        let defines = [("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
-        let program = device.build_program("trace.cl", &defines)?;
+        let program = device.build_program("trace.cl", &trace_defines())?;
         let k = |name| device.kernel(&program, name);
         Ok(DeviceTracer {
             device,

@@ -322,6 +322,28 @@ struct Kernels {
     _program: Program,
 }
 
+/// The defines `pathtrace.cl` is compiled with, assembled here and nowhere
+/// else (`tests/kernels_portable.rs` compiles every combination with clang).
+pub fn pathtrace_defines(
+    traversal: Traversal,
+    textures: bool,
+    sampler: Sampler,
+) -> Vec<(&'static str, String)> {
+    let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
+    match traversal {
+        Traversal::Stack => {}
+        Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
+        Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
+    }
+    if textures {
+        defines.push(("HAS_TEXTURES", "1".to_owned()));
+    }
+    if let Some(define) = sampler.define() {
+        defines.push((define, "1".to_owned()));
+    }
+    defines
+}
+
 /// The path tracer of one scene on one device.
 pub struct PathTracer<'d> {
     device: &'d Device,
@@ -465,18 +487,7 @@ impl<'d> PathTracer<'d> {
             }
         }
 
-        let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
-        match settings.traversal {
-            Traversal::Stack => {}
-            Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
-            Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
-        }
-        if textures.is_some() {
-            defines.push(("HAS_TEXTURES", "1".to_owned()));
-        }
-        if let Some(define) = settings.sampler.define() {
-            defines.push((define, "1".to_owned()));
-        }
+        let defines = pathtrace_defines(settings.traversal, textures.is_some(), settings.sampler);
         let program = device.build_program("pathtrace.cl", &defines)?;
         let kernels = Kernels {
             render: device.kernel(&program, "pt_render")?,
@@ -585,6 +596,23 @@ impl<'d> PathTracer<'d> {
 
     /// Renders one frame; `progress(samples_done)` is called between
     /// sample passes.
+    /// Renders `frame` at one sample per pixel and throws the image away:
+    /// every kernel of a frame is then launched once, with the real frames'
+    /// work-group and grid sizes, so a driver that compiles kernels at their
+    /// first launch (PoCL) does it here, in the run's start-up, and not in
+    /// the first frame's trace time. (An 8x8-pixel pass was not enough: on
+    /// PoCL 3.1 the first full-size frame still traced 1 s slower, a second
+    /// specialisation of the kernel.) Costs 1/spp of a frame's trace.
+    pub fn warm_up(&mut self, frame: &FrameInput) -> Result<(), TraceError> {
+        let saved = self.settings.clone();
+        let warnings = self.setup_warnings.clone();
+        self.settings.spp = 1;
+        let result = self.render(frame, &mut |_| {});
+        self.settings = saved;
+        self.setup_warnings = warnings;
+        result.map(|_| ())
+    }
+
     pub fn render(
         &mut self,
         frame: &FrameInput,

@@ -16,8 +16,14 @@ pub fn device() -> Device {
     Device::open(None).unwrap_or_else(|e| panic!("the tests need an OpenCL device: {e}"))
 }
 
+/// The repository root the tests read assets from: `SOUPRAY_TEST_ROOT`
+/// when set (a `scripts/gpu-check.sh` bundle, whose test binaries run far
+/// from the checkout they were built in), else the checkout.
 pub fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    match std::env::var_os("SOUPRAY_TEST_ROOT").filter(|r| !r.is_empty()) {
+        Some(root) => PathBuf::from(root),
+        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")),
+    }
 }
 
 pub fn mesh(name: &str) -> Soup {

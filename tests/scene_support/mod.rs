@@ -14,8 +14,13 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Matrix4, Quaternion, UnitQuaternion, Vector3, Vector4};
 use serde_json::{json, Value};
 
+/// A test asset; `SOUPRAY_TEST_ROOT` stands in for the checkout as in
+/// `tests/common` (bundled test binaries).
 pub fn asset(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    std::env::var_os("SOUPRAY_TEST_ROOT")
+        .filter(|r| !r.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf())
         .join("tests/assets")
         .join(rel)
 }
