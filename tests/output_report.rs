@@ -14,6 +14,9 @@ fn log(frame: i64, build: f64, trace: f64, tris: u64, sah: f64) -> FrameLog {
     l.timings_ms.trace = trace;
     l.timings_ms.total = build + trace + 10.0;
     l.build.sah_cost = sah;
+    // The estimated error falls and the spp rises with the frame.
+    l.noise.estimated_mean = 0.5 / (frame + 2) as f64;
+    l.noise.spp_mean = 16.0 * (frame + 2) as f64;
     l
 }
 
@@ -59,13 +62,20 @@ fn report_writes_csv_with_medians_and_a_chart() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
-        "frame,build_ms,trace_ms,total_ms,triangles,sah_cost,log"
+        "frame,build_ms,trace_ms,total_ms,triangles,sah_cost,noise_estimate,spp_mean,log"
     );
-    assert_eq!(lines[1], "-1,10,100,120,1000,42,walk.-001.json");
-    assert_eq!(lines[4], "2,12,300,322,1200,40.5,walk.0002.json");
+    assert_eq!(lines[1], "-1,10,100,120,1000,42,0.5,16,walk.-001.json");
+    assert_eq!(lines[4], "2,12,300,322,1200,40.5,0.125,64,walk.0002.json");
     // Medians of four: build (12+14)/2, trace (200+300)/2, total (224+322)/2,
-    // triangles (1100+1200)/2, SAH (40.5+41)/2.
-    assert_eq!(lines[5], "median,13,250,273,1150,40.75,");
+    // triangles (1100+1200)/2, SAH (40.5+41)/2, error (0.25+1/6)/2, spp
+    // (32+48)/2.
+    assert_eq!(
+        lines[5],
+        format!(
+            "median,13,250,273,1150,40.75,{},40,",
+            (0.25 + 0.5 / 3.0) / 2.0
+        )
+    );
     assert_eq!(lines.len(), 6);
 
     let chart = image::open(dir.path().join("report.png"))
