@@ -32,7 +32,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let src = source::load(path)?;
     let doc = &src.document;
     let reader = Reader { src: &src };
-    let mut warnings = Vec::new();
+    let mut warnings = src.warnings.clone();
 
     let nodes = load_nodes(&file, doc)?;
     let node_order = order_nodes(&file, &nodes)?;
