@@ -20,6 +20,15 @@ use std::path::Path;
 /// bits, so no valid glTF file or buffer is larger.
 pub const MAX_INPUT_BYTES: u64 = u32::MAX as u64;
 
+/// An input that cannot be read or recognised (exit code 4), for the
+/// commands whose input is not a glTF scene or PLY mesh by its name.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {detail}", path.display())]
+pub struct InputError {
+    pub path: std::path::PathBuf,
+    pub detail: String,
+}
+
 /// What a non-regular path is, in words, for messages.
 fn kind_of(ft: &std::fs::FileType) -> &'static str {
     if ft.is_dir() {
