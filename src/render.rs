@@ -678,7 +678,10 @@ fn render_frame(
         half: false,
         aovs: job.aov_names.clone(),
     };
-    log.warnings = info.warnings.clone();
+    // The scene's own warnings (values clamped, channels skipped...) in
+    // every frame's log, so each log tells the whole story of its frame.
+    log.warnings = pipe.scene.warnings().to_vec();
+    log.warnings.extend(info.warnings.iter().cloned());
     log.warnings.extend(traced.warnings.iter().cloned());
     if progress.verbose {
         progress.line(&format!(

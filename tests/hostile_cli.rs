@@ -379,3 +379,40 @@ fn sigterm_during_set_up_ends_the_render() {
         .count();
     assert_eq!(temporaries, 0);
 }
+
+#[test]
+fn clamped_values_are_warned_about_in_the_frame_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_s = dir.path().display().to_string();
+    for (case, mentions) in [
+        ("camera_yfov_negative", &["camera 0", "yfov -0.5"][..]),
+        ("spot_cones_reversed", &["light 0", "swapped"][..]),
+    ] {
+        let out = soupray(&[
+            "render",
+            &corpus(&format!("{case}.gltf")),
+            "--frame",
+            "0",
+            "--width",
+            "32",
+            "--height",
+            "18",
+            "--spp",
+            "1",
+            "--out",
+            &out_s,
+        ]);
+        assert_exit(&out, 0, mentions);
+        let log: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(format!("{case}.0000.json"))).unwrap(),
+        )
+        .unwrap();
+        let warnings = log["warnings"].to_string();
+        for m in mentions {
+            assert!(
+                warnings.contains(m),
+                "{case}: log warnings lack {m:?}: {warnings}"
+            );
+        }
+    }
+}

@@ -19,6 +19,7 @@ mod load;
 pub mod material;
 pub mod mesh;
 pub mod pose;
+mod ranges;
 mod source;
 mod validate;
 

@@ -267,6 +267,49 @@ def _(d):
 def _(d):
     d.clear()
 
+# Out-of-range values: clamped with a warning naming the object.
+@case("camera_yfov_negative", "ok", ["camera 0", "yfov -0.5", "40 degrees"])
+def _(d): d["cameras"][0]["perspective"]["yfov"] = -0.5
+
+@case("camera_yfov_zero", "ok", ["camera 0", "yfov 0"])
+def _(d): d["cameras"][0]["perspective"]["yfov"] = 0
+
+@case("camera_znear_zero", "ok", ["camera 0", "znear 0", "0.001"])
+def _(d): d["cameras"][0]["perspective"]["znear"] = 0
+
+@case("camera_zfar_before_znear", "ok", ["camera 0", "zfar 0.05", "infinite"])
+def _(d): d["cameras"][0]["perspective"]["zfar"] = 0.05
+
+@case("camera_aspect_negative", "ok", ["camera 0", "aspectRatio -1.5"])
+def _(d): d["cameras"][0]["perspective"]["aspectRatio"] = -1.5
+
+@case("camera_ortho_zero_mag", "ok", ["camera 0", "xmag 0", "ymag -2"])
+def _(d): d["cameras"][0] = {"type": "orthographic", "orthographic": {"xmag": 0, "ymag": -2, "znear": 0, "zfar": 10}}
+
+@case("light_negative_intensity", "ok", ["light 0", "intensity -5"])
+def _(d): d["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = -5
+
+@case("light_negative_color", "ok", ["light 0", "color.g -1"])
+def _(d): d["extensions"]["KHR_lights_punctual"]["lights"][0]["color"] = [1, -1, 0.5]
+
+@case("spot_cones_reversed", "ok", ["light 0", "innerConeAngle 0.7", "swapped"])
+def _(d):
+    d["extensions"]["KHR_lights_punctual"]["lights"][0] = {
+        "type": "spot", "intensity": 5, "spot": {"innerConeAngle": 0.7, "outerConeAngle": 0.2}}
+
+@case("spot_outer_too_wide", "ok", ["light 0", "outerConeAngle 3"])
+def _(d):
+    d["extensions"]["KHR_lights_punctual"]["lights"][0] = {
+        "type": "spot", "intensity": 5, "spot": {"innerConeAngle": 0.1, "outerConeAngle": 3}}
+
+@case("material_factors_out_of_range", "ok",
+      ["material 0 \"hot\"", "baseColorFactor.r 2", "metallicFactor -1", "roughnessFactor 7", "emissiveFactor.g 3"])
+def _(d):
+    d["materials"] = [{"name": "hot", "pbrMetallicRoughness": {
+        "baseColorFactor": [2, 0.5, 0.5, 1], "metallicFactor": -1, "roughnessFactor": 7},
+        "emissiveFactor": [0, 3, 0]}]
+    d["meshes"][0]["primitives"][0]["material"] = 0
+
 # Inputs that are not regular files (read-only paths; never written).
 @case("buffer_uri_dev_zero", "error", ["/dev/zero", "character device"])
 def _(d): d["buffers"][0]["uri"] = "/dev/zero"
