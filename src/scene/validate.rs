@@ -685,7 +685,24 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                 &|| format!("{}.attributes", at()),
             )?;
             for (name, v) in attrs {
-                c.index(v, &|| format!("{} attribute {name}", at()), "accessors")?;
+                let a = c.index(v, &|| format!("{} attribute {name}", at()), "accessors")?;
+                // Integer texture coordinates, colours and weights are
+                // read as fractions only when normalized (glTF 2.0 3.7.2.1).
+                let (ct, normalized) = accessor_types[a];
+                let fraction = ["TEXCOORD_", "COLOR_", "WEIGHTS_"]
+                    .iter()
+                    .any(|p| name.starts_with(p));
+                if fraction && ct != 5126 && !(matches!(ct, 5121 | 5123) && normalized) {
+                    return Err(fail(
+                        file,
+                        format!(
+                            "{} attribute {name} is accessor {a} of componentType {ct}{}; glTF allows FLOAT \
+                             or normalized UNSIGNED_BYTE/UNSIGNED_SHORT there",
+                            at(),
+                            if normalized { " (normalized)" } else { " without normalized: true" }
+                        ),
+                    ));
+                }
             }
             c.opt_index(prim, "indices", &at, "accessors")?;
             c.opt_index(prim, "material", &at, "materials")?;

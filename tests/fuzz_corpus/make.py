@@ -240,6 +240,16 @@ def _(d):
     d["animations"][0]["samplers"][0]["output"] = 4
     d["animations"][0]["channels"][0]["target"]["path"] = "translation"
 
+@case("texcoord_u8_not_normalized", "error", ["attribute TEXCOORD_0", "normalized"])
+def _(d):
+    d["accessors"].append({"bufferView": 4, "componentType": 5121, "count": 3, "type": "VEC2"})
+    d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 5
+
+@case("texcoord_u8_normalized", "ok", [])
+def _(d):
+    d["accessors"].append({"bufferView": 4, "componentType": 5121, "count": 3, "type": "VEC2", "normalized": True})
+    d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 5
+
 # Scenes, cameras, lights, materials.
 @case("scene_root_twice", "error", ["scene 0.nodes", "node 0 more than once"])
 def _(d): d["scenes"][0]["nodes"] = [0, 1, 2, 0]
