@@ -172,6 +172,21 @@ def _(d): d["accessors"][0]["count"] = 4
 @case("accessor_count_huge", "error", ["accessor 0", "bufferView 0"])
 def _(d): d["accessors"][0]["count"] = 2**62
 
+@case("accessor_without_view_huge", "error", ["accessor 0", "no bufferView", "zeros"])
+def _(d):
+    d["accessors"][0] = {"componentType": 5126, "count": 200000000, "type": "VEC3",
+                         "min": [0, 0, 0], "max": [1, 1, 0],
+                         "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
+                                    "values": {"bufferView": 0}}}
+
+@case("ibm_without_view_huge", "error", ["accessor 5", "no bufferView", "zeros"])
+def _(d):
+    d["bufferViews"].append({"buffer": 0, "byteOffset": 0, "byteLength": 84})
+    d["accessors"].append({"componentType": 5126, "count": 100000000, "type": "MAT4",
+                           "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
+                                      "values": {"bufferView": 5}}})
+    d["skins"] = [{"joints": [0], "inverseBindMatrices": 5}]
+
 @case("accessor_count_zero", "error", ["accessor 0", "count"])
 def _(d): d["accessors"][0]["count"] = 0
 
