@@ -217,6 +217,21 @@ fn parse_version(s: &str) -> Option<(u64, u64)> {
     Some((num(a)?, num(b)?))
 }
 
+/// Whether glTF 2.0 defines the attribute name (or it is an
+/// application-specific "_NAME").
+fn known_semantic(name: &str) -> bool {
+    if matches!(name, "POSITION" | "NORMAL" | "TANGENT") || name.starts_with('_') {
+        return true;
+    }
+    ["TEXCOORD_", "COLOR_", "JOINTS_", "WEIGHTS_"]
+        .iter()
+        .any(|p| {
+            name.strip_prefix(p).is_some_and(|n| {
+                !n.is_empty() && n.len() < 10 && n.bytes().all(|c| c.is_ascii_digit())
+            })
+        })
+}
+
 /// Validates `json` in place (removing channels soupray must ignore) and
 /// returns the warnings to show.
 pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
@@ -297,6 +312,46 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                     "animation {a}: skipped {n} channel(s) with {why}, which soupray does not implement"
                 ));
             }
+        }
+    }
+
+    // Attribute names glTF does not define (application-specific ones must
+    // start with "_"): soupray reads none of them, so they are dropped with
+    // one warning each instead of failing the `gltf` crate's validation.
+    if let Some(Value::Array(meshes)) = root.get_mut("meshes") {
+        let mut unknown: BTreeMap<String, usize> = BTreeMap::new();
+        for mesh in meshes.iter_mut() {
+            let Some(Value::Array(prims)) = mesh.get_mut("primitives") else {
+                continue;
+            };
+            for prim in prims.iter_mut() {
+                let mut maps: Vec<&mut Value> = Vec::new();
+                let Value::Object(p) = prim else { continue };
+                for (key, v) in p.iter_mut() {
+                    match (key.as_str(), v) {
+                        ("attributes", v @ Value::Object(_)) => maps.push(v),
+                        ("targets", Value::Array(targets)) => maps.extend(targets.iter_mut()),
+                        _ => {}
+                    }
+                }
+                for map in maps {
+                    if let Value::Object(m) = map {
+                        m.retain(|name, _| {
+                            let known = known_semantic(name);
+                            if !known {
+                                *unknown.entry(name.clone()).or_default() += 1;
+                            }
+                            known
+                        });
+                    }
+                }
+            }
+        }
+        for (name, n) in unknown {
+            warnings.push(format!(
+                "ignored the attribute \"{name}\" of {n} primitive(s) or morph target(s): glTF defines no such \
+                 attribute (application-specific names start with \"_\")"
+            ));
         }
     }
 

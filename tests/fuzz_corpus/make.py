@@ -265,6 +265,19 @@ def _(d):
     d["accessors"].append({"bufferView": 4, "componentType": 5121, "count": 3, "type": "VEC2", "normalized": True})
     d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 5
 
+@case("attribute_unknown_semantic", "ok", ["\"BANANA\"", "ignored"])
+def _(d): d["meshes"][0]["primitives"][0]["attributes"]["BANANA"] = 0
+
+@case("texture_without_source", "error", ["source"])
+def _(d):
+    d["textures"] = [{"sampler": 0}]
+    d["samplers"] = [{}]
+
+@case("sampler_wrap_unknown", "error", ["wrapS"])
+def _(d):
+    d["textures"] = [{"source": 0, "sampler": 0}]
+    d["samplers"] = [{"wrapS": 1}]
+
 # Scenes, cameras, lights, materials.
 @case("scene_root_twice", "error", ["scene 0.nodes", "node 0 more than once"])
 def _(d): d["scenes"][0]["nodes"] = [0, 1, 2, 0]
