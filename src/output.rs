@@ -299,6 +299,10 @@ pub fn write_exr(
 /// whatever its header claims). Decoding costs about as much as a load in
 /// a compositor, far less than rendering the frame again.
 pub fn is_complete_exr(path: &Path) -> bool {
+    // A FIFO or device under a frame's name would block or never end.
+    if crate::input::open_regular(path).is_err() {
+        return false;
+    }
     read()
         .no_deep_data()
         .all_resolution_levels()

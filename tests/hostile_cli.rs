@@ -416,3 +416,33 @@ fn clamped_values_are_warned_about_in_the_frame_log() {
         }
     }
 }
+
+#[test]
+fn skip_existing_does_not_block_on_a_fifo_under_a_frame_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("BoxAnimated.0000.exr");
+    mkfifo(&fifo);
+    let started = Instant::now();
+    let out = soupray(&[
+        "render",
+        &asset("BoxAnimated/BoxAnimated.glb"),
+        "--frame",
+        "0",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+        "--skip-existing",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    // The frame cannot be written over the FIFO: a failed frame, not a hang.
+    assert_exit(&out, 5, &["FIFO"]);
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    assert!(started.elapsed() < Duration::from_secs(120));
+}

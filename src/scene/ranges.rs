@@ -31,8 +31,13 @@ fn clamp(
 ) {
     let fixed = if v.is_nan() { default } else { v.clamp(lo, hi) };
     if fixed != *v {
+        let range = if hi == f32::MAX {
+            format!("below {lo}")
+        } else {
+            format!("outside {lo}..{hi}")
+        };
         warnings.push(format!(
-            "{what}: {property} {} is outside {lo}..{hi}; {fixed} is used",
+            "{what}: {property} {} is {range}; {fixed} is used",
             *v
         ));
         *v = fixed;
