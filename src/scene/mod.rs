@@ -160,22 +160,7 @@ impl Scene {
     /// file whose message contains [`LAST_RESORT`], which the fuzz tests
     /// look for: every input that reaches it is a validation gap.
     pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
-        let caught =
-            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load::load(path, opts)));
-        caught.unwrap_or_else(|panic| {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            Err(SceneError::Malformed {
-                file: path.display().to_string(),
-                detail: format!(
-                    "{LAST_RESORT} ({what}). The file is malformed in a way soupray's checks missed. \
-                     Fix: run it through the Khronos glTF-Validator and re-export it; please report the file."
-                ),
-            })
-        })
+        catching_panics(path, || load::load(path, opts))
     }
 
     /// The path as given, as it appears in messages.
@@ -339,5 +324,45 @@ impl Scene {
             Some(n) => format!("node {node} \"{n}\""),
             None => format!("node {node}"),
         }
+    }
+}
+
+/// Runs `load`, turning a panic inside it into an error naming `path` whose
+/// message contains [`LAST_RESORT`].
+fn catching_panics<T>(
+    path: &std::path::Path,
+    load: impl FnOnce() -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(load)).unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        Err(SceneError::Malformed {
+            file: path.display().to_string(),
+            detail: format!(
+                "{LAST_RESORT} ({what}). The file is malformed in a way soupray's checks missed. \
+                 Fix: run it through the Khronos glTF-Validator and re-export it; please report the file."
+            ),
+        })
+    })
+}
+
+#[cfg(test)]
+mod last_resort_tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_inside_loading_is_an_error_naming_the_file() {
+        let path = std::path::Path::new("dir/broken.glb");
+        let e = catching_panics::<()>(path, || panic!("index out of bounds")).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.starts_with("dir/broken.glb: "), "{msg}");
+        assert!(
+            msg.contains(LAST_RESORT) && msg.contains("index out of bounds"),
+            "{msg}"
+        );
+        assert!(catching_panics(path, || Ok(7)).is_ok());
     }
 }
