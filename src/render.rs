@@ -466,7 +466,8 @@ impl Progress {
 }
 
 /// SIGINT/SIGTERM. While the scene loads and the device is set up (nothing
-/// is being written), a signal ends the process at once with 128 + signal.
+/// of ours is being written), a signal ends the process at once with
+/// 128 + signal.
 /// Once frames render, the handler records it and the job stops cleanly
 /// between stages; a second signal of either kind ends the process at once.
 struct Signals {
@@ -509,6 +510,11 @@ impl Signals {
     /// (a signal that came in the meantime is reported by `check`).
     fn deferred(&self) {
         self.immediate.store(false, Ordering::SeqCst);
+    }
+
+    /// From now on a signal ends the process at once again.
+    fn immediate(&self) {
+        self.immediate.store(true, Ordering::SeqCst);
     }
 
     fn check(&self) -> Result<(), JobError> {
@@ -827,8 +833,11 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     signals.deferred();
     frames::check_output_dir(&job.out_dir)?;
     signals.check()?;
+    // Device set-up writes nothing of ours: a signal ends it at once. (A
+    // signal merely recorded here would let the OpenCL compiler's own
+    // handler delete its temporaries and fail the kernel build.)
+    signals.immediate();
     let device = Device::open(args.device.as_deref())?;
-    signals.check()?;
     let progress = Progress::new(job.frames.len(), job.settings.spp, args);
     let stale = remove_stale_temporaries(&job);
     if stale > 0 {
@@ -856,6 +865,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         builder: DeviceBuilder::new(&device, job.params)?,
         tracer: PathTracer::new(&device, &scene, &job.settings)?,
     };
+    signals.deferred();
     signals.check()?;
     let (writer, writer_done) =
         spawn_writer(args.half, args.png, job.settings.spp, job.settings.seed);

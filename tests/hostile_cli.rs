@@ -446,3 +446,57 @@ fn skip_existing_does_not_block_on_a_fifo_under_a_frame_name() {
         .is_fifo());
     assert!(started.elapsed() < Duration::from_secs(120));
 }
+
+#[test]
+fn sigterm_while_loading_a_large_scene_exits_at_once() {
+    use std::fmt::Write as _;
+    // 800,000 nodes: a valid file that takes about a second to load.
+    let n = 800_000;
+    let mut json = String::from(r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":["#);
+    for i in 0..n {
+        let _ = write!(json, "{}{i}", if i > 0 { "," } else { "" });
+    }
+    json.push_str(r#"]}],"nodes":["#);
+    for i in 0..n {
+        let _ = write!(
+            json,
+            "{}{{\"translation\":[{i},0,0]}}",
+            if i > 0 { "," } else { "" }
+        );
+    }
+    json.push_str("]}");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("big.gltf");
+    std::fs::write(&scene, json).unwrap();
+    let out_dir = dir.path().join("out");
+    let child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ])
+        .args([
+            "--frame", "0", "--width", "16", "--height", "16", "--spp", "1",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(150));
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(143),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The output directory is made right after loading: it does not exist,
+    // so the signal ended the load itself (before, it was only recorded).
+    assert!(!out_dir.exists(), "the load finished before the signal");
+}
