@@ -164,27 +164,54 @@ pub fn run_devices(args: &DevicesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Reads INPUT into a soup: PLY directly, glTF evaluated at a frame on the CPU.
+/// Reads INPUT into a soup: PLY directly, glTF evaluated at a frame on the
+/// CPU. The kind comes from the extension, else from the first bytes.
 pub fn load_soup(args: &BvhArgs) -> anyhow::Result<Soup> {
-    if is_gltf(&args.input) {
+    if input_kind(&args.input)? == "gltf" {
         let (scene, time) = load_scene(args)?;
         return Ok(scene.evaluate(time)?.soup);
     }
-    if extension(&args.input) == "ply" {
-        let soup = crate::ply::read_soup(&args.input)?;
-        return Ok(match args.copies {
-            0 | 1 => soup,
-            n => soup.arrangement(n),
-        });
-    }
-    anyhow::bail!(
-        "{}: unknown input type; soupray bvh reads .ply triangle meshes and .gltf/.glb scenes",
-        args.input.display()
-    )
+    let soup = crate::ply::read_soup(&args.input)?;
+    Ok(match args.copies {
+        0 | 1 => soup,
+        n => soup.arrangement(n),
+    })
 }
 
-fn is_gltf(p: &Path) -> bool {
-    matches!(extension(p).as_str(), "gltf" | "glb")
+/// "ply" or "gltf" from a file's first bytes; anything else is an input
+/// error (exit 4), as is a path that is not a regular file.
+fn sniff(path: &Path) -> Result<&'static str, crate::input::InputError> {
+    use std::io::Read as _;
+    let fail = |detail: String| crate::input::InputError {
+        path: path.to_path_buf(),
+        detail,
+    };
+    let (file, _) =
+        crate::input::open_regular(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
+    let mut head = Vec::new();
+    file.take(4)
+        .read_to_end(&mut head)
+        .map_err(|e| fail(format!("cannot read it: {e}")))?;
+    if head.starts_with(b"ply") {
+        Ok("ply")
+    } else if head.starts_with(b"glTF") || head.first() == Some(&b'{') {
+        Ok("gltf")
+    } else {
+        Err(fail(
+            "unknown input type (no .ply, .gltf or .glb extension, and the content is neither); \
+             soupray bvh reads .ply triangle meshes and .gltf/.glb scenes"
+                .into(),
+        ))
+    }
+}
+
+/// "gltf" or "ply": from the extension, else from the first bytes.
+fn input_kind(p: &Path) -> Result<&'static str, crate::input::InputError> {
+    match extension(p).as_str() {
+        "gltf" | "glb" => Ok("gltf"),
+        "ply" => Ok("ply"),
+        _ => sniff(p),
+    }
 }
 
 /// The glTF scene of INPUT and the time of --frame.
@@ -233,7 +260,7 @@ pub fn run_bvh(args: &BvhArgs) -> anyhow::Result<()> {
             // A glTF frame is evaluated on the device straight into the
             // builder's input, as `render` does; a PLY is uploaded.
             let mut device_soup = None;
-            let soup = if is_gltf(&args.input) {
+            let soup = if input_kind(&args.input)? == "gltf" {
                 let (scene, time) = load_scene(args)?;
                 let mut ds = DeviceSoup::new(&device, &scene)?;
                 ds.evaluate(&scene, time)?;

@@ -4,7 +4,7 @@
 //! the work is in `scene`.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
@@ -69,7 +69,9 @@ pub struct SoupArgs {
     #[arg(long)]
     pub sanitize: bool,
 
-    /// Output .ply file.
+    /// Output .ply file (written to a temporary beside it, then renamed;
+    /// an existing path must be a regular file). `-` writes the PLY to
+    /// standard output, which must not be a terminal.
     #[arg(short, long, value_name = "FILE.ply")]
     pub output: PathBuf,
 }
@@ -347,6 +349,20 @@ pub fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
 }
 
 pub fn run_soup(args: &SoupArgs) -> anyhow::Result<()> {
+    let to_stdout = args.output.as_os_str() == "-";
+    if to_stdout {
+        use std::io::IsTerminal as _;
+        if std::io::stdout().is_terminal() {
+            return Err(crate::UsageError(
+                "-o -: standard output is a terminal; redirect or pipe it (soupray soup ... -o - > F.ply)".into(),
+            )
+            .into());
+        }
+    } else {
+        // Before any work: the output must not replace a device, FIFO or
+        // directory (exit 6, the node untouched).
+        crate::output::check_target(&args.output)?;
+    }
     let opts = LoadOptions {
         scene: args.scene,
         animation: args.animation.clone(),
@@ -370,6 +386,23 @@ pub fn run_soup(args: &SoupArgs) -> anyhow::Result<()> {
     let frame = scene.evaluate(time)?;
     for w in &frame.warnings {
         eprintln!("warning: {}: {w}", scene.file());
+    }
+    if to_stdout {
+        use std::io::Write as _;
+        let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+        crate::ply::write_soup_to(&mut out, &frame.soup)
+            .and_then(|()| out.flush())
+            .map_err(crate::output::io_err(
+                Path::new("-"),
+                "write the PLY to standard output",
+            ))?;
+        eprintln!(
+            "{}: frame {} (t = {time:.4} s): {} triangles written to standard output",
+            scene.file(),
+            args.frame,
+            frame.soup.triangle_count()
+        );
+        return Ok(());
     }
     crate::ply::write_soup(&args.output, &frame.soup).with_context(|| {
         format!(

@@ -17,6 +17,7 @@ pub mod compare;
 pub mod device;
 pub mod film;
 pub mod frames;
+pub mod input;
 pub mod output;
 pub mod ply;
 pub mod render;

@@ -89,8 +89,23 @@ fn exit_code(e: &anyhow::Error) -> u8 {
                 _ => 5,
             };
         }
-        if cause.is::<soupray::scene::SceneError>() || cause.is::<soupray::ply::PlyError>() {
+        if cause.is::<soupray::scene::SceneError>()
+            || cause.is::<soupray::ply::PlyError>()
+            || cause.is::<soupray::trace::lights::EnvError>()
+            || cause.is::<soupray::input::InputError>()
+        {
             return 4;
+        }
+        if let Some(soupray::trace::TraceError::Env(_)) = cause.downcast_ref() {
+            return 4;
+        }
+        if let Some(o) = cause.downcast_ref::<soupray::output::OutputError>() {
+            return match o {
+                // Reading a render's logs (`report`): the input.
+                soupray::output::OutputError::BadLog { .. }
+                | soupray::output::OutputError::Read { .. } => 4,
+                _ => 6,
+            };
         }
     }
     1

@@ -73,8 +73,55 @@ pub enum OutputError {
         format: &'static str,
         message: String,
     },
+    /// An input of `report` (a frame log) could not be read.
+    #[error("{}: cannot read: {source}; check that the file is readable", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("{}: not a soupray frame log: {message}; delete or move it out of the directory", path.display())]
     BadLog { path: PathBuf, message: String },
+    /// The output path names something other than a regular file (a
+    /// device, FIFO, directory, socket or symbolic link), which a rename
+    /// would replace. It is left untouched.
+    #[error("{}: is {kind}; soupray writes only regular files and never replaces {kind}. Fix: choose another output path", path.display())]
+    NotRegular { path: PathBuf, kind: &'static str },
+}
+
+/// Checks that writing `path` would replace nothing but a regular file:
+/// it must not exist, or be a regular file (not a symbolic link, device,
+/// FIFO, socket or directory). `write_atomic` calls it before creating the
+/// temporary and again just before the rename.
+pub fn check_target(path: &Path) -> Result<(), OutputError> {
+    use std::os::unix::fs::FileTypeExt;
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(io_err(path, "inspect")(e)),
+    };
+    let ft = meta.file_type();
+    let kind = if ft.is_file() {
+        return Ok(());
+    } else if ft.is_symlink() {
+        "a symbolic link"
+    } else if ft.is_dir() {
+        "a directory"
+    } else if ft.is_fifo() {
+        "a named pipe (FIFO)"
+    } else if ft.is_char_device() {
+        "a character device"
+    } else if ft.is_block_device() {
+        "a block device"
+    } else if ft.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    };
+    Err(OutputError::NotRegular {
+        path: path.to_path_buf(),
+        kind,
+    })
 }
 
 pub(crate) fn io_err<'a>(
@@ -110,11 +157,13 @@ pub fn temporary_owner(file_name: &str) -> Option<(&str, u32)> {
 
 /// Writes `path` atomically: `write` fills a temporary file beside it,
 /// which is flushed, fsynced and renamed over `path`. On any error the
-/// temporary is removed and `path` is untouched.
+/// temporary is removed and `path` is untouched. `path` must not name
+/// anything but a regular file (`check_target`), or nothing is written.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&File>) -> Result<(), OutputError>,
 ) -> Result<(), OutputError> {
+    check_target(path)?;
     let tmp = temporary_sibling(path);
     let result = (|| {
         let file = File::create(&tmp).map_err(io_err(path, "create a temporary file for"))?;
@@ -124,6 +173,7 @@ pub fn write_atomic(
         drop(out);
         file.sync_all().map_err(io_err(path, "flush to disk"))?;
         drop(file);
+        check_target(path)?;
         std::fs::rename(&tmp, path).map_err(io_err(path, "rename the finished temporary file onto"))
     })();
     if result.is_err() {
@@ -260,6 +310,10 @@ pub fn write_exr(
 /// whatever its header claims). Decoding costs about as much as a load in
 /// a compositor, far less than rendering the frame again.
 pub fn is_complete_exr(path: &Path) -> bool {
+    // A FIFO or device under a frame's name would block or never end.
+    if crate::input::open_regular(path).is_err() {
+        return false;
+    }
     read()
         .no_deep_data()
         .all_resolution_levels()
@@ -506,11 +560,25 @@ pub fn write_log(path: &Path, log: &FrameLog) -> Result<(), OutputError> {
 /// Reads a frame log. A JSON file without the `frame` and `timings_ms`
 /// fields is refused as not being a frame log.
 pub fn read_log(path: &Path) -> Result<FrameLog, OutputError> {
-    let text = std::fs::read_to_string(path).map_err(io_err(path, "read"))?;
     let bad = |message: String| OutputError::BadLog {
         path: path.to_path_buf(),
         message,
     };
+    // A log is a few KiB; anything over 16 MiB, or not a regular file,
+    // is not one.
+    let bytes = crate::input::read_regular(path, 16 << 20).map_err(|e| match e.kind() {
+        std::io::ErrorKind::InvalidInput | std::io::ErrorKind::InvalidData => bad(e.to_string()),
+        _ => OutputError::Read {
+            path: path.to_path_buf(),
+            source: e,
+        },
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        bad(format!(
+            "it is not UTF-8 text (invalid byte at {})",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
     let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| bad(format!("invalid JSON ({e})")))?;
     for key in ["frame", "timings_ms"] {

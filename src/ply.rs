@@ -9,8 +9,7 @@
 //! `list uchar uint`, three unshared vertices per triangle.
 
 use crate::soup::Soup;
-use std::fs::File;
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader, Read as _};
 use std::path::{Path, PathBuf};
 
 /// Why a PLY file could not be read. Every message names the file.
@@ -99,11 +98,13 @@ struct Element {
 
 /// Reads a PLY triangle mesh into a soup (positions only).
 pub fn read_soup(path: &Path) -> Result<Soup, PlyError> {
-    let file = File::open(path).map_err(|cause| PlyError::Io {
+    // A regular file only (a FIFO would block, a device never end), read
+    // no further than its size.
+    let (file, size) = crate::input::open_regular(path).map_err(|cause| PlyError::Io {
         path: path.to_owned(),
         cause,
     })?;
-    let mut reader = BufReader::new(file);
+    let mut reader = BufReader::new(file.take(size));
     let (format, elements) = read_header(path, &mut reader)?;
     let mut body = Body {
         path,
@@ -483,6 +484,13 @@ impl<R: BufRead> Body<'_, R> {
 /// triangle, atomically (`output::write_atomic`).
 pub fn write_soup(path: &Path, soup: &Soup) -> Result<(), crate::output::OutputError> {
     crate::output::write_atomic(path, |out| {
+        write_soup_to(out, soup).map_err(crate::output::io_err(path, "write"))
+    })
+}
+
+/// The binary PLY of `soup` into any writer (`soupray soup -o -`: stdout).
+pub fn write_soup_to(out: &mut impl std::io::Write, soup: &Soup) -> std::io::Result<()> {
+    {
         let tris = soup.triangle_count();
         let mut body = || -> std::io::Result<()> {
             write!(
@@ -507,8 +515,8 @@ pub fn write_soup(path: &Path, soup: &Soup) -> Result<(), crate::output::OutputE
             }
             Ok(())
         };
-        body().map_err(crate::output::io_err(path, "write"))
-    })
+        body()
+    }
 }
 
 #[cfg(test)]

@@ -379,7 +379,16 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             return Err(UsageError("--env-color and --env exclude each other".into()).into())
         }
         (Some(c), None) => Environment::Color(parse_env_color(c)?),
-        (None, Some(p)) => Environment::Map(p.clone()),
+        (None, Some(p)) => {
+            // Refused before the device is set up: not a regular file (exit 4).
+            crate::input::open_regular(p).map_err(|e| crate::trace::lights::EnvError::Read {
+                path: p.display().to_string(),
+                detail: format!(
+                    "cannot be read ({e}). Fix: give an equirectangular .exr file, or use --env-color R,G,B."
+                ),
+            })?;
+            Environment::Map(p.clone())
+        }
         (None, None) => Environment::Default,
     };
     let aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
@@ -510,22 +519,30 @@ impl Progress {
     }
 }
 
-/// SIGINT/SIGTERM, recorded by the handler and checked between stages. A
-/// second signal of either kind ends the process at once.
+/// SIGINT/SIGTERM. While the scene loads and the device is set up (nothing
+/// of ours is being written), a signal ends the process at once with
+/// 128 + signal.
+/// Once frames render, the handler records it and the job stops cleanly
+/// between stages; a second signal of either kind ends the process at once.
 struct Signals {
     received: Arc<AtomicUsize>,
+    /// When set, the next signal exits at once. Set during set-up and by
+    /// the first signal while rendering.
+    immediate: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Signals {
     fn install() -> Signals {
         use signal_hook::consts::{SIGINT, SIGTERM};
         let received = Arc::new(AtomicUsize::new(0));
+        let immediate = Arc::new(std::sync::atomic::AtomicBool::new(true));
         for sig in [SIGINT, SIGTERM] {
-            // A second signal exits at once (with 128 + signal, as a shell would).
+            // Runs first: exits (with 128 + signal, as a shell would) when
+            // `immediate` is set.
             let _ = signal_hook::flag::register_conditional_shutdown(
                 sig,
                 128 + sig,
-                Arc::new(std::sync::atomic::AtomicBool::from(false)),
+                Arc::clone(&immediate),
             );
             let flag = Arc::clone(&received);
             // SAFETY: the handler only stores to an atomic.
@@ -534,8 +551,24 @@ impl Signals {
                     flag.store(sig as usize, Ordering::SeqCst);
                 })
             };
+            // A second signal exits at once.
+            let _ = signal_hook::flag::register(sig, Arc::clone(&immediate));
         }
-        Signals { received }
+        Signals {
+            received,
+            immediate,
+        }
+    }
+
+    /// From now on a first signal stops the job cleanly instead of at once
+    /// (a signal that came in the meantime is reported by `check`).
+    fn deferred(&self) {
+        self.immediate.store(false, Ordering::SeqCst);
+    }
+
+    /// From now on a signal ends the process at once again.
+    fn immediate(&self) {
+        self.immediate.store(true, Ordering::SeqCst);
     }
 
     fn check(&self) -> Result<(), JobError> {
@@ -731,7 +764,10 @@ fn render_frame(
         aovs: job.aov_names.clone(),
     };
     log.noise = traced.noise.clone();
-    log.warnings = info.warnings.clone();
+    // The scene's own warnings (values clamped, channels skipped...) in
+    // every frame's log, so each log tells the whole story of its frame.
+    log.warnings = pipe.scene.warnings().to_vec();
+    log.warnings.extend(info.warnings.iter().cloned());
     log.warnings.extend(traced.warnings.iter().cloned());
     if progress.verbose {
         progress.line(&format!(
@@ -877,8 +913,15 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let scene = Scene::load(&scene_path, &opts)?;
     let job = resolve_job(args, &scene, &scene_path)?;
-    // Fail on an unusable output directory before any rendering starts.
+    // Fail on an unusable output directory before any rendering starts
+    // (a signal now lets its probe file be removed).
+    signals.deferred();
     frames::check_output_dir(&job.out_dir)?;
+    signals.check()?;
+    // Device set-up writes nothing of ours: a signal ends it at once. (A
+    // signal merely recorded here would let the OpenCL compiler's own
+    // handler delete its temporaries and fail the kernel build.)
+    signals.immediate();
     // Start-up: opening the device, compiling the programs (from the
     // driver's cache when it has them) and the warm-up pass before the
     // first frame; the first rendered frame's log reports it apart.
@@ -911,6 +954,8 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         builder: DeviceBuilder::new(&device, job.params)?,
         tracer: PathTracer::new(&device, &scene, &job.settings)?,
     };
+    signals.deferred();
+    signals.check()?;
     let (writer, writer_done) =
         spawn_writer(args.half, args.png, job.settings.spp, job.settings.seed);
     let mut failed = Vec::new();

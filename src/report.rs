@@ -104,17 +104,20 @@ impl Medians {
 /// The frame logs in `dir` as rows sorted by frame (then file name), and
 /// a note for each `.json` file that is not a frame log.
 pub fn collect_rows(dir: &Path) -> anyhow::Result<(Vec<Row>, Vec<String>)> {
-    let entries = std::fs::read_dir(dir).with_context(|| {
-        format!(
-            "{}: cannot read the directory; give the --out directory of a render",
-            dir.display()
-        )
+    let input_error = |detail: String| crate::input::InputError {
+        path: dir.to_path_buf(),
+        detail,
+    };
+    let entries = std::fs::read_dir(dir).map_err(|e| {
+        input_error(format!(
+            "cannot read the directory ({e}); give the --out directory of a render"
+        ))
     })?;
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     for entry in entries {
         let path = entry
-            .with_context(|| format!("{}: cannot list the directory", dir.display()))?
+            .map_err(|e| input_error(format!("cannot list the directory ({e})")))?
             .path();
         let is_json = path
             .extension()
@@ -146,16 +149,20 @@ pub fn collect_rows(dir: &Path) -> anyhow::Result<(Vec<Row>, Vec<String>)> {
         }
     }
     if rows.is_empty() {
-        anyhow::bail!(
-            "{}: no per-frame logs (<name>.####.json) found; give the --out directory \
+        return Err(input_error(format!(
+            "no per-frame logs (<name>.####.json) found; give the --out directory \
              of a render{}",
-            dir.display(),
             if skipped.is_empty() {
                 String::new()
             } else {
-                format!(" ({} other .json files were not frame logs)", skipped.len())
+                format!(
+                    " ({} other .json files were not frame logs: {})",
+                    skipped.len(),
+                    skipped.join("; ")
+                )
             }
-        );
+        ))
+        .into());
     }
     rows.sort_by(|a, b| a.frame.cmp(&b.frame).then_with(|| a.log.cmp(&b.log)));
     Ok((rows, skipped))

@@ -10,9 +10,14 @@ use gltf::accessor::{DataType, Dimensions};
 use super::error::{Result, SceneError};
 use super::source::Source;
 
-/// Accessors with no backing bytes allocate `count` zeros; a count beyond
-/// this is a broken file, not a real mesh, and must not exhaust memory.
+/// A count beyond this is a broken file, not a real mesh, and must not
+/// exhaust memory.
 const MAX_ELEMENTS: usize = 1 << 28;
+
+/// Accessors with no backing bytes (all zeros, or sparse over zeros) cost
+/// memory the file does not pay for in bytes: at most this many components
+/// (256 MiB as f64), far above any real sparse morph target.
+const MAX_ZERO_COMPONENTS: usize = 1 << 25;
 
 pub(crate) struct Reader<'a> {
     pub src: &'a Source,
@@ -231,6 +236,16 @@ impl Reader<'_> {
                 acc,
                 usage,
                 format!("count {count} is implausibly large. Fix: re-export the asset."),
+            ));
+        }
+        if acc.view().is_none() && count.saturating_mul(comps) > MAX_ZERO_COMPONENTS {
+            return Err(self.error(
+                acc,
+                usage,
+                format!(
+                    "has no bufferView but {count} elements of {comps} components, more than the \
+                     {MAX_ZERO_COMPONENTS} components soupray fills with zeros. Fix: re-export the asset."
+                ),
             ));
         }
         let normalized = acc.normalized();

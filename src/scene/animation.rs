@@ -232,12 +232,13 @@ pub(crate) fn load_clip(
             ));
             continue;
         }
-        if let Some(k) = times.windows(2).position(|w| w[1] < w[0]) {
+        if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
             return Err(reader.error(
                 &input,
                 &in_usage,
                 format!(
-                    "key times decrease at key {} ({} after {}); glTF requires increasing times. Fix: re-export the animation.",
+                    "key times do not increase at key {} ({} after {}); glTF requires strictly increasing times. \
+                     Fix: re-export the animation.",
                     k + 1,
                     times[k + 1],
                     times[k]

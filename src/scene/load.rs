@@ -32,7 +32,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let src = source::load(path)?;
     let doc = &src.document;
     let reader = Reader { src: &src };
-    let mut warnings = Vec::new();
+    let mut warnings = src.warnings.clone();
 
     let nodes = load_nodes(&file, doc)?;
     let node_order = order_nodes(&file, &nodes)?;
@@ -239,7 +239,10 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     }
 
     // Cameras and lights placed in the scene.
-    let cameras: Vec<_> = doc.cameras().map(|c| load_camera(&c)).collect();
+    let mut cameras: Vec<_> = doc.cameras().map(|c| load_camera(&c)).collect();
+    for (i, c) in cameras.iter_mut().enumerate() {
+        super::ranges::camera(i, c, &mut warnings);
+    }
     let camera_nodes: Vec<(usize, usize)> = scene_nodes
         .iter()
         .filter_map(|&n| nodes[n].camera.map(|c| (n, c)))
@@ -282,10 +285,13 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
             }
         }
     };
-    let lights: Vec<_> = doc
+    let mut lights: Vec<_> = doc
         .lights()
         .map(|ls| ls.map(|l| load_light(&l)).collect())
         .unwrap_or_default();
+    for (i, l) in lights.iter_mut().enumerate() {
+        super::ranges::light(i, l, &mut warnings);
+    }
     let light_instances = scene_nodes
         .iter()
         .filter_map(|&n| nodes[n].light.map(|l| (n, l)))
@@ -295,6 +301,9 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     // Materials, with the glTF default material appended for primitives
     // that name none, so every triangle's id indexes the table.
     let mut materials = load_materials(&src)?;
+    for (i, m) in materials.materials.iter_mut().enumerate() {
+        super::ranges::material(i, m, &mut warnings);
+    }
     let needs_default = instances
         .iter()
         .flat_map(|i| &meshes[i.mesh].primitives)

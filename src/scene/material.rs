@@ -172,14 +172,16 @@ impl Image {
 
     fn decode(&self) -> std::result::Result<Arc<DecodedImage>, String> {
         let bytes: std::borrow::Cow<[u8]> = match &self.source {
-            ImageSource::File(path) => std::fs::read(path)
-                .map_err(|e| {
-                    format!(
-                        "cannot read {} ({e}). Fix: put the image next to the .gltf file.",
-                        path.display()
-                    )
-                })?
-                .into(),
+            ImageSource::File(path) => {
+                crate::input::read_regular(path, crate::input::MAX_INPUT_BYTES)
+                    .map_err(|e| {
+                        format!(
+                            "cannot read {} ({e}). Fix: put the image next to the .gltf file.",
+                            path.display()
+                        )
+                    })?
+                    .into()
+            }
             ImageSource::Bytes(b) => (&b[..]).into(),
         };
         let img = image::load_from_memory(&bytes)

@@ -19,7 +19,9 @@ mod load;
 pub mod material;
 pub mod mesh;
 pub mod pose;
+mod ranges;
 mod source;
+mod validate;
 
 use std::sync::OnceLock;
 
@@ -34,6 +36,10 @@ pub use material::{AlphaMode, Material, MaterialTable, TextureRef, TextureTransf
 pub use mesh::{Influences, Mesh, MorphTarget, Primitive};
 pub use pose::Pose;
 pub use source::SUPPORTED_EXTENSIONS;
+
+/// The words that mark an error produced by catching a panic inside
+/// loading (see [`Scene::load`]); tests assert no input reaches it.
+pub const LAST_RESORT: &str = "could not be loaded: the glTF reader failed on it";
 
 /// How to load a file and which of its contents to use.
 #[derive(Debug, Clone, PartialEq)]
@@ -147,8 +153,14 @@ pub struct Scene {
 
 impl Scene {
     /// Loads `path` (.gltf or .glb) and selects scene, animation and camera.
+    ///
+    /// The document is validated before the `gltf` crate indexes into it
+    /// (`validate`), so a broken file is an error, not a panic. As a last
+    /// resort, a panic inside loading anyway becomes an error naming the
+    /// file whose message contains [`LAST_RESORT`], which the fuzz tests
+    /// look for: every input that reaches it is a validation gap.
     pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
-        load::load(path, opts)
+        catching_panics(path, || load::load(path, opts))
     }
 
     /// The path as given, as it appears in messages.
@@ -312,5 +324,45 @@ impl Scene {
             Some(n) => format!("node {node} \"{n}\""),
             None => format!("node {node}"),
         }
+    }
+}
+
+/// Runs `load`, turning a panic inside it into an error naming `path` whose
+/// message contains [`LAST_RESORT`].
+fn catching_panics<T>(
+    path: &std::path::Path,
+    load: impl FnOnce() -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(load)).unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        Err(SceneError::Malformed {
+            file: path.display().to_string(),
+            detail: format!(
+                "{LAST_RESORT} ({what}). The file is malformed in a way soupray's checks missed. \
+                 Fix: run it through the Khronos glTF-Validator and re-export it; please report the file."
+            ),
+        })
+    })
+}
+
+#[cfg(test)]
+mod last_resort_tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_inside_loading_is_an_error_naming_the_file() {
+        let path = std::path::Path::new("dir/broken.glb");
+        let e = catching_panics::<()>(path, || panic!("index out of bounds")).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.starts_with("dir/broken.glb: "), "{msg}");
+        assert!(
+            msg.contains(LAST_RESORT) && msg.contains("index out of bounds"),
+            "{msg}"
+        );
+        assert!(catching_panics(path, || Ok(7)).is_ok());
     }
 }

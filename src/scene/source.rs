@@ -35,6 +35,9 @@ pub struct Source {
     pub buffers: Vec<Vec<u8>>,
     /// Per buffer: why it holds fewer bytes than its `byteLength` says, if so.
     pub short_buffers: Vec<Option<String>>,
+    /// What was skipped or ignored while reading (unknown animation paths,
+    /// buffers longer than their `byteLength`).
+    pub warnings: Vec<String>,
 }
 
 struct Glb<'a> {
@@ -46,11 +49,14 @@ struct Glb<'a> {
 
 pub fn load(path: &Path) -> Result<Source> {
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|cause| SceneError::Io {
-        file: file.clone(),
-        what: "the glTF file".into(),
-        cause,
-    })?;
+    let bytes =
+        crate::input::read_regular(path, crate::input::MAX_INPUT_BYTES).map_err(|cause| {
+            SceneError::Io {
+                file: file.clone(),
+                what: "the glTF file".into(),
+                cause,
+            }
+        })?;
     let dir = path
         .parent()
         .map(Path::to_path_buf)
@@ -62,29 +68,36 @@ pub fn load(path: &Path) -> Result<Source> {
         None
     };
     let json_bytes = glb.as_ref().map_or(&bytes[..], |g| g.json);
-    let root: gltf::json::Root =
-        gltf::json::deserialize::from_slice(json_bytes).map_err(|e| SceneError::Malformed {
-            file: file.clone(),
-            detail: format!(
-                "is not valid glTF JSON: {e}{}. Fix: re-export the file; if it was copied or downloaded, \
-                 check that the copy is complete.",
-                glb.as_ref()
-                    .and_then(|g| g.truncation.as_deref())
-                    .map(|t| format!(" ({t})"))
-                    .unwrap_or_default()
-            ),
-        })?;
-
-    let json: serde_json::Value = serde_json::from_slice(json_bytes).unwrap_or_default();
-    for extension in &root.extensions_required {
-        if !SUPPORTED_EXTENSIONS.contains(&extension.as_str()) {
-            return Err(SceneError::UnsupportedExtension {
-                file,
-                extension: extension.clone(),
-                supported: SUPPORTED_EXTENSIONS.join(", "),
-            });
+    let not_json = |e: &dyn std::fmt::Display| {
+        SceneError::Malformed {
+        file: file.clone(),
+        detail: format!(
+            "is not valid glTF JSON: {e}{}. Fix: re-export the file; if it was copied or downloaded, \
+             check that the copy is complete.",
+            glb.as_ref()
+                .and_then(|g| g.truncation.as_deref())
+                .map(|t| format!(" ({t})"))
+                .unwrap_or_default()
+        ),
+    }
+    };
+    let mut json: serde_json::Value =
+        serde_json::from_slice(json_bytes).map_err(|e| not_json(&e))?;
+    if let Some(required) = json.get("extensionsRequired").and_then(|r| r.as_array()) {
+        for extension in required {
+            let name = extension.as_str().unwrap_or("(not a string)");
+            if !SUPPORTED_EXTENSIONS.contains(&name) {
+                return Err(SceneError::UnsupportedExtension {
+                    file,
+                    extension: name.to_owned(),
+                    supported: SUPPORTED_EXTENSIONS.join(", "),
+                });
+            }
         }
     }
+    // Every index and range checked before the `gltf` crate sees them.
+    let mut warnings = super::validate::validate(&file, &mut json)?;
+    let root: gltf::json::Root = serde_json::from_value(json.clone()).map_err(|e| not_json(&e))?;
 
     let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
         file: file.clone(),
@@ -116,8 +129,27 @@ pub fn load(path: &Path) -> Result<Source> {
                     })
                 }
             },
-            gltf::buffer::Source::Uri(uri) => (read_uri(&file, &dir, buffer.index(), uri)?, None),
+            gltf::buffer::Source::Uri(uri) => (
+                read_uri(&file, &dir, buffer.index(), uri, buffer.length(), &mut warnings)?,
+                None,
+            ),
         };
+        let mut data = data;
+        // A GLB's BIN chunk may carry up to 3 bytes of padding.
+        let slack = if glb_note.is_some() || matches!(buffer.source(), gltf::buffer::Source::Bin) {
+            3
+        } else {
+            0
+        };
+        if data.len() > buffer.length() + slack {
+            warnings.push(format!(
+                "buffer {} holds {} bytes but its byteLength is {}; the bytes past byteLength are ignored",
+                buffer.index(),
+                data.len(),
+                buffer.length()
+            ));
+        }
+        data.truncate(buffer.length());
         let note = (data.len() < buffer.length()).then(|| {
             glb_note.unwrap_or_else(|| {
                 format!(
@@ -128,6 +160,9 @@ pub fn load(path: &Path) -> Result<Source> {
                 )
             })
         });
+        if let Some(n) = &note {
+            warnings.push(n.clone());
+        }
         buffers.push(data);
         short_buffers.push(note);
     }
@@ -139,6 +174,7 @@ pub fn load(path: &Path) -> Result<Source> {
         json,
         buffers,
         short_buffers,
+        warnings,
     })
 }
 
@@ -170,6 +206,12 @@ fn parse_glb<'a>(file: &str, bytes: &'a [u8]) -> Result<Glb<'a>> {
             bytes.len()
         )
     });
+    if bytes.len() > declared {
+        return Err(malformed(format!(
+            "is not a valid GLB: its header declares {declared} bytes but the file has {}",
+            bytes.len()
+        )));
+    }
     let end = declared.min(bytes.len());
 
     let json_len = u32_at(12)
@@ -211,7 +253,14 @@ fn parse_glb<'a>(file: &str, bytes: &'a [u8]) -> Result<Glb<'a>> {
     })
 }
 
-fn read_uri(file: &str, dir: &Path, buffer: usize, uri: &str) -> Result<Vec<u8>> {
+fn read_uri(
+    file: &str,
+    dir: &Path,
+    buffer: usize,
+    uri: &str,
+    byte_length: usize,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<u8>> {
     let err = |problem: String| SceneError::Buffer {
         file: file.to_owned(),
         buffer,
@@ -231,13 +280,24 @@ fn read_uri(file: &str, dir: &Path, buffer: usize, uri: &str) -> Result<Vec<u8>>
     }
     let relative = percent_decode(uri);
     let path = dir.join(&relative);
-    std::fs::read(&path).map_err(|e| {
-        err(format!(
-            "cannot be read as {} ({e}). Fix: put {relative} next to {file} (glTF resolves buffer URIs \
-             relative to the .gltf file), or use the .glb version of the asset.",
+    // Never more than the buffer declares: a huge or endless file cannot
+    // make soupray allocate more than byteLength.
+    let (bytes, size) = crate::input::read_regular_prefix(&path, byte_length as u64, true)
+        .map_err(|e| {
+            err(format!(
+                "cannot be read as {} ({e}). Fix: put {relative} next to {file} (glTF resolves buffer URIs \
+                 relative to the .gltf file), or use the .glb version of the asset.",
+                path.display()
+            ))
+        })?;
+    if size > byte_length as u64 {
+        warnings.push(format!(
+            "buffer {buffer}'s file {} holds {size} bytes but its byteLength is {byte_length}; \
+             the bytes past byteLength are ignored",
             path.display()
-        ))
-    })
+        ));
+    }
+    Ok(bytes)
 }
 
 pub(crate) fn resolve_uri(dir: &Path, uri: &str) -> PathBuf {

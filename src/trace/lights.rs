@@ -139,6 +139,10 @@ pub struct EnvMap {
     pub conditional: Vec<f32>,
 }
 
+/// The most texels an environment map may have (16 bytes each on the
+/// host): 8192x4096 is 32M.
+pub const MAX_ENV_TEXELS: u64 = 1 << 26;
+
 /// Why an environment map could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum EnvError {
@@ -154,6 +158,30 @@ impl EnvMap {
             path: path.display().to_string(),
             detail,
         };
+        // Only a regular file (a FIFO would block, a device never end),
+        // and no header may make soupray allocate more than MAX_ENV_TEXELS.
+        crate::input::open_regular(path).map_err(|e| {
+            err(format!(
+                "cannot be read ({e}). Fix: give an equirectangular .exr file, or use --env-color R,G,B."
+            ))
+        })?;
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+            err(format!(
+                "cannot be read as an OpenEXR image ({e}). Fix: give an equirectangular .exr file \
+                 (2:1, RGB), or use --env-color R,G,B."
+            ))
+        })?;
+        for header in &meta.headers {
+            let size = header.layer_size;
+            if size.width() as u64 * size.height() as u64 > MAX_ENV_TEXELS {
+                return Err(err(format!(
+                    "declares a {}x{} image, more than the {MAX_ENV_TEXELS} texels soupray reads. \
+                     Fix: downscale the map.",
+                    size.width(),
+                    size.height()
+                )));
+            }
+        }
         let image = read_first_rgba_layer_from_file(
             path,
             |resolution, _| {

@@ -122,6 +122,9 @@ pub enum TraceError {
     Unsupported(String),
     #[error(transparent)]
     Device(#[from] crate::device::DeviceError),
+    /// `--env` cannot be read (exit 4, an input error).
+    #[error(transparent)]
+    Env(#[from] lights::EnvError),
 }
 
 /// The values the `trace_layout_probe` kernel of `kernels/layout_probe.cl`

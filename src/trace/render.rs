@@ -504,7 +504,7 @@ impl<'d> PathTracer<'d> {
 
         let env_map = match &settings.environment {
             Environment::Map(path) => {
-                let map = EnvMap::load(path).map_err(|e| usage(e.to_string()))?;
+                let map = EnvMap::load(path)?;
                 let mut texels = device.buffer::<[f32; 4]>(map.texels.len())?;
                 device.write(&mut texels, &map.texels)?;
                 let mut marginal = device.buffer::<f32>(map.marginal.len())?;
