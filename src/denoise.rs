@@ -174,20 +174,22 @@ impl Api {
     }
 }
 
-/// The places `Denoiser::open` tries, in order (see the module docs).
-pub fn candidates() -> Vec<PathBuf> {
+/// The places `Denoiser::open` tries, in order (see the module docs),
+/// but the last (asking `python3`, which costs a process): with
+/// `SOUPRAY_OIDN` set, only its path, and `false` (try nothing else).
+fn candidates() -> (Vec<PathBuf>, bool) {
     if let Some(p) = std::env::var_os(ENV_VAR).filter(|v| !v.is_empty()) {
         let p = PathBuf::from(p);
-        return vec![if p.is_dir() { p.join(LIBRARY_NAME) } else { p }];
+        return (
+            vec![if p.is_dir() { p.join(LIBRARY_NAME) } else { p }],
+            false,
+        );
     }
     let mut v = vec![PathBuf::from(LIBRARY_NAME)];
     if let Some(dir) = setup_dir() {
         v.push(dir.join("pyoidn/oidn/lib").join(LIBRARY_NAME));
     }
-    if let Some(dir) = python_pyoidn_dir() {
-        v.push(dir.join("oidn/lib").join(LIBRARY_NAME));
-    }
-    v
+    (v, true)
 }
 
 /// Where `scripts/setup.sh` installs the `pyoidn` wheel:
@@ -330,7 +332,14 @@ impl Denoiser {
     /// default device.
     pub fn open(quality: Quality) -> Result<Denoiser, DenoiseError> {
         let mut tried = Vec::new();
-        for path in candidates() {
+        let (first, more) = candidates();
+        let python = std::iter::once_with(|| {
+            more.then(python_pyoidn_dir)
+                .flatten()
+                .map(|dir| dir.join("oidn/lib").join(LIBRARY_NAME))
+        })
+        .flatten();
+        for path in first.into_iter().chain(python) {
             let explicit = path.components().count() > 1;
             if explicit && !path.exists() {
                 tried.push(format!("{} (no such file)", path.display()));
