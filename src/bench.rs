@@ -9,7 +9,10 @@
 //! which triangle a ray hits (ties are broken by triangle index), so at a
 //! given spp their images are identical and their points differ in time
 //! alone; spp moves along the error axis, and the sampler (Sobol or
-//! independent random numbers) moves the whole spp curve. The reference is
+//! independent random numbers) moves the whole spp curve, as does
+//! `--denoise` (the `denoise` sweep: 1, 4, 16, 64… spp denoised with Open
+//! Image Denoise at quality high, its time in the frame time; run where
+//! OIDN is installed, skipped with a note elsewhere). The reference is
 //! rendered with another seed, so its samples are not the test renders'
 //! own. The Pareto front of error against
 //! frame time is what the defaults are chosen from.
@@ -20,6 +23,7 @@
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{self, BuildParams, Bvh};
 use crate::compare::{self, ImageError};
+use crate::denoise::Denoiser;
 use crate::device::Device;
 use crate::film::{Aovs, Image};
 use crate::report::median;
@@ -65,6 +69,10 @@ pub struct BenchArgs {
     /// Timed renders per point (the median is kept).
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub repeat: u32,
+    /// Leave out the `--denoise` sweep (it runs where Open Image Denoise
+    /// is installed).
+    #[arg(long)]
+    pub no_denoise: bool,
 }
 
 /// One measured point.
@@ -72,8 +80,9 @@ pub struct BenchArgs {
 pub struct Point {
     pub scene: String,
     pub frame: i64,
-    /// `bins` | `leaf` | `traversal` | `spp` | `sampler` | `default`
-    /// (`sampler`: the spp sweep with `--sampler random`).
+    /// `bins` | `leaf` | `traversal` | `spp` | `sampler` | `denoise` |
+    /// `default` (`sampler`: the spp sweep with `--sampler random`;
+    /// `denoise`: spp with `--denoise`).
     pub sweep: &'static str,
     /// `device` or `cpu-sweep`.
     pub builder: &'static str,
@@ -101,10 +110,13 @@ struct Config {
     traversal: Traversal,
     sampler: Sampler,
     spp: u32,
+    /// Denoised with OIDN after tracing.
+    denoise: bool,
 }
 
-/// The sweep: each knob varied alone around the defaults.
-fn configs(max_spp: u32) -> Vec<Config> {
+/// The sweep: each knob varied alone around the defaults; `denoise` adds
+/// the denoised spp sweep (1, 4, 16, … up to `max_spp`).
+fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
     let base = Config {
         sweep: "default",
         sweep_builder: false,
@@ -112,6 +124,7 @@ fn configs(max_spp: u32) -> Vec<Config> {
         traversal: Traversal::Wide,
         sampler: Sampler::Sobol,
         spp: 16,
+        denoise: false,
     };
     let mut out = vec![base];
     for bins in [4, 8, 32] {
@@ -163,6 +176,16 @@ fn configs(max_spp: u32) -> Vec<Config> {
         });
         spp *= 2;
     }
+    let mut spp = 1;
+    while denoise && spp <= max_spp {
+        out.push(Config {
+            sweep: "denoise",
+            spp,
+            denoise: true,
+            ..base
+        });
+        spp *= 4;
+    }
     out
 }
 
@@ -183,7 +206,12 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
         adaptive: None,
         time_limit: None,
         environment: Environment::Default,
-        aovs: Aovs::default(),
+        // The denoiser's auxiliary images.
+        aovs: Aovs {
+            normal: c.denoise,
+            albedo: c.denoise,
+            ..Aovs::default()
+        },
     }
 }
 
@@ -231,7 +259,12 @@ fn build_tree(
     })
 }
 
-fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result<Vec<Point>> {
+fn bench_scene(
+    args: &BenchArgs,
+    device: &Device,
+    denoiser: Option<&Denoiser>,
+    path: &Path,
+) -> anyhow::Result<Vec<Point>> {
     let tmp = std::env::temp_dir().join(format!("soupray-bench-{}", std::process::id()));
     let is_ply = path
         .extension()
@@ -242,7 +275,7 @@ fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result
     } else {
         path.to_path_buf()
     };
-    let result = bench_gltf(args, device, &gltf, path);
+    let result = bench_gltf(args, device, denoiser, &gltf, path);
     if is_ply {
         let _ = std::fs::remove_dir_all(&tmp);
     }
@@ -252,6 +285,7 @@ fn bench_scene(args: &BenchArgs, device: &Device, path: &Path) -> anyhow::Result
 fn bench_gltf(
     args: &BenchArgs,
     device: &Device,
+    denoiser: Option<&Denoiser>,
     path: &Path,
     named: &Path,
 ) -> anyhow::Result<Vec<Point>> {
@@ -283,7 +317,20 @@ fn bench_gltf(
         let mut last = None;
         for _ in 0..args.repeat.max(1) {
             let t = Instant::now();
-            let out = tracer.render(&input, &mut |_| {})?;
+            let mut out = tracer.render(&input, &mut |_| {})?;
+            if let (Some(d), Some(albedo), Some(normal)) = (
+                denoiser.filter(|_| s.aovs.albedo),
+                &out.image.albedo,
+                &out.image.normal,
+            ) {
+                let img = &out.image;
+                let color: Vec<[f32; 3]> = img.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect();
+                let (mut rgb, _) = d.denoise(img.width, img.height, &color, albedo, normal)?;
+                crate::denoise::keep_uncovered(&mut rgb, &img.rgba);
+                for (p, c) in out.image.rgba.iter_mut().zip(rgb) {
+                    p[..3].copy_from_slice(&c);
+                }
+            }
             walls.push(t.elapsed().as_secs_f64() * 1e3);
             traces.push(out.trace_ms);
             last = Some(out);
@@ -292,14 +339,14 @@ fn bench_gltf(
         Ok((out.image, median(walls), median(traces), out.rays))
     };
     eprintln!("bench {name}: reference at {} spp", args.reference_spp);
-    let default_tree = build_tree(device, &soup, &host_soup, &configs(1)[0])?;
+    let default_tree = build_tree(device, &soup, &host_soup, &configs(1, false)[0])?;
     let reference = {
         let mut tracer = PathTracer::new(
             device,
             &scene,
             &RenderSettings {
                 seed: REFERENCE_SEED,
-                ..settings(args, args.reference_spp, &configs(1)[0])
+                ..settings(args, args.reference_spp, &configs(1, false)[0])
             },
         )?;
         let input = FrameInput {
@@ -313,7 +360,7 @@ fn bench_gltf(
         tracer.render(&input, &mut |_| {})?.image
     };
     let mut points = Vec::new();
-    for c in configs(args.max_spp) {
+    for c in configs(args.max_spp, denoiser.is_some()) {
         eprintln!(
             "bench {name}: {} bins={} leaf={} traversal={:?} sampler={} spp={}",
             c.sweep,
@@ -511,7 +558,7 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
             .map_err(plot_err)?;
         chart
             .configure_mesh()
-            .x_desc("frame ms (evaluate + build + trace)")
+            .x_desc("frame ms (evaluate + build + trace, + denoise)")
             .y_desc("mean FLIP against the reference")
             .x_label_formatter(&|x| format_axis(*x))
             .y_label_formatter(&|y| format!("{y:.4}"))
@@ -525,6 +572,7 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
             ("leaf", RGBColor(0, 140, 0)),
             ("traversal", MAGENTA),
             ("sampler", RGBColor(230, 140, 0)),
+            ("denoise", RGBColor(0, 170, 170)),
             ("default", BLACK),
         ];
         for (sweep, colour) in colours {
@@ -591,9 +639,20 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     };
     crate::frames::check_output_dir(&args.out)?;
     let device = Device::open(args.device.as_deref())?;
+    let denoiser = if args.no_denoise {
+        None
+    } else {
+        match Denoiser::open(crate::denoise::Quality::High) {
+            Ok(d) => Some(d),
+            Err(e) => {
+                eprintln!("bench: no --denoise sweep: {e}");
+                None
+            }
+        }
+    };
     let mut points = Vec::new();
     for path in &scenes {
-        points.extend(bench_scene(args, &device, path)?);
+        points.extend(bench_scene(args, &device, denoiser.as_ref(), path)?);
     }
     crate::output::write_atomic(&args.out.join("bench.csv"), |out| {
         use std::io::Write as _;
@@ -618,4 +677,23 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         markdown(&points)
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_denoise_sweep_runs_only_with_a_denoiser() {
+        let with = configs(64, true);
+        let denoised: Vec<u32> = with.iter().filter(|c| c.denoise).map(|c| c.spp).collect();
+        assert_eq!(denoised, [1, 4, 16, 64]);
+        assert!(with.iter().all(|c| c.denoise == (c.sweep == "denoise")));
+        assert!(!configs(64, false).iter().any(|c| c.denoise));
+        assert_eq!(
+            configs(64, false).len() + 4,
+            with.len(),
+            "the other sweeps are unchanged"
+        );
+    }
 }

@@ -14,6 +14,7 @@ pub mod bvh;
 pub mod cli_bvh;
 pub mod cli_scene;
 pub mod compare;
+pub mod denoise;
 pub mod device;
 pub mod film;
 pub mod frames;
@@ -38,7 +39,9 @@ Exit codes:
   0    success: everything requested was done
   1    any other failure
   2    usage error (bad flags or values)
-  3    OpenCL device set-up failed (no platform, no matching device, kernel build)
+  3    set-up failed: the OpenCL device (no platform, no matching device, kernel
+       build), or for --denoise the Open Image Denoise library (not installed,
+       not 2.x, no usable device)
   4    the input could not be read (missing, malformed or unsupported scene or mesh)
   5    a frame failed (with --keep-going: at least one frame failed)
   6    the output directory cannot be created or written

@@ -75,6 +75,9 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.is::<soupray::device::DeviceError>() {
             return 3;
         }
+        if let Some(d) = cause.downcast_ref::<soupray::denoise::DenoiseError>() {
+            return if d.is_setup() { 3 } else { 5 };
+        }
         if let Some(b) = cause.downcast_ref::<soupray::bvh::binned::BuildError>() {
             return match b {
                 soupray::bvh::binned::BuildError::Device(_) => 3,

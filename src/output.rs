@@ -21,6 +21,14 @@
 //! f16 except `Z`, which stays f32: depths beyond 65504 (including the
 //! 1e10 background) do not fit a half float, as in Blender.
 //!
+//! **Denoised frames** (`--denoise`): `R`, `G`, `B` hold the denoised
+//! beauty, so every viewer and compositor shows the final image by default,
+//! and the raw (noisy) beauty is kept as the layer `noisy.R`, `noisy.G`,
+//! `noisy.B` (`NOISY_LAYER`); `A` is the coverage of both. oiiotool reads
+//! the layer with `--ch noisy.R,noisy.G,noisy.B` (or `--ch
+//! R=noisy.R,G=noisy.G,B=noisy.B,A`); Blender's Image node shows it as the
+//! pass `noisy` beside the combined image, as it does `albedo` and `N`.
+//!
 //! **EXR metadata.** `software` = `soupray <version>` (a standard
 //! attribute), and custom attributes `frame` (int; double for frames
 //! outside ±2^31), `time` (double, seconds), `spp` (int) and `seed`
@@ -195,11 +203,27 @@ pub fn write_atomic(
     Ok(())
 }
 
+/// The EXR layer that keeps the raw beauty of a denoised frame.
+pub const NOISY_LAYER: &str = "noisy";
+
 /// Encodes `image` as the EXR described in the module documentation and
 /// writes it atomically to `path`.
 pub fn write_exr(
     path: &Path,
     image: &Image,
+    meta: &FrameMetadata,
+    half: bool,
+) -> Result<(), OutputError> {
+    write_exr_denoised(path, image, None, meta, half)
+}
+
+/// `write_exr`, with the denoised beauty `denoised` (one RGB per pixel)
+/// when given: it goes to `R`, `G`, `B`, and `image`'s raw RGB to the
+/// `noisy` layer (see the module documentation).
+pub fn write_exr_denoised(
+    path: &Path,
+    image: &Image,
+    denoised: Option<&[[f32; 3]]>,
     meta: &FrameMetadata,
     half: bool,
 ) -> Result<(), OutputError> {
@@ -218,10 +242,27 @@ pub fn write_exr(
             FlatSamples::F32(v)
         }
     };
-    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(11);
+    if denoised.is_some_and(|d| d.len() != n) {
+        return Err(OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "EXR",
+            message: format!("denoised image holds a different number of pixels than {n}"),
+        });
+    }
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(14);
     for (c, name) in ["R", "G", "B", "A"].into_iter().enumerate() {
-        let v = image.rgba.iter().map(|p| p[c]).collect();
+        let v = match denoised {
+            Some(d) if c < 3 => d.iter().map(|p| p[c]).collect(),
+            _ => image.rgba.iter().map(|p| p[c]).collect(),
+        };
         channels.push(AnyChannel::new(name, samples(v, half)));
+    }
+    if denoised.is_some() {
+        for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
+            let v = image.rgba.iter().map(|p| p[c]).collect();
+            let name = format!("{NOISY_LAYER}.{name}");
+            channels.push(AnyChannel::new(name.as_str(), samples(v, half)));
+        }
     }
     if let Some(z) = &image.depth {
         channels.push(AnyChannel::new("Z", samples(z.clone(), false)));
@@ -388,7 +429,7 @@ pub const LOG_SCHEMA: u32 = 1;
 ///   "schema": 1, "soupray": "0.1.0",
 ///   "frame": 12, "time": 0.5, "scene": "walk.glb", "device": "pthread-cpu (PoCL)",
 ///   "triangles": 88000,
-///   "timings_ms": { "startup": 0.0, "evaluate": 3.1, "build": 9.8, "trace": 1520.0,
+///   "timings_ms": { "startup": 0.0, "evaluate": 3.1, "build": 9.8, "trace": 1520.0, "denoise": 0.0,
 ///                   "write": 41.0, "total": 1574.2 },
 ///   "build": { "builder": "device", "bins": 16, "leaf_size": 4, "nodes": 45000,
 ///              "leaves": 22500, "max_depth": 24, "sah_cost": 61.2,
@@ -398,6 +439,10 @@ pub const LOG_SCHEMA: u32 = 1;
 ///   "camera": { "projection": "perspective", "position": [0, 1, 5],
 ///               "forward": [0, 0, -1], "up": [0, 1, 0], "yfov_deg": 39.6 },
 ///   "output": { "exr": "out/walk/walk.0012.exr", "png": null, "half": false, "aovs": [] },
+///   "denoise": { "library": "/root/.local/share/soupray/pyoidn/pyoidn/oidn/lib/libOpenImageDenoise.so.2",
+///                "version": "2.5.1", "device": "cpu", "filter": "RT", "hdr": true,
+///                "clean_aux": true, "aux": ["albedo", "normal"], "quality": "high",
+///                "raw_layer": "noisy", "time_ms": 950.0 },
 ///   "warnings": []
 /// }
 /// ```
@@ -431,6 +476,11 @@ pub struct FrameLog {
     pub noise: crate::film::NoiseStats,
     pub camera: CameraLog,
     pub output: OutputLog,
+    /// With `--denoise` only (absent otherwise): the Open Image Denoise
+    /// library, its version, the OIDN device it ran on (`cpu`, `cuda`, …),
+    /// and the filter settings; `denoise::DenoiseLog` documents the fields.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<crate::denoise::DenoiseLog>,
     /// Anything the user should know about this frame (clamped or dropped
     /// samples, a stepped range stopping short, fallbacks taken).
     pub warnings: Vec<String>,
@@ -459,6 +509,8 @@ pub struct Timings {
     pub build: f64,
     /// Tracing and film accumulation.
     pub trace: f64,
+    /// Denoising with OIDN (`--denoise`; 0 without).
+    pub denoise: f64,
     /// Resolving the film and writing the EXR and preview.
     pub write: f64,
     pub total: f64,

@@ -121,6 +121,24 @@ pub struct RenderArgs {
     /// Also write a tonemapped sRGB PNG preview beside each EXR.
     #[arg(long, help_heading = "Output")]
     pub png: bool,
+    /// Denoise each frame with Intel Open Image Denoise 2.x (its RT filter,
+    /// HDR, with prefiltered albedo and normal from the same samples). The
+    /// denoised image goes to R, G, B; the raw one is kept as the layer
+    /// noisy.R, noisy.G, noisy.B. OIDN is loaded at run time: from
+    /// SOUPRAY_OIDN (the library's path), the library path, or where
+    /// scripts/setup.sh installs it; without it, exit code 3.
+    #[arg(long, help_heading = "Output")]
+    pub denoise: bool,
+    /// OIDN's filter quality with --denoise: `high` (the default, for final
+    /// frames), `balanced` or `fast` (previews: about 2-3x faster on CPUs).
+    #[arg(
+        long,
+        default_value = "high",
+        value_name = "Q",
+        requires = "denoise",
+        help_heading = "Output"
+    )]
+    pub denoise_quality: String,
 
     /// Image width in pixels. Default 640.
     #[arg(long, value_name = "PX", help_heading = "Image")]
@@ -278,6 +296,9 @@ struct Job {
     settings: RenderSettings,
     params: BuildParams,
     aov_names: Vec<String>,
+    /// The AOVs written to the EXR (`settings.aovs` adds albedo and normal
+    /// for `--denoise`).
+    output_aovs: Aovs,
 }
 
 fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
@@ -391,7 +412,13 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
         }
         (None, None) => Environment::Default,
     };
-    let aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
+    let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
+    // The denoiser's auxiliary images come from the film's AOVs.
+    let aovs = Aovs {
+        normal: output_aovs.normal || args.denoise,
+        albedo: output_aovs.albedo || args.denoise,
+        ..output_aovs
+    };
     let (width, height) = image_size(args, scene)?;
     let frame_args = FrameArgs {
         frames: args.frames.clone(),
@@ -431,7 +458,8 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             aovs,
         },
         params,
-        aov_names: aovs.names().iter().map(|s| s.to_string()).collect(),
+        aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
+        output_aovs,
     })
 }
 
@@ -594,6 +622,8 @@ struct Pipeline<'d> {
     soup: DeviceSoup<'d>,
     builder: DeviceBuilder<'d>,
     tracer: PathTracer<'d>,
+    /// `--denoise`: OIDN, loaded before the first frame.
+    denoiser: Option<crate::denoise::Denoiser>,
 }
 
 /// What one frame's stages produced, handed to the writer.
@@ -601,6 +631,8 @@ struct FrameResult {
     frame: i64,
     paths: FramePaths,
     image: Image,
+    /// The denoised beauty (`--denoise`); `image` keeps the raw one.
+    denoised: Option<Vec<[f32; 3]>>,
     log: FrameLog,
     started: Instant,
 }
@@ -726,6 +758,23 @@ fn render_frame(
     let trace_ms = ms(t);
     signals.check()?;
 
+    let mut image = traced.image;
+    let mut denoise_log = None;
+    let mut denoised = None;
+    if let Some(denoiser) = &pipe.denoiser {
+        let (d, log) = denoise_image(denoiser, &image).map_err(fail("denoise"))?;
+        denoised = Some(d);
+        denoise_log = Some(log);
+        signals.check()?;
+    }
+    // AOVs the film kept only for the denoiser are not written.
+    if !job.output_aovs.normal {
+        image.normal = None;
+    }
+    if !job.output_aovs.albedo {
+        image.albedo = None;
+    }
+
     let shape = tree.shape();
     let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
     let mut log = FrameLog::new();
@@ -737,6 +786,8 @@ fn render_frame(
     log.timings_ms.evaluate = evaluate_ms;
     log.timings_ms.build = build_ms;
     log.timings_ms.trace = trace_ms;
+    log.timings_ms.denoise = denoise_log.as_ref().map_or(0.0, |d| d.time_ms);
+    log.denoise = denoise_log;
     log.build = output::BuildLog {
         builder: "device".into(),
         bins: job.params.bins,
@@ -780,10 +831,26 @@ fn render_frame(
     Ok(FrameResult {
         frame,
         paths,
-        image: traced.image,
+        image,
+        denoised,
         log,
         started,
     })
+}
+
+/// Runs OIDN on a resolved frame (which must carry albedo and normal);
+/// pixels no sample hit keep their raw value (`denoise::keep_uncovered`).
+fn denoise_image(
+    denoiser: &crate::denoise::Denoiser,
+    image: &Image,
+) -> anyhow::Result<(Vec<[f32; 3]>, crate::denoise::DenoiseLog)> {
+    let (Some(albedo), Some(normal)) = (&image.albedo, &image.normal) else {
+        anyhow::bail!("the film kept no albedo and normal for the denoiser");
+    };
+    let color: Vec<[f32; 3]> = image.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect();
+    let (mut out, time_ms) = denoiser.denoise(image.width, image.height, &color, albedo, normal)?;
+    crate::denoise::keep_uncovered(&mut out, &image.rgba);
+    Ok((out, denoiser.log(time_ms)))
 }
 
 fn ms(t: Instant) -> f64 {
@@ -818,17 +885,34 @@ fn spawn_writer(
                 spp,
                 seed,
             };
-            let written =
-                output::write_exr(&done.paths.exr, &done.image, &meta, half).and_then(|()| {
-                    if png {
-                        output::write_png_preview(&done.paths.png, &done.image, 0.0)?;
-                        done.log.output.png = Some(done.paths.png.display().to_string());
-                    }
-                    done.log.output.half = half;
-                    done.log.timings_ms.write = ms(t);
-                    done.log.timings_ms.total = ms(done.started);
-                    output::write_log(&done.paths.log, &done.log)
-                });
+            let written = output::write_exr_denoised(
+                &done.paths.exr,
+                &done.image,
+                done.denoised.as_deref(),
+                &meta,
+                half,
+            )
+            .and_then(|()| {
+                if png {
+                    // The preview shows the final (denoised) beauty.
+                    let preview = match &done.denoised {
+                        Some(d) => {
+                            let mut p = done.image.clone();
+                            for (px, rgb) in p.rgba.iter_mut().zip(d) {
+                                px[..3].copy_from_slice(rgb);
+                            }
+                            std::borrow::Cow::Owned(p)
+                        }
+                        None => std::borrow::Cow::Borrowed(&done.image),
+                    };
+                    output::write_png_preview(&done.paths.png, &preview, 0.0)?;
+                    done.log.output.png = Some(done.paths.png.display().to_string());
+                }
+                done.log.output.half = half;
+                done.log.timings_ms.write = ms(t);
+                done.log.timings_ms.total = ms(done.started);
+                output::write_log(&done.paths.log, &done.log)
+            });
             // The run's start-up, on the line of the frame whose log has it.
             let startup = match done.log.timings_ms.startup {
                 ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
@@ -926,6 +1010,14 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     // driver's cache when it has them) and the warm-up pass before the
     // first frame; the first rendered frame's log reports it apart.
     let startup = Instant::now();
+    // And on a missing denoiser (exit code 3, with how to install it).
+    let denoiser = if args.denoise {
+        Some(crate::denoise::Denoiser::open(
+            args.denoise_quality.parse()?,
+        )?)
+    } else {
+        None
+    };
     let device = Device::open(args.device.as_deref())?;
     let progress = Progress::new(job.frames.len(), job.settings.spp, args);
     let stale = remove_stale_temporaries(&job);
@@ -947,12 +1039,21 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         job.settings.spp,
         device.info.name
     ));
+    if let Some(d) = &denoiser {
+        progress.line(&format!(
+            "denoising with Open Image Denoise {} on its {} device ({})",
+            d.version(),
+            d.device_type(),
+            d.library()
+        ));
+    }
     let mut pipe = Pipeline {
         device: &device,
         scene: &scene,
         soup: DeviceSoup::new(&device, &scene)?,
         builder: DeviceBuilder::new(&device, job.params)?,
         tracer: PathTracer::new(&device, &scene, &job.settings)?,
+        denoiser,
     };
     signals.deferred();
     signals.check()?;
