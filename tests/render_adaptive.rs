@@ -10,56 +10,10 @@ mod render_support;
 use glam::Vec3;
 use render_support::*;
 use soupray::film::{Aovs, Image};
-use soupray::scene::LightKind;
 use soupray::soup::Soup;
 use soupray::trace::render::{
     check_counts, render_soup, Adaptive, Environment, PathTracer, RenderSettings, Schedule,
 };
-
-/// A ground, a glossy sphere, a small emitter and a point light under a
-/// sky: smooth regions, edges, shadows and a caustic-ish highlight.
-fn scene() -> (
-    Soup,
-    soupray::scene::MaterialTable,
-    Vec<soupray::scene::FrameLight>,
-) {
-    let mut s = Soup::default();
-    quad(&mut s, Vec3::ZERO, Vec3::X * 5.0, Vec3::Z * 5.0, Vec3::Y, 0);
-    sphere(&mut s, Vec3::new(0.0, 0.6, 0.0), 0.6, 12, 24, 1);
-    quad(
-        &mut s,
-        Vec3::new(1.0, 2.0, 0.5),
-        Vec3::X * 0.3,
-        Vec3::Z * 0.3,
-        Vec3::NEG_Y,
-        2,
-    );
-    let mut emitter = material([0.0, 0.0, 0.0, 1.0], 0.0, 1.0);
-    emitter.emissive_factor = [1.0, 0.9, 0.8];
-    emitter.emissive_strength = 5.0;
-    let t = table(vec![
-        material([0.7, 0.7, 0.7, 1.0], 0.0, 0.8),
-        material([0.9, 0.6, 0.3, 1.0], 1.0, 0.35),
-        emitter,
-    ]);
-    let lights = vec![light(
-        LightKind::Point,
-        Vec3::new(-1.5, 2.5, 1.5),
-        Vec3::NEG_Y,
-        [1.0; 3],
-        8.0,
-    )];
-    (s, t, lights)
-}
-
-fn camera() -> soupray::scene::FrameCamera {
-    perspective(
-        Vec3::new(0.5, 1.5, 3.5),
-        Vec3::new(0.0, 0.5, 0.0),
-        Vec3::Y,
-        45.0,
-    )
-}
 
 fn base(size: u32, spp: u32) -> RenderSettings {
     let mut st = settings(size, spp);
@@ -83,10 +37,10 @@ fn adaptive(size: u32, spp: u32, threshold: f32) -> RenderSettings {
 
 fn render(st: &RenderSettings, seed: u64) -> soupray::trace::render::RenderOutput {
     let d = common::device();
-    let (s, t, lights) = scene();
+    let (s, t, lights) = busy_scene();
     let mut st = st.clone();
     st.seed = seed;
-    render_soup(&d, &s, &t, &camera(), &lights, &st, 0).unwrap()
+    render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 0).unwrap()
 }
 
 fn rel_mse(a: &Image, b: &Image) -> f64 {
@@ -100,17 +54,17 @@ fn image_mean(img: &Image) -> f64 {
 #[test]
 fn adaptive_frames_are_identical_whatever_the_schedule() {
     let d = common::device();
-    let (s, t, lights) = scene();
+    let (s, t, lights) = busy_scene();
     let st = adaptive(29, 96, 0.05);
     let mut a = PathTracer::with_materials(&d, &t, &st).unwrap();
-    let one = a.render_soup(&s, &camera(), &lights, 0).unwrap();
+    let one = a.render_soup(&s, &busy_camera(), &lights, 0).unwrap();
     let mut b = PathTracer::with_materials(&d, &t, &st).unwrap();
     b.set_schedule(Schedule {
         samples_per_pass: 3,
         tile: Some((7, 5)),
         local_size: 13,
     });
-    let two = b.render_soup(&s, &camera(), &lights, 0).unwrap();
+    let two = b.render_soup(&s, &busy_camera(), &lights, 0).unwrap();
     assert_eq!(bits(&one.image), bits(&two.image));
     assert_eq!(one.image.sample_count, two.image.sample_count);
     assert_eq!(one.noise, two.noise);

@@ -193,3 +193,48 @@ pub fn mean_se(v: &[f64]) -> (f64, f64) {
 pub fn grey(p: [f32; 4]) -> f64 {
     (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0
 }
+
+/// A sphere on a plane, lit by a point light, an emissive quad and a sky:
+/// every light path of the integrator is used.
+pub fn busy_scene() -> (
+    Soup,
+    soupray::scene::MaterialTable,
+    Vec<soupray::scene::FrameLight>,
+) {
+    let mut s = Soup::default();
+    quad(&mut s, Vec3::ZERO, Vec3::X * 5.0, Vec3::Z * 5.0, Vec3::Y, 0);
+    sphere(&mut s, Vec3::new(0.0, 0.6, 0.0), 0.6, 12, 24, 1);
+    quad(
+        &mut s,
+        Vec3::new(1.0, 2.0, 0.5),
+        Vec3::X * 0.3,
+        Vec3::Z * 0.3,
+        Vec3::NEG_Y,
+        2,
+    );
+    let mut emitter = material([0.0, 0.0, 0.0, 1.0], 0.0, 1.0);
+    emitter.emissive_factor = [1.0, 0.9, 0.8];
+    emitter.emissive_strength = 5.0;
+    let t = table(vec![
+        material([0.7, 0.7, 0.7, 1.0], 0.0, 0.8),
+        material([0.9, 0.6, 0.3, 1.0], 1.0, 0.35),
+        emitter,
+    ]);
+    let lights = vec![light(
+        LightKind::Point,
+        Vec3::new(-1.5, 2.5, 1.5),
+        Vec3::NEG_Y,
+        [1.0; 3],
+        8.0,
+    )];
+    (s, t, lights)
+}
+
+pub fn busy_camera() -> soupray::scene::FrameCamera {
+    perspective(
+        Vec3::new(0.5, 1.5, 3.5),
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        45.0,
+    )
+}
