@@ -235,11 +235,11 @@ fn mutate(doc: &mut Value, rng: &mut Rng) -> String {
     let choice = choices[rng.below(choices.len())];
     let n = old.as_u64().unwrap_or(0);
     let new: Option<Value> = match choice {
-        "2^32+k" => Some((4_294_967_296u64 + n).into()),
+        "2^32+k" => Some(4_294_967_296u64.saturating_add(n).into()),
         "2^32" => Some(4_294_967_295u64.into()),
-        "+1" => Some((n + 1).into()),
-        "+2" => Some((n + 2).into()),
-        "+3" => Some((n + 3).into()),
+        "+1" => Some(n.saturating_add(1).into()),
+        "+2" => Some(n.saturating_add(2).into()),
+        "+3" => Some(n.saturating_add(3).into()),
         "-1" => Some((-1).into()),
         "0" => Some(0.into()),
         "huge" => Some(u64::MAX.into()),
