@@ -335,15 +335,16 @@ fn corner_form_factor(x: f64, y: f64) -> f64 {
     (x / a * (y / a).atan() + y / b * (x / b).atan()) / (2.0 * PI)
 }
 
-#[test]
-fn emissive_rectangle_lights_a_plane_by_its_form_factor() {
-    let d = common::device();
-    let (size, half) = (16u32, 1.5f32);
-    let (h, a, b) = (1.0f32, 0.6f32, 0.4f32);
-    let le = 4.0f32;
+/// The emissive rectangle of the form-factor tests: height, half width
+/// along X, half depth along Z.
+const RECT: (f32, f32, f32) = (1.0, 0.6, 0.4);
+
+/// The ground plane (material 0, 0.8 grey) under the rectangle `RECT`
+/// facing down with radiance `le` (material 1). The camera above sees
+/// through its (culled) back.
+fn emitter_over_plane(le: f32) -> (Soup, soupray::scene::MaterialTable) {
+    let (h, a, b) = RECT;
     let mut s = ground_plane();
-    // The emitter faces down; the camera above sees through its (culled)
-    // back.
     quad(
         &mut s,
         Vec3::new(0.0, h, 0.0),
@@ -356,6 +357,24 @@ fn emissive_rectangle_lights_a_plane_by_its_form_factor() {
     emitter.emissive_factor = [1.0, 1.0, 1.0];
     emitter.emissive_strength = le;
     let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0), emitter]);
+    (s, t)
+}
+
+/// The form factor from ground point `p` to the rectangle `RECT`.
+fn rectangle_form_factor(p: Vec3) -> f64 {
+    let (h, a, b) = RECT;
+    let (x1, x2) = ((-a - p.x) as f64 / h as f64, (a - p.x) as f64 / h as f64);
+    let (z1, z2) = ((-b - p.z) as f64 / h as f64, (b - p.z) as f64 / h as f64);
+    corner_form_factor(x2, z2) - corner_form_factor(x1, z2) - corner_form_factor(x2, z1)
+        + corner_form_factor(x1, z1)
+}
+
+#[test]
+fn emissive_rectangle_lights_a_plane_by_its_form_factor() {
+    let d = common::device();
+    let (size, half) = (16u32, 1.5f32);
+    let le = 4.0f32;
+    let (s, t) = emitter_over_plane(le);
     let mut st = settings(size, 256);
     st.clay = true; // pure Lambert (emission is kept)
     st.max_depth = 1;
@@ -370,12 +389,7 @@ fn emissive_rectangle_lights_a_plane_by_its_form_factor() {
     for y in 0..size {
         for x in 0..size {
             let p = top_down_point(half, size, x, y);
-            let (x1, x2) = ((-a - p.x) as f64 / h as f64, (a - p.x) as f64 / h as f64);
-            let (z1, z2) = ((-b - p.z) as f64 / h as f64, (b - p.z) as f64 / h as f64);
-            let f = corner_form_factor(x2, z2)
-                - corner_form_factor(x1, z2)
-                - corner_form_factor(x2, z1)
-                + corner_form_factor(x1, z1);
+            let f = rectangle_form_factor(p);
             let want = 0.8 / PI * (PI * le as f64 * f);
             let got = out.image.rgba[(y * size + x) as usize][0] as f64;
             // 256 samples of NEE + MIS: about 3 % noise per pixel; no
@@ -594,21 +608,8 @@ fn emitter_sky_and_point_light_add_up_under_power_selection() {
     // light's albedo / pi * I cos / d^2, F the rectangle's form factor.
     let d = common::device();
     let (size, half) = (16u32, 1.5f32);
-    let (h, a, b) = (1.0f32, 0.6f32, 0.4f32);
     let (le, sky) = (4.0f32, 0.5f32);
-    let mut s = ground_plane();
-    quad(
-        &mut s,
-        Vec3::new(0.0, h, 0.0),
-        Vec3::X * a,
-        Vec3::Z * b,
-        Vec3::NEG_Y,
-        1,
-    );
-    let mut emitter = material([0.0, 0.0, 0.0, 1.0], 0.0, 1.0);
-    emitter.emissive_factor = [1.0, 1.0, 1.0];
-    emitter.emissive_strength = le;
-    let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0), emitter]);
+    let (s, t) = emitter_over_plane(le);
     // Off to the side, so that the rectangle shades no pixel in view.
     let lp = Vec3::new(3.0, 2.0, 0.0);
     let l = light(LightKind::Point, lp, Vec3::NEG_Y, [1.0; 3], 6.0);
@@ -621,12 +622,7 @@ fn emitter_sky_and_point_light_add_up_under_power_selection() {
     for y in 0..size {
         for x in 0..size {
             let p = top_down_point(half, size, x, y);
-            let (x1, x2) = ((-a - p.x) as f64 / h as f64, (a - p.x) as f64 / h as f64);
-            let (z1, z2) = ((-b - p.z) as f64 / h as f64, (b - p.z) as f64 / h as f64);
-            let f = corner_form_factor(x2, z2)
-                - corner_form_factor(x1, z2)
-                - corner_form_factor(x2, z1)
-                + corner_form_factor(x1, z1);
+            let f = rectangle_form_factor(p);
             let to = lp - p;
             let e_point = (6.0 * to.normalize().y / to.length_squared()) as f64;
             let want = 0.8 * (le as f64 * f + sky as f64 * (1.0 - f)) + 0.8 / PI * e_point;
