@@ -29,9 +29,12 @@ pub struct InputError {
     pub detail: String,
 }
 
-/// What a non-regular path is, in words, for messages.
-fn kind_of(ft: &std::fs::FileType) -> &'static str {
-    if ft.is_dir() {
+/// What a non-regular path is, in words, for messages (inputs here, and
+/// the targets `output` refuses to replace).
+pub(crate) fn kind_of(ft: &std::fs::FileType) -> &'static str {
+    if ft.is_symlink() {
+        "a symbolic link"
+    } else if ft.is_dir() {
         "a directory"
     } else if ft.is_fifo() {
         "a named pipe (FIFO)"

@@ -102,33 +102,18 @@ pub enum OutputError {
 /// FIFO, socket or directory). `write_atomic` calls it before creating the
 /// temporary and again just before the rename.
 pub fn check_target(path: &Path) -> Result<(), OutputError> {
-    use std::os::unix::fs::FileTypeExt;
     let meta = match std::fs::symlink_metadata(path) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
         Err(e) => return Err(io_err(path, "inspect")(e)),
     };
     let ft = meta.file_type();
-    let kind = if ft.is_file() {
+    if ft.is_file() {
         return Ok(());
-    } else if ft.is_symlink() {
-        "a symbolic link"
-    } else if ft.is_dir() {
-        "a directory"
-    } else if ft.is_fifo() {
-        "a named pipe (FIFO)"
-    } else if ft.is_char_device() {
-        "a character device"
-    } else if ft.is_block_device() {
-        "a block device"
-    } else if ft.is_socket() {
-        "a socket"
-    } else {
-        "not a regular file"
-    };
+    }
     Err(OutputError::NotRegular {
         path: path.to_path_buf(),
-        kind,
+        kind: crate::input::kind_of(&ft),
     })
 }
 
