@@ -67,7 +67,7 @@
 
 use glam::{Mat3, Quat, Vec3};
 use serde_json::json;
-use soupray::film::{Aovs, Image};
+use soupray::film::Image;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -424,18 +424,7 @@ struct Render {
 }
 
 fn read_exr(path: &Path) -> Result<Image, String> {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
-            (img, res.width())
-        },
-        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
-        },
-    )
-    .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(image.layer_data.channel_data.pixels.0)
+    soupray::output::read_exr_rgba(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn run_logged(cmd: &mut Command, what: &str) -> Result<String, String> {

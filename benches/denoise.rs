@@ -30,7 +30,7 @@
 //! skipped with a note.
 
 use soupray::compare;
-use soupray::film::{Aovs, Image};
+use soupray::film::Image;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -167,18 +167,7 @@ fn render(
 
 /// R, G, B, A of an EXR (the denoised beauty of a `--denoise` frame).
 fn read_exr(path: &Path) -> Result<Image, String> {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
-            (img, res.width())
-        },
-        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
-        },
-    )
-    .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(image.layer_data.channel_data.pixels.0)
+    soupray::output::read_exr_rgba(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn main() {

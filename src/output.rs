@@ -191,6 +191,23 @@ pub fn write_atomic(
 /// The EXR layer that keeps the raw beauty of a denoised frame.
 pub const NOISY_LAYER: &str = "noisy";
 
+/// Reads the R, G, B, A channels of an EXR's first RGBA layer (the AOVs
+/// are not read): for comparisons in the tests and benchmarks.
+pub fn read_exr_rgba(path: &Path) -> Result<Image, exr::error::Error> {
+    use crate::film::Aovs;
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |res, _| {
+            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
+            (img, res.width())
+        },
+        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
+        },
+    )?;
+    Ok(image.layer_data.channel_data.pixels.0)
+}
+
 /// Encodes `image` as the EXR described in the module documentation and
 /// writes it atomically to `path`.
 pub fn write_exr(

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use soupray::device::Device;
-use soupray::film::{Aovs, Image};
+use soupray::film::Image;
 use soupray::soup::Soup;
 use std::path::{Path, PathBuf};
 
@@ -74,16 +74,5 @@ pub fn exists(p: &Path) -> bool {
 
 /// The RGBA layer of an EXR soupray wrote (the AOVs are not read).
 pub fn read_exr(path: &Path) -> Image {
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let img = Image::new(res.width() as u32, res.height() as u32, Aovs::default());
-            (img, res.width())
-        },
-        |(img, w), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-            img.rgba[pos.y() * *w + pos.x()] = [r, g, b, a];
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    image.layer_data.channel_data.pixels.0
+    soupray::output::read_exr_rgba(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
