@@ -12,8 +12,8 @@
 
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
+use soupray::cli::report::median;
 use soupray::device::Device;
-use soupray::report::median;
 use soupray::soup::Soup;
 use std::path::Path;
 use std::time::Instant;

@@ -10,8 +10,8 @@
 
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
+use soupray::cli::report::median;
 use soupray::device::Device;
-use soupray::report::median;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::DeviceSoup;
 use soupray::trace::render::{FrameInput, PathTracer, RenderSettings};

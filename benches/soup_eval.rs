@@ -15,8 +15,8 @@
 use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
+use soupray::cli::report::median;
 use soupray::device::Device;
-use soupray::report::median;
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::DeviceSoup;
 use std::path::{Path, PathBuf};

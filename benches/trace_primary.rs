@@ -14,8 +14,8 @@
 
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
+use soupray::cli::report::median;
 use soupray::device::Device;
-use soupray::report::median;
 use soupray::soup::Soup;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceKind};
 use std::path::Path;

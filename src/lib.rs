@@ -4,25 +4,23 @@
 //! scene (glTF loading and animation) → soup (world-space triangles) →
 //! bvh (binned-SAH build on the OpenCL device) → trace → film → output.
 //! The OpenCL plumbing lives in `device`; input meshes in PLY form in `ply`.
+//!
+//! The binary's commands (render, bench, report, bvh, devices, info, soup)
+//! are thin layers over the stages and live apart from them in `cli`.
 
 // Axis loops index several arrays in lockstep (lo, hi, centroid, scale);
 // iterator zips would hide the math the kernels mirror line for line.
 #![allow(clippy::needless_range_loop)]
 
-pub mod bench;
 pub mod bvh;
-pub mod cli_bvh;
-pub mod cli_scene;
+pub mod cli;
 pub mod compare;
 pub mod denoise;
 pub mod device;
 pub mod film;
-pub mod frames;
 pub mod input;
 pub mod output;
 pub mod ply;
-pub mod render;
-pub mod report;
 pub mod scene;
 pub mod soup;
 pub mod trace;

@@ -2,7 +2,7 @@
 //! the library. Exit codes are documented in `--help` and the README.
 
 use clap::{Parser, Subcommand};
-use soupray::{cli_bvh, cli_scene};
+use soupray::cli::{bvh as cli_bvh, scene as cli_scene};
 use std::process::ExitCode;
 
 /// soupray: an offline path tracer for glTF animations.
@@ -23,9 +23,9 @@ enum Command {
     Bvh(cli_bvh::BvhArgs),
     Info(cli_scene::InfoArgs),
     Soup(cli_scene::SoupArgs),
-    Render(Box<soupray::render::RenderArgs>),
-    Bench(soupray::bench::BenchArgs),
-    Report(soupray::report::ReportArgs),
+    Render(Box<soupray::cli::render::RenderArgs>),
+    Bench(soupray::cli::bench::BenchArgs),
+    Report(soupray::cli::report::ReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -41,9 +41,9 @@ fn main() -> ExitCode {
         Command::Bvh(a) => cli_bvh::run_bvh(a),
         Command::Info(a) => cli_scene::run_info(a),
         Command::Soup(a) => cli_scene::run_soup(a),
-        Command::Render(a) => soupray::render::run_render(a),
-        Command::Bench(a) => soupray::bench::run_bench(a),
-        Command::Report(a) => soupray::report::run_report(a),
+        Command::Render(a) => soupray::cli::render::run_render(a),
+        Command::Bench(a) => soupray::cli::bench::run_bench(a),
+        Command::Report(a) => soupray::cli::report::run_report(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -57,16 +57,16 @@ fn main() -> ExitCode {
 /// The exit code for an error, from the kind of failure in its chain.
 fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
-        if let Some(j) = cause.downcast_ref::<soupray::render::JobError>() {
+        if let Some(j) = cause.downcast_ref::<soupray::cli::render::JobError>() {
             return match j {
-                soupray::render::JobError::Interrupted { signal, .. } => (128 + signal) as u8,
-                soupray::render::JobError::FramesFailed { .. } => 5,
+                soupray::cli::render::JobError::Interrupted { signal, .. } => (128 + signal) as u8,
+                soupray::cli::render::JobError::FramesFailed { .. } => 5,
             };
         }
-        if cause.is::<soupray::render::FrameError>() {
+        if cause.is::<soupray::cli::render::FrameError>() {
             return 5;
         }
-        if cause.is::<soupray::frames::OutputDirError>() {
+        if cause.is::<soupray::cli::frames::OutputDirError>() {
             return 6;
         }
         if cause.is::<soupray::UsageError>() {

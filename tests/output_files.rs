@@ -6,8 +6,8 @@
 
 use exr::prelude::traits::*;
 use exr::prelude::{AnyChannels, AttributeValue, FlatSamples, Layer, Text};
+use soupray::cli::frames::{check_output_dir, frame_paths, NamePattern};
 use soupray::film::{Aovs, Image, BACKGROUND_DEPTH};
-use soupray::frames::{check_output_dir, frame_paths, NamePattern};
 use soupray::output::{
     is_complete_exr, is_frame_done, write_atomic, write_exr, write_log, write_png_preview,
     FrameLog, FrameMetadata, OutputError,

@@ -1,8 +1,8 @@
 //! `soupray report` on synthetic frame logs: the rows and medians, the CSV
 //! it writes, the PNG chart, and the errors for directories without logs.
 
+use soupray::cli::report::{collect_rows, run_report, ReportArgs, CHART_SIZE};
 use soupray::output::{write_log, FrameLog};
-use soupray::report::{collect_rows, run_report, ReportArgs, CHART_SIZE};
 use std::path::Path;
 
 fn log(frame: i64, build: f64, trace: f64, tris: u64, sah: f64) -> FrameLog {

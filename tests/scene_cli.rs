@@ -5,7 +5,7 @@ mod scene_support;
 
 use clap::Parser;
 use scene_support::{asset, load};
-use soupray::cli_scene::{describe, run_info, run_soup, InfoArgs, SoupArgs};
+use soupray::cli::scene::{describe, run_info, run_soup, InfoArgs, SoupArgs};
 
 #[derive(Parser)]
 struct SoupCli {

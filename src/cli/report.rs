@@ -239,7 +239,7 @@ pub fn format_csv(rows: &[Row], m: &Medians) -> String {
 /// Chart size in pixels.
 pub const CHART_SIZE: (u32, u32) = (1200, 1200);
 
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSansMono.ttf");
 
 pub(crate) fn register_font() -> anyhow::Result<()> {
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();

@@ -6,8 +6,8 @@
 
 use crate::bvh::device_builder::{DeviceBuilder, StageTimes};
 use crate::bvh::{self, binned, sweep, BuildParams};
+use crate::cli::report::median;
 use crate::device::{list_devices, Device};
-use crate::report::median;
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;

@@ -13,9 +13,9 @@
 
 use crate::bvh::device_builder::{BuildStats, DeviceBuilder};
 use crate::bvh::{self, BuildParams};
+use crate::cli::frames::{self, FrameArgs, FramePaths, NamePattern};
 use crate::device::Device;
 use crate::film::{Aovs, Image};
-use crate::frames::{self, FrameArgs, FramePaths, NamePattern};
 use crate::output::{self, CameraLog, FrameLog, FrameMetadata};
 use crate::scene::{LoadOptions, Projection, Scene};
 use crate::soup::device::DeviceSoup;

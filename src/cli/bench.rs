@@ -22,11 +22,11 @@
 
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{self, BuildParams, Bvh};
+use crate::cli::report::median;
 use crate::compare::{self, ImageError};
 use crate::denoise::Denoiser;
 use crate::device::Device;
 use crate::film::{Aovs, Image};
-use crate::report::median;
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
@@ -518,7 +518,7 @@ fn markdown(points: &[Point]) -> String {
 
 /// FLIP against frame time, log-log, one colour per sweep, the front drawn.
 fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
-    use crate::report::{format_axis, plot_err, register_font};
+    use crate::cli::report::{format_axis, plot_err, register_font};
     use plotters::prelude::*;
     register_font()?;
     let (w, h) = (1200u32, 800u32);
@@ -633,11 +633,11 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         .into());
     }
     let scenes = if args.scenes.is_empty() {
-        vec![PathBuf::from(crate::render::DEFAULT_SCENE)]
+        vec![PathBuf::from(crate::cli::render::DEFAULT_SCENE)]
     } else {
         args.scenes.clone()
     };
-    crate::frames::check_output_dir(&args.out)?;
+    crate::cli::frames::check_output_dir(&args.out)?;
     let device = Device::open(args.device.as_deref())?;
     let denoiser = if args.no_denoise {
         None
@@ -664,7 +664,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
             })
     })?;
     let pixels = chart(&points)?;
-    crate::report::write_rgb_png(&args.out.join("bench.png"), &pixels, 1200, 800)?;
+    crate::cli::report::write_rgb_png(&args.out.join("bench.png"), &pixels, 1200, 800)?;
     println!(
         "## Speed against accuracy (`soupray bench`)\n\nDevice: {}. Image {}x{}, reference {} spp. \
          Written: {}, {}.\n\n{}",
