@@ -554,6 +554,8 @@ pub struct RenderLog {
     pub traversal: String,
     /// The sampler (`--sampler`): `sobol` or `random`.
     pub sampler: String,
+    /// `--noise-pattern`: `per-frame` or `fixed`.
+    pub noise_pattern: String,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

@@ -269,6 +269,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         clay: false,
         traversal: Traversal::default(),
         sampler: Default::default(),
+        noise_pattern: Default::default(),
         adaptive: None,
         time_limit: None,
         environment: Environment::Color([0.2, 0.25, 0.3]),

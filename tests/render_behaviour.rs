@@ -15,7 +15,7 @@ use soupray::film::Aovs;
 use soupray::scene::{AlphaMode, LightKind};
 use soupray::soup::Soup;
 use soupray::trace::render::{render_soup, Environment, PathTracer, Schedule, Traversal};
-use soupray::trace::sampling::Sampler;
+use soupray::trace::sampling::{NoisePattern, Sampler};
 
 #[test]
 fn renders_are_identical_whatever_the_schedule_and_traversal() {
@@ -23,6 +23,8 @@ fn renders_are_identical_whatever_the_schedule_and_traversal() {
     let (s, t, lights) = busy_scene();
     let mut st = settings(29, 12);
     assert_eq!(st.traversal, Traversal::Wide, "the default traversal");
+    // Keyed by the frame number (below); the default fixed pattern is not.
+    st.noise_pattern = NoisePattern::PerFrame;
     st.environment = Environment::Color([0.2, 0.3, 0.4]);
     st.aovs = Aovs::ALL;
     let mut pt = PathTracer::with_materials(&d, &t, &st).unwrap();
@@ -424,4 +426,26 @@ fn bad_settings_are_refused_with_the_fix() {
     )
     .unwrap();
     assert!(out.image.rgba.iter().all(|p| *p == [0.5, 0.5, 0.5, 0.0]));
+}
+
+#[test]
+fn a_fixed_noise_pattern_draws_the_same_samples_every_frame() {
+    let d = common::device();
+    let (s, t, lights) = busy_scene();
+    let mut st = settings(17, 4);
+    st.noise_pattern = NoisePattern::Fixed;
+    let fixed_3 = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 3).unwrap();
+    let fixed_40 = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 40).unwrap();
+    assert_eq!(
+        bits(&fixed_3.image),
+        bits(&fixed_40.image),
+        "a still scene renders the same pixels in every frame with a fixed pattern"
+    );
+    // It is frame 0's pattern, and the per-frame pattern of another frame
+    // is another image.
+    st.noise_pattern = NoisePattern::PerFrame;
+    let per_frame_0 = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 0).unwrap();
+    let per_frame_40 = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 40).unwrap();
+    assert_eq!(bits(&fixed_3.image), bits(&per_frame_0.image));
+    assert_ne!(bits(&per_frame_0.image), bits(&per_frame_40.image));
 }

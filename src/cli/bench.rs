@@ -12,7 +12,10 @@
 //! independent random numbers) moves the whole spp curve, as does
 //! `--denoise` (the `denoise` sweep: 1, 4, 16, 64… spp denoised with Open
 //! Image Denoise at quality high, its time in the frame time; run where
-//! OIDN is installed, skipped with a note elsewhere). The reference is
+//! OIDN is installed, skipped with a note elsewhere), as does adaptive
+//! sampling (the `threshold` sweep: `--noise-threshold` 0.2, 0.1, 0.05,
+//! 0.025 and 0.0125 up to `--max-spp` samples, its points at their mean
+//! spp). The reference is
 //! rendered with another seed, so its samples are not the test renders'
 //! own. The Pareto front of error against
 //! frame time is what the defaults are chosen from.
@@ -29,14 +32,17 @@ use crate::device::Device;
 use crate::film::{Aovs, Image};
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
-use crate::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
+use crate::trace::render::{
+    Adaptive, Environment, FrameInput, PathTracer, RenderSettings, Traversal,
+};
 use crate::trace::sampling::Sampler;
 use crate::UsageError;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Measure the speed/accuracy trade: bins, leaf size, traversal, and spp
-/// with each sampler against a high-spp reference, on one frame of each scene.
+/// Measure the speed/accuracy trade: bins, leaf size, traversal, spp with
+/// each sampler, `--denoise` and `--noise-threshold` against a high-spp
+/// reference, on one frame of each scene.
 ///
 ///   soupray bench                        # the shipped animation
 ///   soupray bench a.glb b.glb --frame 10 --reference-spp 4096
@@ -81,8 +87,9 @@ pub struct Point {
     pub scene: String,
     pub frame: i64,
     /// `bins` | `leaf` | `traversal` | `spp` | `sampler` | `denoise` |
-    /// `default` (`sampler`: the spp sweep with `--sampler random`;
-    /// `denoise`: spp with `--denoise`).
+    /// `threshold` | `default` (`sampler`: the spp sweep with `--sampler
+    /// random`; `denoise`: spp with `--denoise`; `threshold`:
+    /// `--noise-threshold` with `spp` as the most a pixel takes).
     pub sweep: &'static str,
     /// `device` or `cpu-sweep`.
     pub builder: &'static str,
@@ -91,6 +98,10 @@ pub struct Point {
     pub traversal: &'static str,
     pub sampler: &'static str,
     pub spp: u32,
+    /// `--noise-threshold` of the `threshold` sweep.
+    pub noise_threshold: Option<f32>,
+    /// Samples per pixel taken on average (`spp` but for adaptive points).
+    pub spp_mean: f64,
     pub triangles: usize,
     pub build_ms: f64,
     pub sah_cost: f64,
@@ -112,10 +123,17 @@ struct Config {
     spp: u32,
     /// Denoised with OIDN after tracing.
     denoise: bool,
+    /// Adaptive sampling to this `--noise-threshold` (`spp` the maximum).
+    threshold: Option<f32>,
 }
 
+/// The noise thresholds of the `threshold` sweep, halving from 0.2.
+const THRESHOLDS: [f32; 5] = [0.2, 0.1, 0.05, 0.025, 0.0125];
+
 /// The sweep: each knob varied alone around the defaults; `denoise` adds
-/// the denoised spp sweep (1, 4, 16, … up to `max_spp`).
+/// the denoised spp sweep (1, 4, 16, … up to `max_spp`); the `threshold`
+/// sweep renders to each of `THRESHOLDS` with `max_spp` the most a pixel
+/// takes.
 fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
     let base = Config {
         sweep: "default",
@@ -125,6 +143,7 @@ fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
         sampler: Sampler::Sobol,
         spp: 16,
         denoise: false,
+        threshold: None,
     };
     let mut out = vec![base];
     for bins in [4, 8, 32] {
@@ -186,6 +205,14 @@ fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
         });
         spp *= 4;
     }
+    for threshold in THRESHOLDS {
+        out.push(Config {
+            sweep: "threshold",
+            spp: max_spp,
+            threshold: Some(threshold),
+            ..base
+        });
+    }
     out
 }
 
@@ -203,7 +230,12 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
         clay: false,
         traversal: c.traversal,
         sampler: c.sampler,
-        adaptive: None,
+        noise_pattern: Default::default(),
+        adaptive: c.threshold.map(|threshold| Adaptive {
+            threshold,
+            // The render command's default.
+            min_spp: 16.min(spp),
+        }),
         time_limit: None,
         environment: Environment::Default,
         // The denoiser's auxiliary images.
@@ -302,7 +334,7 @@ fn bench_gltf(
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let render = |tree: &Tree, s: &RenderSettings| -> anyhow::Result<(Image, f64, f64, u64)> {
+    let render = |tree: &Tree, s: &RenderSettings| -> anyhow::Result<(Image, f64, f64, u64, f64)> {
         let mut tracer = PathTracer::new(device, &scene, s)?;
         let input = FrameInput {
             frame,
@@ -336,7 +368,8 @@ fn bench_gltf(
             last = Some(out);
         }
         let out = last.expect("rendered");
-        Ok((out.image, median(walls), median(traces), out.rays))
+        let spp_mean = out.noise.spp_mean;
+        Ok((out.image, median(walls), median(traces), out.rays, spp_mean))
     };
     eprintln!("bench {name}: reference at {} spp", args.reference_spp);
     let default_tree = build_tree(device, &soup, &host_soup, &configs(1, false)[0])?;
@@ -362,16 +395,18 @@ fn bench_gltf(
     let mut points = Vec::new();
     for c in configs(args.max_spp, denoiser.is_some()) {
         eprintln!(
-            "bench {name}: {} bins={} leaf={} traversal={:?} sampler={} spp={}",
+            "bench {name}: {} bins={} leaf={} traversal={:?} sampler={} spp={}{}",
             c.sweep,
             c.params.bins,
             c.params.leaf_size,
             c.traversal,
             c.sampler.name(),
-            c.spp
+            c.spp,
+            c.threshold
+                .map_or(String::new(), |t| format!(" noise-threshold={t}"))
         );
         let tree = build_tree(device, &soup, &host_soup, &c)?;
-        let (image, wall_ms, trace_ms, rays) = render(&tree, &settings(args, c.spp, &c))?;
+        let (image, wall_ms, trace_ms, rays, spp_mean) = render(&tree, &settings(args, c.spp, &c))?;
         let ImageError { rel_mse, flip } = compare::compare(&image, &reference, 0.0)?;
         points.push(Point {
             scene: name.clone(),
@@ -387,6 +422,8 @@ fn bench_gltf(
             traversal: c.traversal.name(),
             sampler: c.sampler.name(),
             spp: c.spp,
+            noise_threshold: c.threshold,
+            spp_mean,
             triangles: soup.triangle_count(),
             build_ms: tree.build_ms,
             sah_cost: bvh::sah_cost(&tree.bvh),
@@ -458,12 +495,12 @@ fn ply_as_gltf(ply: &Path, dir: &Path) -> anyhow::Result<PathBuf> {
 
 fn csv(points: &[Point]) -> String {
     let mut s = String::from(
-        "scene,frame,sweep,builder,bins,leaf_size,traversal,sampler,spp,triangles,build_ms,sah_cost,trace_ms,mrays_per_s,frame_ms,rel_mse,flip,pareto\n",
+        "scene,frame,sweep,builder,bins,leaf_size,traversal,sampler,spp,noise_threshold,spp_mean,triangles,build_ms,sah_cost,trace_ms,mrays_per_s,frame_ms,rel_mse,flip,pareto\n",
     );
     let front = pareto_front(points);
     for (i, p) in points.iter().enumerate() {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{:.3},{:.4},{:.3},{:.3},{:.3},{:.6e},{:.6},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{:.3},{},{:.3},{:.4},{:.3},{:.3},{:.3},{:.6e},{:.6},{}\n",
             p.scene,
             p.frame,
             p.sweep,
@@ -473,6 +510,8 @@ fn csv(points: &[Point]) -> String {
             p.traversal,
             p.sampler,
             p.spp,
+            p.noise_threshold.map_or(String::new(), |t| t.to_string()),
+            p.spp_mean,
             p.triangles,
             p.build_ms,
             p.sah_cost,
@@ -490,12 +529,12 @@ fn csv(points: &[Point]) -> String {
 fn markdown(points: &[Point]) -> String {
     let front = pareto_front(points);
     let mut s = String::from(
-        "| scene | sweep | builder | bins | leaf | traversal | sampler | spp | build ms | SAH | trace Mrays/s | frame ms | rel. MSE | FLIP | Pareto |\n\
-         |---|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
+        "| scene | sweep | builder | bins | leaf | traversal | sampler | spp | threshold | mean spp | build ms | SAH | trace Mrays/s | frame ms | rel. MSE | FLIP | Pareto |\n\
+         |---|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
     );
     for (i, p) in points.iter().enumerate() {
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2e} | {:.4} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2e} | {:.4} | {} |\n",
             p.scene,
             p.sweep,
             p.builder,
@@ -504,6 +543,8 @@ fn markdown(points: &[Point]) -> String {
             p.traversal,
             p.sampler,
             p.spp,
+            p.noise_threshold.map_or(String::new(), |t| t.to_string()),
+            p.spp_mean,
             p.build_ms,
             p.sah_cost,
             p.mrays_per_s,
@@ -573,6 +614,7 @@ fn chart(points: &[Point]) -> anyhow::Result<Vec<u8>> {
             ("traversal", MAGENTA),
             ("sampler", RGBColor(230, 140, 0)),
             ("denoise", RGBColor(0, 170, 170)),
+            ("threshold", RGBColor(150, 80, 200)),
             ("default", BLACK),
         ];
         for (sweep, colour) in colours {
@@ -695,5 +737,31 @@ mod tests {
             with.len(),
             "the other sweeps are unchanged"
         );
+    }
+
+    #[test]
+    fn the_threshold_sweep_samples_adaptively_up_to_max_spp() {
+        let all = configs(256, false);
+        let adaptive: Vec<&Config> = all.iter().filter(|c| c.threshold.is_some()).collect();
+        assert_eq!(adaptive.len(), THRESHOLDS.len());
+        assert!(adaptive
+            .iter()
+            .all(|c| c.sweep == "threshold" && c.spp == 256 && !c.denoise));
+        let args = BenchArgs {
+            scenes: vec![],
+            frame: None,
+            width: 8,
+            height: 8,
+            reference_spp: 64,
+            max_spp: 256,
+            out: PathBuf::new(),
+            device: None,
+            repeat: 1,
+            no_denoise: true,
+        };
+        let s = settings(&args, 256, adaptive[2]);
+        let a = s.adaptive.expect("adaptive settings");
+        assert_eq!((a.threshold, a.min_spp, s.spp), (0.05, 16, 256));
+        assert!(settings(&args, 16, &all[0]).adaptive.is_none());
     }
 }

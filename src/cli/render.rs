@@ -23,7 +23,7 @@ use crate::trace::render::Adaptive;
 use crate::trace::render::{
     Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
 };
-use crate::trace::sampling::Sampler;
+use crate::trace::sampling::{NoisePattern, Sampler};
 use crate::UsageError;
 use anyhow::Context as _;
 use std::io::IsTerminal as _;
@@ -234,6 +234,20 @@ pub struct RenderArgs {
         help_heading = "Image"
     )]
     pub sampler: String,
+    /// Whether the noise changes from frame to frame: `fixed` (the default,
+    /// as in Cycles, "animated seed" off) draws the same samples every
+    /// frame, so where nothing moves consecutive frames have the same noise
+    /// and still regions flicker 1.7-6.6x less, raw, adaptive or denoised;
+    /// `per-frame` seeds each frame's samples with its frame number, so its
+    /// noise is new (averaging frames then averages their noise away). The
+    /// README's "Flicker" section has the measurements.
+    #[arg(
+        long,
+        default_value = "fixed",
+        value_name = "KIND",
+        help_heading = "Image"
+    )]
+    pub noise_pattern: String,
     /// SAH bins per axis for the BVH (power of two, 2 to 64).
     #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Device")]
     pub bins: u32,
@@ -395,6 +409,12 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             args.sampler
         ))
     })?;
+    let noise_pattern: NoisePattern = args.noise_pattern.parse().map_err(|_| {
+        UsageError(format!(
+            "--noise-pattern {:?}: use `per-frame` or `fixed`",
+            args.noise_pattern
+        ))
+    })?;
     let environment = match (&args.env_color, &args.env) {
         (Some(_), Some(_)) => {
             return Err(UsageError("--env-color and --env exclude each other".into()).into())
@@ -452,6 +472,7 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             clay: args.clay,
             traversal,
             sampler,
+            noise_pattern,
             adaptive,
             time_limit,
             environment,
@@ -806,6 +827,7 @@ fn render_frame(
         mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
         traversal: job.settings.traversal.name().to_owned(),
         sampler: job.settings.sampler.name().to_owned(),
+        noise_pattern: job.settings.noise_pattern.name().to_owned(),
     };
     log.camera = camera_log(&info.camera);
     log.output = output::OutputLog {

@@ -37,7 +37,7 @@ use super::lights::{
     LightSelection, ENV_CONSTANT, ENV_MAP, ENV_NONE,
 };
 use super::material::{device_materials, DeviceMaterial};
-use super::sampling::Sampler;
+use super::sampling::{NoisePattern, Sampler};
 use super::texture::{Slot, TextureBinding, TextureSet};
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
@@ -102,6 +102,8 @@ pub struct RenderSettings {
     pub traversal: Traversal,
     /// The sampler of the path tracer's random numbers (`--sampler`).
     pub sampler: Sampler,
+    /// Whether the noise changes from frame to frame (`--noise-pattern`).
+    pub noise_pattern: NoisePattern,
     /// Adaptive sampling (`--noise-threshold`); `None`: every pixel takes
     /// `spp` samples. With it, `spp` is the most a pixel takes.
     pub adaptive: Option<Adaptive>,
@@ -124,6 +126,7 @@ impl Default for RenderSettings {
             clay: false,
             traversal: Traversal::Wide,
             sampler: Sampler::Sobol,
+            noise_pattern: NoisePattern::default(),
             adaptive: None,
             time_limit: None,
             environment: Environment::Default,
@@ -704,6 +707,7 @@ impl<'d> PathTracer<'d> {
     ) -> Result<RenderOutput, TraceError> {
         let d = self.device;
         let s = self.settings.clone();
+        let sampler_frame = s.noise_pattern.sampler_frame(frame_index);
         let mut warnings = std::mem::take(&mut self.setup_warnings);
         let (w, h) = (s.width, s.height);
         let pixels = w as usize * h as usize;
@@ -839,8 +843,8 @@ impl<'d> PathTracer<'d> {
         let fr = DeviceFrame {
             seed_lo: s.seed as u32,
             seed_hi: (s.seed >> 32) as u32,
-            frame_lo: frame_index as u64 as u32,
-            frame_hi: ((frame_index as u64) >> 32) as u32,
+            frame_lo: sampler_frame as u64 as u32,
+            frame_hi: ((sampler_frame as u64) >> 32) as u32,
             width: w,
             height: h,
             max_depth: s.max_depth,

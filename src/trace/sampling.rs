@@ -59,6 +59,54 @@ impl std::str::FromStr for Sampler {
     }
 }
 
+/// Whether the noise pattern changes from frame to frame (`--noise-pattern`).
+///
+/// `PerFrame` hashes the frame number into every pixel's sampler seed, so
+/// each frame's noise is new. `Fixed` seeds every frame as frame 0: where
+/// nothing moves, consecutive frames draw the same samples, so a still
+/// region keeps the same noise and does not flicker (Cycles' default, its
+/// "animated seed" off). A frame's image is a function of its inputs either
+/// way. (`Fixed` is frame 0's pattern, so frame 0 renders the same with both.)
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NoisePattern {
+    PerFrame,
+    /// The default: it flickers 1.7-6.6x less in still regions at the same
+    /// per-frame error (`cargo bench --bench flicker`, README "Flicker").
+    #[default]
+    Fixed,
+}
+
+impl NoisePattern {
+    /// The `--noise-pattern` value that selects it.
+    pub fn name(self) -> &'static str {
+        match self {
+            NoisePattern::PerFrame => "per-frame",
+            NoisePattern::Fixed => "fixed",
+        }
+    }
+
+    /// The frame number the sampler is seeded with for `frame`.
+    pub fn sampler_frame(self, frame: i64) -> i64 {
+        match self {
+            NoisePattern::PerFrame => frame,
+            NoisePattern::Fixed => 0,
+        }
+    }
+}
+
+impl std::str::FromStr for NoisePattern {
+    type Err = String;
+    fn from_str(s: &str) -> Result<NoisePattern, String> {
+        match s {
+            "per-frame" => Ok(NoisePattern::PerFrame),
+            "fixed" => Ok(NoisePattern::Fixed),
+            _ => Err(format!(
+                "unknown noise pattern {s:?}: use per-frame or fixed"
+            )),
+        }
+    }
+}
+
 /// The set of the camera sample: (filter x, filter y, -, -).
 pub const SET_CAMERA: u32 = 0;
 /// Slots of a bounce's sets (`set_bounce`).

@@ -166,6 +166,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         clay: false,
         traversal: Traversal::default(),
         sampler: Default::default(),
+        noise_pattern: Default::default(),
         adaptive: None,
         time_limit: None,
         environment: Environment::Default,
