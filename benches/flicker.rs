@@ -151,11 +151,11 @@ fn still_mask(refs: &[Image]) -> Vec<bool> {
     let n = (w * h) as usize;
     let mut moving = vec![false; n];
     for pair in refs.windows(2) {
-        for i in 0..n {
+        for (i, moved) in moving.iter_mut().enumerate() {
             let (a, b) = (value(pair[0].rgba[i]), value(pair[1].rgba[i]));
             let covered = pair[0].rgba[i][3] == 1.0 && pair[1].rgba[i][3] == 1.0;
             if !covered || (a - b).abs() > 0.02 * a.max(b) + 0.01 {
-                moving[i] = true;
+                *moved = true;
             }
         }
     }
@@ -183,8 +183,8 @@ fn still_mask(refs: &[Image]) -> Vec<bool> {
 fn flicker(frames: &[Image], refs: &[Image], still: &[bool]) -> f64 {
     let (mut sum_sq, mut count, mut sum_ref) = (0.0, 0usize, 0.0);
     for (pair, r) in frames.windows(2).zip(refs) {
-        for i in 0..still.len() {
-            if still[i] {
+        for (i, &is_still) in still.iter().enumerate() {
+            if is_still {
                 let d = value(pair[1].rgba[i]) - value(pair[0].rgba[i]);
                 sum_sq += d * d;
                 sum_ref += value(r.rgba[i]);
