@@ -27,6 +27,18 @@ The translation, so that both renderers solve the same light transport:
 * Blackman-Harris pixel filter of width 1.5 px (both renderers' default);
 * output: linear OpenEXR, float, RGBA, film not transparent.
 
+For the feature comparisons (`cargo bench --bench cycles_features`):
+
+* `--frame N` renders frame N of the imported animation (glTF time N/24 s:
+  the importer keys at 24 fps; checked by that bench's unblurred row);
+* `--motion-blur SHUTTER` turns Cycles' motion blur on with that shutter in
+  frames, centred on the frame (`--shutter-position` start|center|end),
+  with `--motion-steps N` for objects and deformation (Cycles' per-object
+  `motion_steps`, which Blender's manual gives as 2^(N-1) steps), the
+  shutter curve left at Blender's default (flat: open the whole time);
+* `--keep-materials` keeps the importer's Principled BSDFs (glass,
+  clearcoat, sheen...) instead of the clay diffuse.
+
 For each sample count it prints one line
 
     CYCLES_RENDER spp=16 seconds=1.234 out=DIR/cycles-spp16.exr
@@ -61,6 +73,11 @@ def parse_args():
     p.add_argument("--albedo", type=float, default=0.8)
     p.add_argument("--out-dir", required=True)
     p.add_argument("--warmup", action="store_true")
+    p.add_argument("--frame", type=int, default=None)
+    p.add_argument("--motion-blur", type=float, default=0.0, help="shutter in frames; 0: off")
+    p.add_argument("--shutter-position", default="CENTER", choices=["START", "CENTER", "END"])
+    p.add_argument("--motion-steps", type=int, default=1)
+    p.add_argument("--keep-materials", action="store_true")
     return p.parse_args(argv)
 
 
@@ -102,6 +119,11 @@ def main():
         raise SystemExit(f"{args.scene}: no camera")
     scene.camera = cameras[0]
 
+    if args.frame is not None:
+        scene.render.fps = 24
+        scene.render.fps_base = 1.0
+        scene.frame_set(args.frame)
+
     # Materials: one pure Lambertian for everything.
     mat = bpy.data.materials.new("bench_diffuse")
     mat.use_nodes = True
@@ -116,10 +138,15 @@ def main():
     for o in scene.objects:
         if o.type != "MESH":
             continue
-        o.data.materials.clear()
-        o.data.materials.append(mat)
-        for poly in o.data.polygons:
-            poly.material_index = 0
+        if args.motion_blur > 0:
+            o.cycles.use_motion_blur = True
+            o.cycles.use_deform_motion = True
+            o.cycles.motion_steps = args.motion_steps
+        if not args.keep_materials:
+            o.data.materials.clear()
+            o.data.materials.append(mat)
+            for poly in o.data.polygons:
+                poly.material_index = 0
         triangles += sum(len(p.vertices) - 2 for p in o.data.polygons)
 
     # World: a constant background.
@@ -160,7 +187,12 @@ def main():
     r.film_transparent = False
     r.use_compositing = False
     r.use_sequencer = False
-    r.use_motion_blur = False
+    r.use_motion_blur = args.motion_blur > 0
+    if args.motion_blur > 0:
+        r.motion_blur_shutter = args.motion_blur
+        r.motion_blur_position = args.shutter_position
+        for o in scene.objects:
+            o.cycles.use_motion_blur = True
     r.use_persistent_data = False
     if args.threads > 0:
         r.threads_mode = "FIXED"

@@ -1,0 +1,393 @@
+//! soupray's features against Blender Cycles: the same glTF, the same
+//! settings, one image each, and how far apart they are.
+//!
+//!   cargo bench --bench cycles_features
+//!   cargo bench --bench cycles_features -- --size 320x200 --spp 256 --cases blur
+//!
+//! Flags (defaults in brackets): `--size WxH` [320x200], `--spp N` [256],
+//! `--cases LIST` [still,blur] , `--out DIR` [out/bench-cycles-features].
+//! `BLENDER=PATH` picks Blender (default `blender` on PATH; without it the
+//! bench says so and exits 0; Debian: `apt-get install blender
+//! python3-numpy`).
+//!
+//! The scene (written to OUT/blur.gltf): a camera looking down on white
+//! clay objects (soupray `--clay`, Cycles a Diffuse BSDF of 0.8:
+//! `benches/cycles/render_cycles.py`) lit by a 3 lux sun from behind the
+//! camera against a dark sky of 0.1, so they stand out bright: a box sliding
+//! 0.625 units a frame (left to right, frames 0-8) and a bar spinning 90° a
+//! frame about the view axis (keys every 30°). Frame 4 is rendered.
+//!
+//! Cases, each rendered by both renderers at `--spp` with their own seeds:
+//! * `still`: no motion blur (checks that both see the same frame);
+//! * `blur`: `--motion-blur` at the default shutter (0.5 frame, centred)
+//!   against Cycles' motion blur with the same shutter and 4 motion steps
+//!   (2^(4-1) = 8 steps, enough that Cycles follows the bar's arc).
+//!
+//! For each case it prints the relative MSE between the renderers (and,
+//! for scale, between soupray's image and the other case's Cycles image,
+//! and between two Cycles seeds: the noise floor), and writes the images
+//! side by side as OUT/CASE.png (soupray left, Cycles right).
+
+use serde_json::json;
+use soupray::compare;
+use soupray::film::Image;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+struct Opts {
+    width: u32,
+    height: u32,
+    spp: u32,
+    cases: Vec<String>,
+    out: PathBuf,
+}
+
+fn parse() -> Result<Opts, String> {
+    let mut o = Opts {
+        width: 320,
+        height: 200,
+        spp: 256,
+        cases: vec!["still".into(), "blur".into()],
+        out: PathBuf::from("out/bench-cycles-features"),
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    while i < args.len() {
+        let flag = args[i].as_str();
+        if flag == "--bench" {
+            i += 1;
+            continue;
+        }
+        let v = args.get(i + 1).ok_or(format!("{flag} needs a value"))?;
+        let bad = |what: &str| format!("{flag} {v}: expected {what}");
+        match flag {
+            "--size" => {
+                let (w, h) = v.split_once('x').ok_or_else(|| bad("WxH"))?;
+                o.width = w.parse().map_err(|_| bad("WxH"))?;
+                o.height = h.parse().map_err(|_| bad("WxH"))?;
+            }
+            "--spp" => o.spp = v.parse().map_err(|_| bad("a number"))?,
+            "--cases" => o.cases = v.split(',').map(str::to_string).collect(),
+            "--out" => o.out = PathBuf::from(v),
+            _ => return Err(format!("unknown flag {flag}")),
+        }
+        i += 2;
+    }
+    Ok(o)
+}
+
+/// Frames per second of the scene's keys (Blender's importer keys at 24).
+const FPS: f32 = 24.0;
+/// The frame both renderers render.
+const FRAME: i64 = 4;
+
+/// The 12 triangles of a box of half-extents `h` around the origin, flat
+/// (each face its own vertices), as positions and normals.
+fn box_mesh(h: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
+    let (mut p, mut n) = (Vec::new(), Vec::new());
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corner = |a: f32, b: f32| {
+                let mut c = [0.0f32; 3];
+                c[axis] = sign * h[axis];
+                c[u] = a * h[u];
+                c[v] = b * h[v];
+                c
+            };
+            let mut quad = [
+                corner(-1.0, -1.0),
+                corner(1.0, -1.0),
+                corner(1.0, 1.0),
+                corner(-1.0, 1.0),
+            ];
+            if sign < 0.0 {
+                quad.reverse();
+            }
+            for k in [0, 1, 2, 0, 2, 3] {
+                p.extend_from_slice(&quad[k]);
+                let mut normal = [0.0f32; 3];
+                normal[axis] = sign;
+                n.extend_from_slice(&normal);
+            }
+        }
+    }
+    (p, n)
+}
+
+/// Writes the blur scene (see the module docs) as a self-contained .gltf.
+fn write_scene(path: &Path) -> std::io::Result<()> {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut push = |data: &[f32], kind: &str, bounds: bool| -> usize {
+        let offset = bin.len();
+        for f in data {
+            bin.extend_from_slice(&f.to_le_bytes());
+        }
+        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
+        let width = match kind {
+            "SCALAR" => 1,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        let mut acc = json!({"bufferView": views.len() - 1, "componentType": 5126,
+            "count": data.len() / width, "type": kind});
+        if bounds {
+            let mut lo = vec![f32::MAX; width];
+            let mut hi = vec![f32::MIN; width];
+            for c in data.chunks(width) {
+                for k in 0..width {
+                    lo[k] = lo[k].min(c[k]);
+                    hi[k] = hi[k].max(c[k]);
+                }
+            }
+            acc["min"] = json!(lo);
+            acc["max"] = json!(hi);
+        }
+        accessors.push(acc);
+        accessors.len() - 1
+    };
+    let mut meshes = Vec::new();
+    for h in [[0.5, 0.5, 0.5], [1.0, 0.1, 0.1]] {
+        let (p, n) = box_mesh(h);
+        let pa = push(&p, "VEC3", true);
+        let na = push(&n, "VEC3", false);
+        meshes.push(json!({"primitives": [{"attributes": {"POSITION": pa, "NORMAL": na}}]}));
+    }
+    // The slider: x from -2.5 to 2.5 over frames 0-8, linear.
+    let slide_t = push(&[0.0, 8.0 / FPS], "SCALAR", true);
+    let slide_x = push(&[-2.5, 0.8, 0.6, 2.5, 0.8, 0.6], "VEC3", false);
+    // The spinner: 90 degrees a frame about +z, a key every 30 degrees.
+    let keys = 24 * 3 + 1;
+    let times: Vec<f32> = (0..keys).map(|k| k as f32 / (3.0 * FPS)).collect();
+    let rots: Vec<f32> = (0..keys)
+        .flat_map(|k| {
+            let half = (k as f32 * 30.0).to_radians() / 2.0;
+            [0.0, 0.0, half.sin(), half.cos()]
+        })
+        .collect();
+    let spin_t = push(&times, "SCALAR", true);
+    let spin_r = push(&rots, "VEC4", false);
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": "soupray cycles_features bench"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "sun", "type": "directional", "intensity": 3.0}]}},
+        "nodes": [
+            {"name": "camera", "camera": 0, "translation": [0.0, 0.0, 7.0]},
+            // Shining down -z, tilted 25 degrees about x.
+            {"name": "sun", "extensions": {"KHR_lights_punctual": {"light": 0}},
+                "rotation": [0.2164, 0.0, 0.0, 0.9763]},
+            {"name": "slider", "mesh": 0, "translation": [-2.5, 0.8, 0.6]},
+            {"name": "spinner", "mesh": 1, "translation": [0.0, -1.0, 0.6]},
+        ],
+        "cameras": [{"type": "perspective", "perspective": {
+            "yfov": 0.72, "aspectRatio": 1.6, "znear": 0.1, "zfar": 100.0}}],
+        "meshes": meshes,
+        "animations": [{"name": "move",
+            "samplers": [
+                {"input": slide_t, "output": slide_x, "interpolation": "LINEAR"},
+                {"input": spin_t, "output": spin_r, "interpolation": "LINEAR"}],
+            "channels": [
+                {"sampler": 0, "target": {"node": 2, "path": "translation"}},
+                {"sampler": 1, "target": {"node": 3, "path": "rotation"}}]}],
+        "buffers": [{"byteLength": bin.len(),
+            "uri": format!("data:application/octet-stream;base64,{}", base64(&bin))}],
+        "bufferViews": views,
+        "accessors": accessors,
+    });
+    std::fs::write(path, serde_json::to_vec_pretty(&doc).unwrap())
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(T[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+fn soupray(o: &Opts, scene: &Path, blur: bool, dir: &Path) -> Result<Image, String> {
+    let _ = std::fs::remove_dir_all(dir);
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_soupray"));
+    cmd.arg("render")
+        .arg(scene)
+        .args(["--frame", &FRAME.to_string(), "--quiet", "--clay"])
+        .args(["--env-color", "0.1,0.1,0.1", "--name", "img.####.exr"])
+        .args([
+            "--width",
+            &o.width.to_string(),
+            "--height",
+            &o.height.to_string(),
+        ])
+        .args(["--spp", &o.spp.to_string(), "--seed", "1"])
+        .arg("--out")
+        .arg(dir);
+    if blur {
+        cmd.arg("--motion-blur");
+    }
+    let out = cmd.output().map_err(|e| format!("soupray: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("soupray: {}", String::from_utf8_lossy(&out.stderr)));
+    }
+    let exr = dir.join(format!("img.{FRAME:04}.exr"));
+    soupray::output::read_exr_rgba(&exr).map_err(|e| format!("{}: {e}", exr.display()))
+}
+
+fn cycles(
+    o: &Opts,
+    blender: &str,
+    scene: &Path,
+    blur: bool,
+    seed: u32,
+    dir: &Path,
+) -> Result<Image, String> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/cycles/render_cycles.py");
+    let mut cmd = Command::new(blender);
+    cmd.args(["-b", "-noaudio", "--factory-startup", "-P"])
+        .arg(&script)
+        .arg("--")
+        .arg("--scene")
+        .arg(scene)
+        .args([
+            "--width",
+            &o.width.to_string(),
+            "--height",
+            &o.height.to_string(),
+        ])
+        .args(["--spp", &o.spp.to_string(), "--seed", &seed.to_string()])
+        .args(["--frame", &FRAME.to_string(), "--env", "0.1,0.1,0.1"])
+        .arg("--out-dir")
+        .arg(dir);
+    if blur {
+        cmd.args(["--motion-blur", "0.5", "--motion-steps", "4"]);
+    }
+    let out = cmd.output().map_err(|e| format!("blender: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "blender: {}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let exr = dir.join(format!("cycles-spp{}.exr", o.spp));
+    soupray::output::read_exr_rgba(&exr).map_err(|e| format!("{}: {e}", exr.display()))
+}
+
+/// The two images side by side, tonemapped as `--png` previews are.
+fn side_by_side(a: &Image, b: &Image, path: &Path) {
+    let (w, h) = (a.width, a.height);
+    let (ta, tb) = (
+        soupray::output::tonemap_srgb8(a, 0.0),
+        soupray::output::tonemap_srgb8(b, 0.0),
+    );
+    let mut img = image::RgbImage::new(2 * w + 4, h);
+    for y in 0..h {
+        for x in 0..w {
+            let i = ((y * w + x) * 3) as usize;
+            img.put_pixel(x, y, image::Rgb([ta[i], ta[i + 1], ta[i + 2]]));
+            img.put_pixel(w + 4 + x, y, image::Rgb([tb[i], tb[i + 1], tb[i + 2]]));
+        }
+    }
+    img.save(path).unwrap();
+}
+
+fn main() -> ExitCode {
+    let o = match parse() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("bench cycles_features: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let blender = std::env::var("BLENDER").unwrap_or_else(|_| "blender".into());
+    if Command::new(&blender).arg("--version").output().is_err() {
+        eprintln!("bench cycles_features: no Blender ({blender}); skipped");
+        return ExitCode::SUCCESS;
+    }
+    std::fs::create_dir_all(&o.out).unwrap();
+    let scene = std::fs::canonicalize(&o.out).unwrap().join("blur.gltf");
+    write_scene(&scene).unwrap();
+    let mut rows = vec![
+        "| case | soupray vs Cycles | soupray vs Cycles of the other case | Cycles vs Cycles (seeds) | mean, soupray | mean, Cycles |".to_string(),
+        "|---|---:|---:|---:|---:|---:|".to_string(),
+    ];
+    let run = |blur: bool| -> (Image, Image, Image) {
+        let tag = if blur { "blur" } else { "still" };
+        let s = soupray(&o, &scene, blur, &o.out.join(format!("soupray-{tag}")))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let c = cycles(
+            &o,
+            &blender,
+            &scene,
+            blur,
+            1,
+            &o.out.join(format!("cycles-{tag}")),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let c2 = cycles(
+            &o,
+            &blender,
+            &scene,
+            blur,
+            2,
+            &o.out.join(format!("cycles2-{tag}")),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        (s, c, c2)
+    };
+    let mean = |i: &Image| {
+        i.rgba
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+            .sum::<f64>()
+            / i.rgba.len() as f64
+    };
+    let still = o.cases.iter().any(|c| c == "still").then(|| run(false));
+    let blur = o.cases.iter().any(|c| c == "blur").then(|| run(true));
+    for (name, this, other) in [("still", &still, &blur), ("blur", &blur, &still)] {
+        let Some((s, c, c2)) = this else { continue };
+        let e = compare::compare(s, c, 0.0).unwrap();
+        let floor = compare::compare(c2, c, 0.0).unwrap();
+        let cross = other
+            .as_ref()
+            .map(|(_, oc, _)| format!("{:.3e}", compare::compare(s, oc, 0.0).unwrap().rel_mse))
+            .unwrap_or_default();
+        eprintln!(
+            "bench cycles_features: {name}: rel. MSE {:.3e}, FLIP {:.4}",
+            e.rel_mse, e.flip
+        );
+        rows.push(format!(
+            "| {name} | {:.3e} (FLIP {:.4}) | {cross} | {:.3e} | {:.4} | {:.4} |",
+            e.rel_mse,
+            e.flip,
+            floor.rel_mse,
+            mean(s),
+            mean(c)
+        ));
+        side_by_side(s, c, &o.out.join(format!("{name}.png")));
+    }
+    let table = rows.join("\n");
+    println!(
+        "\nsoupray and Cycles ({} spp, {}x{}, frame {FRAME} of {}):\n\n{table}",
+        o.spp,
+        o.width,
+        o.height,
+        scene.display()
+    );
+    std::fs::write(o.out.join("results.md"), table + "\n").unwrap();
+    ExitCode::SUCCESS
+}
