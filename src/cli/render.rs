@@ -212,6 +212,7 @@ pub struct RenderArgs {
         long,
         default_value_t = 0.5,
         value_name = "FRAMES",
+        allow_negative_numbers = true,
         requires = "motion_blur",
         help_heading = "Motion blur"
     )]
@@ -343,7 +344,8 @@ struct Job {
     /// The AOVs written to the EXR (`settings.aovs` adds albedo and normal
     /// for `--denoise`).
     output_aovs: Aovs,
-    /// `--motion-blur` with a shutter open for some time.
+    /// `--motion-blur`: the shutter (a frame moves only when it is open for
+    /// some time).
     shutter: Option<Shutter>,
     motion_steps: Option<u32>,
 }
@@ -475,7 +477,7 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             .into());
         }
         let position: ShutterPosition = args.shutter_position.parse().map_err(UsageError)?;
-        (args.shutter > 0.0).then_some(Shutter {
+        Some(Shutter {
             frames: args.shutter,
             position,
         })
@@ -759,7 +761,11 @@ impl<'d> Pipeline<'d> {
             return Ok(Evaluated {
                 info: self.soup.evaluate(self.scene, time)?,
                 motion: None,
-                shutter: job.shutter.map(|s| (s, time, time, 1, 0.0)),
+                // Nothing can move (no clip, or the shutter is closed).
+                shutter: job.shutter.map(|s| {
+                    let (open, close) = s.interval(time, self.scene.options().fps);
+                    (s, open, close, 1, 0.0)
+                }),
             });
         };
         if steps < 2 {
@@ -1256,7 +1262,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let mut tracer = PathTracer::new(&device, &scene, &job.settings)?;
     // Blur's programs only when some frame can move: a shutter that stays
     // open on an animated scene.
-    let motion = if job.shutter.is_some() && scene.active_clip().is_some() {
+    let motion = if job.shutter.is_some_and(|s| s.frames > 0.0) && scene.active_clip().is_some() {
         tracer.prepare_motion()?;
         Some(MotionSoup::new(&device, &soup)?)
     } else {
