@@ -58,7 +58,17 @@ typedef struct {
     const __global float* env_conditional;
     PtFrame frame;
     uint rays;
+#ifdef MOTION_BLUR
+    uint motion_steps;
+    uint motion_triangles;
+    // The path's time: every triangle, normal and camera is read at it.
+    MotionTime mt;
+#endif
 } PtScene;
+
+// The scene's geometry at the path's time (the soup itself without
+// MOTION_BLUR), as trace_common.h's functions take it.
+#define SGEOM(s) GEOM_ARGS((s)->positions, (s)->mt)
 
 #ifdef HAS_TEXTURES
 // The texture set's buffers plus the bindings: four per material (base
@@ -70,14 +80,22 @@ typedef struct {
 #define TEX_PASS
 #endif
 
+#ifdef MOTION_BLUR
+// With motion blur, pt_render also takes the number of motion steps and of
+// triangles per step; `positions`, `normals` and `camera` hold every step.
+#define MOTION_DECL , uint motion_steps, uint motion_triangles
+#else
+#define MOTION_DECL
+#endif
+
 inline Hit pt_trace_closest(PtScene* s, Ray ray) {
     s->rays += 1u;
 #ifdef TRAVERSAL_STACKLESS
-    return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, s->positions, ray);
+    return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, SGEOM(s), ray);
 #elif defined(TRAVERSAL_WIDE)
-    return trace_closest_wide_bvh(s->wnodes, s->prim_ids, s->positions, ray);
+    return trace_closest_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), ray);
 #else
-    return trace_closest_bvh(s->nodes, s->prim_ids, s->positions, ray);
+    return trace_closest_bvh(s->nodes, s->prim_ids, SGEOM(s), ray);
 #endif
 }
 
@@ -119,7 +137,7 @@ inline float4 pt_base_color(PtMaterial m, float2 uv TEX_DECL) {
 inline bool pt_passes(const PtScene* s, PtMaterial m, uint prim, float u, float v, float3 dir,
                       SampleRng rng, uint dim TEX_DECL) {
     if ((m.flags & MAT_DOUBLE_SIDED) == 0u) {
-        if (dot(dir, geometric_normal(s->positions, prim)) >= 0.0f) return true;
+        if (dot(dir, geometric_normal(SGEOM(s), prim)) >= 0.0f) return true;
     }
     if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u) return false;
     float alpha = pt_base_color(m, pt_uv(s, prim, u, v) TEX_PASS).w;
@@ -145,10 +163,10 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
             return true;
         }
         // Continue just beyond the crossed surface.
-        float3 p = hit_point(s->positions, h.prim, h.u, h.v);
-        float3 ng = geometric_normal(s->positions, h.prim);
+        float3 p = hit_point(SGEOM(s), h.prim, h.u, h.v);
+        float3 ng = geometric_normal(SGEOM(s), h.prim);
         float3 n = dot(dir, ng) > 0.0f ? ng : -ng;
-        float3 o = offset_ray_origin_scaled(p, n, offset_scale(s->positions, h.prim));
+        float3 o = offset_ray_origin_scaled(p, n, offset_scale(SGEOM(s), h.prim));
         ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
         *travelled = *travelled + h.t;
         ray.tmin = 0.0f;
@@ -174,15 +192,15 @@ inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRn
     // stackless traversals agree.
     s->rays += 1u;
 #ifdef TRAVERSAL_WIDE
-    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, s->positions, r);
+    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
 #else
-    Hit a = trace_any_bvh(s->nodes, s->prim_ids, s->positions, r);
+    Hit a = trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
 #endif
     if (a.prim == MISS) return false;
     PtMaterial m = pt_material(s, a.prim);
     if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
         ((m.flags & MAT_DOUBLE_SIDED) != 0u ||
-         dot(dir, geometric_normal(s->positions, a.prim)) < 0.0f))
+         dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f))
         return true;
 #endif
     Hit h;
@@ -200,8 +218,8 @@ inline float3 pt_emission(PtMaterial m, float2 uv TEX_DECL) {
     return e;
 }
 
-inline float pt_triangle_area(const __global float* positions, uint prim) {
-    const __global float* p = positions + (size_t)prim * 12u;
+inline float pt_triangle_area(GEOM_DECL(positions), uint prim) {
+    TRI_LOAD(p, positions, mt, prim);
     float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
     float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
     return 0.5f * length(cross(e1, e2));
@@ -212,7 +230,7 @@ inline float pt_triangle_area(const __global float* positions, uint prim) {
 inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_l) {
     float pmf = s->emit_pmf[prim];
     if (!(pmf > 0.0f) || !(cos_l > 0.0f)) return 0.0f;
-    float area = pt_triangle_area(s->positions, prim);
+    float area = pt_triangle_area(SGEOM(s), prim);
     return ((pmf * s->frame.emit_select_pmf) * (dist * dist)) / (area * cos_l);
 }
 
@@ -224,7 +242,7 @@ inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_
 inline float3 pt_normal_map(const PtScene* s, PtMaterial m, uint prim, float3 n, bool front,
                             float2 uv TEX_DECL) {
     TextureBinding b = tex_bindings[m.normal_tex];
-    const __global float* p = s->positions + (size_t)prim * 12u;
+    TRI_LOAD(p, s->positions, s->mt, prim);
     const __global float* t = s->uvs + (size_t)prim * 6u;
     float2 t0 = texture_uv(b, (float2)(t[0], t[1]), (float2)(t[0], t[1]));
     float2 t1 = texture_uv(b, (float2)(t[2], t[3]), (float2)(t[2], t[3]));
@@ -265,15 +283,15 @@ typedef struct {
 
 inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TEX_DECL) {
     PtSurface sf;
-    sf.p = hit_point(s->positions, h.prim, h.u, h.v);
-    float3 ng = geometric_normal(s->positions, h.prim);
+    sf.p = hit_point(SGEOM(s), h.prim, h.u, h.v);
+    float3 ng = geometric_normal(SGEOM(s), h.prim);
     sf.front = dot(dir, ng) < 0.0f;
     if (!sf.front) ng = -ng;
     sf.ng = ng;
     sf.uv = pt_uv(s, h.prim, h.u, h.v);
     float3 ns = ng;
     if ((s->frame.flags & FRAME_NORMALS) != 0u) {
-        const __global float* n = s->normals + (size_t)h.prim * 12u;
+        TRI_LOAD(n, s->normals, s->mt, h.prim);
         float w = 1.0f - h.u - h.v;
         float3 si = (float3)((w * n[0] + h.u * n[4]) + h.v * n[8],
                              (w * n[1] + h.u * n[5]) + h.v * n[9],
@@ -376,13 +394,13 @@ inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, B
     float ur = (u1 - c0) / (c1 - c0);
     uint prim = s->emit_prims[k];
     float2 bc = sample_triangle(ur, u2);
-    float3 q = hit_point(s->positions, prim, bc.x, bc.y);
+    float3 q = hit_point(SGEOM(s), prim, bc.x, bc.y);
     float3 to = q - sf.p;
     float d = sqrt(dot(to, to));
     if (!(d > 0.0f)) return (float3)(0.0f);
     float3 wi_w = to / d;
     PtMaterial lm = pt_material(s, prim);
-    float3 nl = geometric_normal(s->positions, prim);
+    float3 nl = geometric_normal(SGEOM(s), prim);
     float cos_l = -dot(wi_w, nl);
     if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
     float pdf = pt_emissive_pdf(s, prim, d, cos_l);
@@ -409,6 +427,24 @@ inline float3 pt_env_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfPa
                           rng, bounce TEX_PASS);
 }
 
+#ifdef MOTION_BLUR
+// The camera at time `m`: `cam` holds it at every motion step, and each
+// vector is interpolated linearly between the two steps around the time
+// (the steps are close enough that the frame's basis stays near orthogonal).
+inline PtCamera pt_camera_at(__global const PtCamera* cam, MotionTime m) {
+    PtCamera a = cam[m.step];
+    PtCamera b = cam[m.step + 1u];
+    PtCamera c = a;
+    for (uint i = 0u; i < 4u; ++i) {
+        c.origin[i] = a.origin[i] + m.frac * (b.origin[i] - a.origin[i]);
+        c.right[i] = a.right[i] + m.frac * (b.right[i] - a.right[i]);
+        c.up[i] = a.up[i] + m.frac * (b.up[i] - a.up[i]);
+        c.forward[i] = a.forward[i] + m.frac * (b.forward[i] - a.forward[i]);
+    }
+    return c;
+}
+#endif
+
 // Results of one camera sample.
 typedef struct {
     float3 radiance;
@@ -433,9 +469,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     // Filter importance sampling: the offset from the pixel centre follows
     // the film's filter (the table of film::FilterSampler, same arithmetic).
     float ox, oy;
+    float4 uc = rng_4d(rng, SET_CAMERA);
     {
         float n = 1024.0f;
-        float4 uc = rng_4d(rng, SET_CAMERA);
         float fu = uc.x * n;
         uint i = min((uint)floor(fu), 1023u);
         ox = filter[i] + (fu - (float)i) * (filter[i + 1u] - filter[i]);
@@ -443,24 +479,32 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         uint j = min((uint)floor(fv), 1023u);
         oy = filter[j] + (fv - (float)j) * (filter[j + 1u] - filter[j]);
     }
+#ifdef MOTION_BLUR
+    // The path's time in the shutter: the camera set's third dimension, so
+    // time is stratified over the samples jointly with the pixel filter.
+    s->mt = motion_time(uc.z, s->motion_steps, s->motion_triangles);
+    PtCamera cv = pt_camera_at(cam, s->mt);
+#else
+    PtCamera cv = cam[0];
+#endif
     float sx = (((float)px + 0.5f + ox) / (float)s->frame.width) * 2.0f - 1.0f;
     float sy = 1.0f - (((float)py + 0.5f + oy) / (float)s->frame.height) * 2.0f;
-    float3 c_org = (float3)(cam->origin[0], cam->origin[1], cam->origin[2]);
-    float3 c_right = (float3)(cam->right[0], cam->right[1], cam->right[2]);
-    float3 c_up = (float3)(cam->up[0], cam->up[1], cam->up[2]);
-    float3 c_fwd = (float3)(cam->forward[0], cam->forward[1], cam->forward[2]);
+    float3 c_org = (float3)(cv.origin[0], cv.origin[1], cv.origin[2]);
+    float3 c_right = (float3)(cv.right[0], cv.right[1], cv.right[2]);
+    float3 c_up = (float3)(cv.up[0], cv.up[1], cv.up[2]);
+    float3 c_fwd = (float3)(cv.forward[0], cv.forward[1], cv.forward[2]);
     float3 org, dir;
     float tmin;
-    if (cam->ortho != 0u) {
+    if (cv.ortho != 0u) {
         org = (c_org + c_right * sx) + c_up * sy;
         dir = c_fwd;
-        tmin = cam->znear;
+        tmin = cv.znear;
     } else {
         float3 d = (c_fwd + c_right * sx) + c_up * sy;
         float l = length(d);
         org = c_org;
         dir = d / l;
-        tmin = cam->znear * l;
+        tmin = cv.znear * l;
     }
     Ray ray;
     ray.org[0] = org.x; ray.org[1] = org.y; ray.org[2] = org.z;
@@ -514,7 +558,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 t, b;
         onb(sf.ns, &t, &b);
         float3 wo = to_local(wo_w, t, b, sf.ns);
-        float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(s->positions, h.prim));
+        float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
 
         // Next-event estimation: every punctual light when the frame loops
         // over them, then one light from the selection distribution.
@@ -602,7 +646,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global uint* ray_counts, __global float4* accum_half,
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
-                        uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL) {
+                        uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
+                        MOTION_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -637,6 +682,10 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.env_conditional = env_conditional;
     s.frame = frame[0];
     s.rays = 0u;
+#ifdef MOTION_BLUR
+    s.motion_steps = motion_steps;
+    s.motion_triangles = motion_triangles;
+#endif
     if (px >= s.frame.width || py >= s.frame.height) return;
     uint i = py * s.frame.width + px;
     if (adaptive != 0u && active[i] == 0u) return;
@@ -750,7 +799,17 @@ __kernel void pt_emissive_power(__global const float* positions,
     float p = 0.0f;
     if ((m.flags & MAT_EMISSIVE) != 0u) {
         float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
-        p = luminance(e) * pt_triangle_area(positions, i);
+#ifdef MOTION_BLUR
+        // The power at the shutter's opening (step 0) drives the choice of
+        // triangle only; the pdf of a sample uses the area at its path's
+        // time, so the estimate stays unbiased.
+        MotionTime mt;
+        mt.step = 0u;
+        mt.frac = 0.0f;
+        mt.at0 = 0u;
+        mt.at1 = 0u;
+#endif
+        p = luminance(e) * pt_triangle_area(GEOM_ARGS(positions, mt), i);
         if ((m.flags & MAT_DOUBLE_SIDED) != 0u) p = p * 2.0f;
         if (!isfinite(p)) p = 0.0f;
     }

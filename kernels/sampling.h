@@ -39,7 +39,8 @@ inline uint pcg_hash(uint v) {
 // Mirrored by src/trace/sampling.rs value for value.
 //
 // The layout of the sets (each `rng_4d` call is one set):
-//   set 0                 camera: (filter x, filter y, -, -)
+//   set 0                 camera: (filter x, filter y, shutter time, -);
+//                         the time is read only with MOTION_BLUR
 //   set 1 + 2 b           bounce b's light sample: (u, v, light choice, -)
 //   set 2 + 2 b           bounce b's BSDF sample: (u, v, lobe, roulette)
 //   SET_PASS + ...        pass-through decisions (stochastic BLEND coverage)

@@ -67,6 +67,52 @@
 // is about the inverse of the aspect ratio times the obliquity).
 #define ILL_CONDITIONED (1.0f / 4096.0f)
 
+// Motion blur (compiled only with MOTION_BLUR, for frames where something
+// moves within the shutter). `positions` (and the shading normals) then hold
+// the soup at each of the shutter's motion steps, one soup after another
+// (12 floats per triangle per step), and every triangle is read at the ray's
+// time: linearly between the two steps around it. The tree's boxes enclose
+// each triangle at every step, so they enclose it at every time in between.
+// Without MOTION_BLUR the macros below are the single-soup reads, so a
+// static frame compiles exactly the code it did before. Rust twin:
+// src/trace/motion.rs.
+#ifdef MOTION_BLUR
+typedef struct {
+    uint step;   // the step at or before the ray's time
+    float frac;  // where the time lies between it and the next, in [0, 1)
+    size_t at0;  // float offset of that step's soup
+    size_t at1;  // and of the next step's
+} MotionTime;
+
+// The steps around shutter time `time` in [0, 1) of `steps` >= 2 evenly
+// spaced steps (step 0 at the shutter's opening, the last at its closing).
+inline MotionTime motion_time(float time, uint steps, uint triangles) {
+    float x = time * (float)(steps - 1u);
+    uint k = min((uint)x, steps - 2u);
+    MotionTime m;
+    m.step = k;
+    m.frac = x - (float)k;
+    m.at0 = (size_t)k * (size_t)triangles * 12u;
+    m.at1 = m.at0 + (size_t)triangles * 12u;
+    return m;
+}
+
+// Triangle `prim`'s 12 floats (three xyzw corners) at time `m`.
+inline void motion_triangle(const __global float* data, MotionTime m, uint prim, float* p) {
+    const __global float* a = data + m.at0 + (size_t)prim * 12u;
+    const __global float* b = data + m.at1 + (size_t)prim * 12u;
+    for (uint i = 0u; i < 12u; ++i) p[i] = a[i] + m.frac * (b[i] - a[i]);
+}
+
+#define GEOM_DECL(name) const __global float* name, MotionTime mt
+#define GEOM_ARGS(name, m) name, m
+#define TRI_LOAD(p, data, m, prim) float p[12]; motion_triangle(data, m, prim, p)
+#else
+#define GEOM_DECL(name) const __global float* name
+#define GEOM_ARGS(name, m) name
+#define TRI_LOAD(p, data, m, prim) const __global float* p = (data) + (size_t)(prim) * 12u
+#endif
+
 // A ray prepared for traversal: the box test's reciprocals and near-plane
 // choice, and the watertight test's axis permutation and shear.
 typedef struct {
@@ -150,9 +196,9 @@ inline bool owns_edge(float px, float py, float qx, float qy, float det) {
 // Intersects triangle `prim` (corners at positions[12*prim + 4*k], xyz).
 // Returns true with t, u, v when it is hit within (tmin, tmax); degenerate
 // triangles (exactly zero geometric normal) are never hit.
-inline bool intersect_triangle(const RayPre* r, const __global float* positions,
+inline bool intersect_triangle(const RayPre* r, GEOM_DECL(positions),
                                uint prim, float* t_out, float* u_out, float* v_out) {
-    const __global float* p = positions + (size_t)prim * 12u;
+    TRI_LOAD(p, positions, mt, prim);
     int kx = r->kx, ky = r->ky, kz = r->kz;
     float az_ = p[kz] - r->okz;
     float bz_ = p[4 + kz] - r->okz;
@@ -228,21 +274,21 @@ inline void closest_update(Hit* best, uint prim, float t, float u, float v) {
 }
 
 inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
-                         const __global float* positions, uint first, uint count, Hit* best) {
+                         GEOM_DECL(positions), uint first, uint count, Hit* best) {
     for (uint s = first; s < first + count; ++s) {
         uint prim = prim_ids[s];
         float t, u, v;
-        if (intersect_triangle(r, positions, prim, &t, &u, &v))
+        if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
             closest_update(best, prim, t, u, v);
     }
 }
 
 inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
-                     const __global float* positions, uint first, uint count, Hit* best) {
+                     GEOM_DECL(positions), uint first, uint count, Hit* best) {
     for (uint s = first; s < first + count; ++s) {
         uint prim = prim_ids[s];
         float t, u, v;
-        if (intersect_triangle(r, positions, prim, &t, &u, &v)) {
+        if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
             best->t = t; best->prim = prim; best->u = u; best->v = v;
             return true;
         }
@@ -270,9 +316,10 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
 // its first hit.
 #define VISIT_LEAF(ANY, first, count)                                             \
     if (ANY) {                                                                    \
-        if (any_leaf(&r, prim_ids, positions, first, count, &best)) return best;  \
+        if (any_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), first, count, &best)) \
+            return best;                                                          \
     } else {                                                                      \
-        closest_leaf(&r, prim_ids, positions, first, count, &best);               \
+        closest_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), first, count, &best); \
     }
 // POP_NODE: the most recently stacked node that may still hold a closer hit
 // goes into `node`; the traversal returns when none is left.
@@ -336,13 +383,13 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
 
 // The closest hit of `ray` (prim == MISS when none).
 inline Hit trace_closest_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
-                             const __global float* positions, Ray ray) {
+                             GEOM_DECL(positions), Ray ray) {
     TRAVERSE_BODY(0)
 }
 
 // Any hit of `ray` within (tmin, tmax): prim != MISS means occluded.
 inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
-                         const __global float* positions, Ray ray) {
+                         GEOM_DECL(positions), Ray ray) {
     TRAVERSE_BODY(1)
 }
 
@@ -416,13 +463,13 @@ inline float4 box_entry_wide(const RayPre* r, const __global WideNode* n, float 
 
 // The closest hit of `ray` through the 4-wide layout.
 inline Hit trace_closest_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
-                                  const __global float* positions, Ray ray) {
+                                  GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(0)
 }
 
 // Any hit of `ray` through the 4-wide layout.
 inline Hit trace_any_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
-                              const __global float* positions, Ray ray) {
+                              GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(1)
 }
 
@@ -432,7 +479,7 @@ inline Hit trace_any_wide_bvh(const __global WideNode* wnodes, const __global ui
 // order is fixed (left first), not front to back.
 inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uint entries,
                                        const __global uint* prim_ids,
-                                       const __global float* positions, Ray ray) {
+                                       GEOM_DECL(positions), Ray ray) {
     RAY_START
     uint i = 0;
     while (i < entries) {
@@ -442,7 +489,7 @@ inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uin
         if (t == INFINITY) {
             i = e->escape;
         } else if (e->leaf != 0u) {
-            closest_leaf(&r, prim_ids, positions, e->leaf >> LEAF_COUNT_BITS,
+            closest_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), e->leaf >> LEAF_COUNT_BITS,
                          e->leaf & ((1u << LEAF_COUNT_BITS) - 1u), &best);
             i = e->escape;
         } else {
@@ -478,8 +525,8 @@ inline float3 offset_ray_origin_scaled(float3 p, float3 n, float scale) {
 // shrinks with it: a scene at 1e-4 is offset like the unit scene, scaled,
 // instead of by a quarter of a sphere's radius. From 1 up it is 1 (the
 // published constants, unchanged).
-inline float offset_scale(const __global float* positions, uint prim) {
-    const __global float* p = positions + (size_t)prim * 12u;
+inline float offset_scale(GEOM_DECL(positions), uint prim) {
+    TRI_LOAD(p, positions, mt, prim);
     float m = 0.0f;
     for (uint k = 0u; k < 3u; ++k) {
         m = fmax(m, fmax(fabs(p[4u * k]), fmax(fabs(p[4u * k + 1u]), fabs(p[4u * k + 2u]))));
@@ -489,15 +536,15 @@ inline float offset_scale(const __global float* positions, uint prim) {
 
 // The hit point from the barycentrics (more precise than org + t * dir far
 // from the origin) and the unit geometric normal (p1 - p0) x (p2 - p0).
-inline float3 hit_point(const __global float* positions, uint prim, float u, float v) {
-    const __global float* p = positions + (size_t)prim * 12u;
+inline float3 hit_point(GEOM_DECL(positions), uint prim, float u, float v) {
+    TRI_LOAD(p, positions, mt, prim);
     float w = 1.0f - u - v;
     return (float3)(w * p[0] + u * p[4] + v * p[8], w * p[1] + u * p[5] + v * p[9],
                     w * p[2] + u * p[6] + v * p[10]);
 }
 
-inline float3 geometric_normal(const __global float* positions, uint prim) {
-    const __global float* p = positions + (size_t)prim * 12u;
+inline float3 geometric_normal(GEOM_DECL(positions), uint prim) {
+    TRI_LOAD(p, positions, mt, prim);
     float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
     float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
     return normalize(cross(e1, e2));

@@ -56,6 +56,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     ("lights.h", include_str!("../kernels/lights.h")),
     ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
     ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
+    ("motion.cl", include_str!("../kernels/motion.cl")),
 ];
 
 /// Why the device layer failed. Messages say what to do about it.
@@ -383,6 +384,31 @@ impl Device {
                 "clEnqueueWriteBuffer",
                 self.queue
                     .enqueue_write_buffer(buffer, CL_BLOCKING, 0, data, &[]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Queues a copy of `len` elements from the start of `src` to `dst` at
+    /// element `dst_at`, on the device (ordered with the launches).
+    pub fn copy<T>(
+        &self,
+        src: &Buffer<T>,
+        dst: &mut Buffer<T>,
+        dst_at: usize,
+        len: usize,
+    ) -> Result<()> {
+        if len == 0 {
+            return Ok(());
+        }
+        let size = std::mem::size_of::<T>();
+        // SAFETY: both ranges lie inside their buffers (callers size `dst`
+        // for every step's copy); the in-order queue orders it.
+        unsafe {
+            cl(
+                "clEnqueueCopyBuffer",
+                self.queue
+                    .enqueue_copy_buffer(src, dst, 0, dst_at * size, len * size, &[]),
             )?;
         }
         Ok(())

@@ -483,9 +483,44 @@ pub struct FrameLog {
     /// and the filter settings; `denoise::DenoiseLog` documents the fields.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub denoise: Option<crate::denoise::DenoiseLog>,
+    /// With `--motion-blur` only (absent otherwise): the shutter and what
+    /// blur cost this frame (`MotionLog`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionLog>,
     /// Anything the user should know about this frame (clamped or dropped
     /// samples, a stepped range stopping short, fallbacks taken).
     pub warnings: Vec<String>,
+}
+
+/// A frame's motion blur: its shutter, the motion steps it was evaluated at
+/// and the work blur added. A frame where nothing moves within the shutter
+/// has `steps` 1 and renders exactly as without blur.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MotionLog {
+    /// `--shutter`, in frames.
+    pub shutter_frames: f64,
+    /// `--shutter-position`: `center`, `start` or `end`.
+    pub shutter_position: String,
+    /// Animation times (seconds) the shutter opens and closes.
+    pub open: f64,
+    pub close: f64,
+    /// Times the soup was evaluated at (1: nothing moves within the shutter).
+    pub steps: u32,
+    /// `--motion-steps`, or `rule` when the steps came from the motion.
+    pub steps_from: String,
+    /// The largest rotation of a node or joint over the shutter, degrees
+    /// (what the step rule reads).
+    pub turn_degrees: f64,
+    /// The evaluation of the steps beyond the first (wall time, including
+    /// copying each step's soup aside): the evaluate work blur adds.
+    pub extra_evaluate_ms: f64,
+    /// Computing each triangle's bounds over all steps for the builder
+    /// (wall time): the build work blur adds. The build itself has as many
+    /// triangles as without blur; its boxes are larger (`build.sah_cost`
+    /// is the tree's SAH cost over the moving bounds), which is what costs
+    /// trace time. BENCHMARKS.md measures blur against no blur.
+    pub extra_build_ms: f64,
 }
 
 /// Wall-clock times of a frame's stages. `total` covers the frame from the

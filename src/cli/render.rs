@@ -19,7 +19,10 @@ use crate::film::{Aovs, Image};
 use crate::output::{self, CameraLog, FrameLog, FrameMetadata};
 use crate::scene::{LoadOptions, Projection, Scene};
 use crate::soup::device::DeviceSoup;
+use crate::soup::motion::{motion_steps, MotionSoup};
+use crate::trace::motion::{step_times, Shutter, ShutterPosition};
 use crate::trace::render::Adaptive;
+use crate::trace::render::MotionFrame;
 use crate::trace::render::{
     Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
 };
@@ -196,6 +199,48 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.exr", help_heading = "Image")]
     pub env: Option<PathBuf>,
 
+    /// Motion blur: each camera sample sees the scene at its own time within
+    /// the shutter, so whatever moves (skins, morphs, animated nodes, the
+    /// camera) is blurred along its path. Frames where nothing moves within
+    /// the shutter render exactly as without blur, at the same cost.
+    #[arg(long, help_heading = "Motion blur")]
+    pub motion_blur: bool,
+    /// How long the shutter is open, in frames (Blender's "Shutter"): 0.5
+    /// is a 180° shutter, 1 blurs over the whole frame interval. 0 renders
+    /// the frame's instant, bit for bit the image without --motion-blur.
+    #[arg(
+        long,
+        default_value_t = 0.5,
+        value_name = "FRAMES",
+        allow_negative_numbers = true,
+        requires = "motion_blur",
+        help_heading = "Motion blur"
+    )]
+    pub shutter: f64,
+    /// Where the shutter is open relative to the frame's instant: `center`
+    /// (half before, half after), `start` (opens at the frame) or `end`
+    /// (closes at the frame).
+    #[arg(
+        long,
+        default_value = "center",
+        value_name = "WHERE",
+        requires = "motion_blur",
+        help_heading = "Motion blur"
+    )]
+    pub shutter_position: String,
+    /// Times within the shutter at which the scene is evaluated; between
+    /// them every vertex moves in a straight line. Default: chosen per frame
+    /// from the motion, 2 (open and close) plus one per 15° that the
+    /// fastest-turning node or joint rotates, at most 16. Raise it for
+    /// fast spins whose blur should follow an arc, not a chord.
+    #[arg(
+        long,
+        value_name = "N",
+        requires = "motion_blur",
+        help_heading = "Motion blur"
+    )]
+    pub motion_steps: Option<u32>,
+
     /// Animation to play, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX", help_heading = "Scene")]
     pub animation: Option<String>,
@@ -313,6 +358,10 @@ struct Job {
     /// The AOVs written to the EXR (`settings.aovs` adds albedo and normal
     /// for `--denoise`).
     output_aovs: Aovs,
+    /// `--motion-blur`: the shutter (a frame moves only when it is open for
+    /// some time).
+    shutter: Option<Shutter>,
+    motion_steps: Option<u32>,
 }
 
 fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
@@ -439,6 +488,30 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
         albedo: output_aovs.albedo || args.denoise,
         ..output_aovs
     };
+    let shutter = if args.motion_blur {
+        if !(args.shutter.is_finite() && args.shutter >= 0.0 && args.shutter <= 100.0) {
+            return Err(UsageError(format!(
+                "--shutter {}: the shutter's open time in frames must be a number from 0 to 100 (0.5 is a 180° shutter)",
+                args.shutter
+            ))
+            .into());
+        }
+        let position: ShutterPosition = args.shutter_position.parse().map_err(UsageError)?;
+        Some(Shutter {
+            frames: args.shutter,
+            position,
+        })
+    } else {
+        None
+    };
+    if let Some(n) = args.motion_steps {
+        if !(2..=64).contains(&n) {
+            return Err(UsageError(format!(
+                "--motion-steps {n}: use 2 (the shutter's opening and closing) to 64"
+            ))
+            .into());
+        }
+    }
     let (width, height) = image_size(args, scene)?;
     let frame_args = FrameArgs {
         frames: args.frames.clone(),
@@ -481,6 +554,8 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
         params,
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
         output_aovs,
+        shutter,
+        motion_steps: args.motion_steps,
     })
 }
 
@@ -645,6 +720,26 @@ struct Pipeline<'d> {
     tracer: PathTracer<'d>,
     /// `--denoise`: OIDN, loaded before the first frame.
     denoiser: Option<crate::denoise::Denoiser>,
+    /// `--motion-blur` on an animated scene: the soup at every motion step.
+    motion: Option<MotionSoup<'d>>,
+}
+
+/// A frame that moves within its shutter, as evaluated.
+struct MotionState {
+    steps: u32,
+    /// The camera at each step.
+    cameras: Vec<crate::scene::FrameCamera>,
+    extra_evaluate_ms: f64,
+    extra_build_ms: f64,
+}
+
+/// A frame's evaluation: camera and lights at the frame's instant, and its
+/// motion when it moves within the shutter.
+struct Evaluated {
+    info: crate::soup::device::FrameInfo,
+    motion: Option<MotionState>,
+    /// `--motion-blur`: the shutter, also for frames that do not move.
+    shutter: Option<(Shutter, f64, f64, u32, f64)>,
 }
 
 /// What one frame's stages produced, handed to the writer.
@@ -665,41 +760,93 @@ impl<'d> Pipeline<'d> {
     /// (PoCL) do so, and is counted as start-up rather than as the first
     /// frame's build and trace. Evaluation and build are deterministic, so
     /// the frame then renders exactly as it would have.
-    fn warm_up(&mut self, frame: i64) -> Result<(), anyhow::Error> {
-        let info = self.evaluate(self.scene.time_of_frame(frame))?;
-        let (tree, _) = self.build()?;
-        let prim_ids = self
-            .builder
-            .device_prim_ids()
-            .context("the BVH builder has no primitive buffer")?;
-        let input = FrameInput {
-            frame,
-            soup: &self.soup,
-            bvh: &tree,
-            prim_ids,
-            camera: &info.camera,
-            lights: &info.lights,
-        };
-        self.tracer.warm_up(&input)?;
+    fn warm_up(&mut self, job: &Job, frame: i64) -> Result<(), anyhow::Error> {
+        let ev = self.evaluate(job, self.scene.time_of_frame(frame))?;
+        let (tree, _) = self.build(&ev)?;
+        self.trace(frame, &ev, &tree, None)?;
         Ok(())
     }
 
-    fn evaluate(&mut self, time: f64) -> Result<crate::soup::device::FrameInfo, anyhow::Error> {
-        Ok(self.soup.evaluate(self.scene, time)?)
+    /// Evaluates the frame at `time`: once at that instant, or, with motion
+    /// blur and something moving within the shutter, at every motion step.
+    fn evaluate(&mut self, job: &Job, time: f64) -> Result<Evaluated, anyhow::Error> {
+        let planned = match (job.shutter, &self.motion) {
+            (Some(shutter), Some(_)) => {
+                let (open, close) = shutter.interval(time, self.scene.options().fps);
+                let plan = motion_steps(self.scene, open, close, job.motion_steps);
+                Some((shutter, open, close, plan.steps, plan.turn_degrees))
+            }
+            _ => None,
+        };
+        let (Some((_, open, close, steps, _)), Some(motion)) = (planned, &mut self.motion) else {
+            return Ok(Evaluated {
+                info: self.soup.evaluate(self.scene, time)?,
+                motion: None,
+                // Nothing can move (no clip, or the shutter is closed).
+                shutter: job.shutter.map(|s| {
+                    let (open, close) = s.interval(time, self.scene.options().fps);
+                    (s, open, close, 1, 0.0)
+                }),
+            });
+        };
+        if steps < 2 {
+            return Ok(Evaluated {
+                info: self.soup.evaluate(self.scene, time)?,
+                motion: None,
+                shutter: planned,
+            });
+        }
+        let times = step_times(open, close, steps);
+        let t = Instant::now();
+        let infos = motion.evaluate(&mut self.soup, self.scene, &times)?;
+        let all_ms = ms(t);
+        // Lights, and the camera the log reports, at the frame's instant.
+        let pose = self.scene.pose(time);
+        let mut warnings: Vec<String> = Vec::new();
+        for w in infos.iter().flat_map(|i| i.warnings.iter()) {
+            if !warnings.contains(w) {
+                warnings.push(w.clone());
+            }
+        }
+        let info = crate::soup::device::FrameInfo {
+            time,
+            camera: self.scene.frame_camera(&pose)?,
+            lights: self.scene.frame_lights(&pose),
+            warnings,
+            reused: false,
+        };
+        Ok(Evaluated {
+            info,
+            motion: Some(MotionState {
+                steps,
+                cameras: infos.into_iter().map(|i| i.camera).collect(),
+                extra_evaluate_ms: (all_ms - motion.bounds_ms()) * (steps - 1) as f64
+                    / steps as f64,
+                extra_build_ms: motion.bounds_ms(),
+            }),
+            shutter: planned,
+        })
     }
 
-    fn build(&mut self) -> Result<(bvh::Bvh, BuildStats), anyhow::Error> {
+    /// Builds the frame's tree: over the soup, or over every triangle's
+    /// bounds across the motion steps.
+    fn build(&mut self, ev: &Evaluated) -> Result<(bvh::Bvh, BuildStats), anyhow::Error> {
+        let positions = match (&ev.motion, &self.motion) {
+            (Some(_), Some(m)) => m.bounds(),
+            _ => self.soup.positions(),
+        };
         Ok(self
             .builder
-            .build_from_device(self.soup.positions(), self.soup.triangle_count())?)
+            .build_from_device(positions, self.soup.triangle_count())?)
     }
 
+    /// Traces the frame; `progress: None` is the warm-up pass (1 spp).
     fn trace(
         &mut self,
         frame: i64,
-        info: &crate::soup::device::FrameInfo,
+        ev: &Evaluated,
         tree: &bvh::Bvh,
-        progress: &Progress,
+        progress: Option<&Progress>,
     ) -> Result<RenderOutput, anyhow::Error> {
         let prim_ids = self
             .builder
@@ -710,12 +857,48 @@ impl<'d> Pipeline<'d> {
             soup: &self.soup,
             bvh: tree,
             prim_ids,
-            camera: &info.camera,
-            lights: &info.lights,
+            camera: &ev.info.camera,
+            lights: &ev.info.lights,
         };
-        Ok(self
-            .tracer
-            .render(&input, &mut |done| progress.samples(done))?)
+        let mut report = |done| {
+            if let Some(p) = progress {
+                p.samples(done)
+            }
+        };
+        match (&ev.motion, &self.motion) {
+            (Some(state), Some(m)) => {
+                let motion = MotionFrame {
+                    positions: m.positions(),
+                    normals: m.normals(),
+                    steps: state.steps,
+                    cameras: &state.cameras,
+                };
+                if progress.is_none() {
+                    self.tracer.warm_up_motion(&input, &motion)?;
+                    return Ok(RenderOutput {
+                        image: crate::film::Image::new(1, 1, Aovs::NONE),
+                        rays: 0,
+                        trace_ms: 0.0,
+                        noise: Default::default(),
+                        warnings: Vec::new(),
+                    });
+                }
+                Ok(self.tracer.render_motion(&input, &motion, &mut report)?)
+            }
+            _ => {
+                if progress.is_none() {
+                    self.tracer.warm_up(&input)?;
+                    return Ok(RenderOutput {
+                        image: crate::film::Image::new(1, 1, Aovs::NONE),
+                        rays: 0,
+                        trace_ms: 0.0,
+                        noise: Default::default(),
+                        warnings: Vec::new(),
+                    });
+                }
+                Ok(self.tracer.render(&input, &mut report)?)
+            }
+        }
     }
 }
 
@@ -763,19 +946,20 @@ fn render_frame(
     let time = pipe.scene.time_of_frame(frame);
 
     let t = Instant::now();
-    let info = pipe.evaluate(time).map_err(fail("evaluate"))?;
+    let ev = pipe.evaluate(job, time).map_err(fail("evaluate"))?;
     let evaluate_ms = ms(t);
     signals.check()?;
 
     let t = Instant::now();
-    let (tree, build) = pipe.build().map_err(fail("build"))?;
+    let (tree, build) = pipe.build(&ev).map_err(fail("build"))?;
     let build_ms = ms(t);
     signals.check()?;
 
     let t = Instant::now();
     let traced = pipe
-        .trace(frame, &info, &tree, progress)
+        .trace(frame, &ev, &tree, Some(progress))
         .map_err(fail("trace"))?;
+    let info = &ev.info;
     let trace_ms = ms(t);
     signals.check()?;
 
@@ -837,6 +1021,33 @@ fn render_frame(
         aovs: job.aov_names.clone(),
     };
     log.noise = traced.noise.clone();
+    log.motion = ev.shutter.map(|(shutter, open, close, steps, turn)| {
+        let (extra_evaluate_ms, extra_build_ms) = ev
+            .motion
+            .as_ref()
+            .map_or((0.0, 0.0), |m| (m.extra_evaluate_ms, m.extra_build_ms));
+        output::MotionLog {
+            shutter_frames: shutter.frames,
+            shutter_position: match shutter.position {
+                ShutterPosition::Center => "center",
+                ShutterPosition::Start => "start",
+                ShutterPosition::End => "end",
+            }
+            .to_owned(),
+            open,
+            close,
+            steps,
+            steps_from: if job.motion_steps.is_some() && steps > 1 {
+                "--motion-steps"
+            } else {
+                "rule"
+            }
+            .to_owned(),
+            turn_degrees: turn,
+            extra_evaluate_ms,
+            extra_build_ms,
+        }
+    });
     // The scene's own warnings (values clamped, channels skipped...) in
     // every frame's log, so each log tells the whole story of its frame.
     log.warnings = pipe.scene.warnings().to_vec();
@@ -1069,13 +1280,24 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             d.library()
         ));
     }
+    let soup = DeviceSoup::new(&device, &scene)?;
+    let mut tracer = PathTracer::new(&device, &scene, &job.settings)?;
+    // Blur's programs only when some frame can move: a shutter that stays
+    // open on an animated scene.
+    let motion = if job.shutter.is_some_and(|s| s.frames > 0.0) && scene.active_clip().is_some() {
+        tracer.prepare_motion()?;
+        Some(MotionSoup::new(&device, &soup)?)
+    } else {
+        None
+    };
     let mut pipe = Pipeline {
         device: &device,
         scene: &scene,
-        soup: DeviceSoup::new(&device, &scene)?,
+        soup,
         builder: DeviceBuilder::new(&device, job.params)?,
-        tracer: PathTracer::new(&device, &scene, &job.settings)?,
+        tracer,
         denoiser,
+        motion,
     };
     signals.deferred();
     signals.check()?;
@@ -1099,7 +1321,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             Some(_) => render_frame(&mut pipe, &job, frame, &progress, &signals),
             // A frame whose warm-up fails fails the same way when rendered,
             // which reports the stage; the next frame warms up again.
-            None => match pipe.warm_up(frame) {
+            None => match pipe.warm_up(&job, frame) {
                 Ok(()) => {
                     let ms = ms(startup);
                     startup_ms = Some(ms);

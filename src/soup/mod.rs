@@ -7,6 +7,7 @@
 //! into the buffers the BVH builder and the tracer read.
 
 pub mod device;
+pub mod motion;
 
 use std::fmt;
 

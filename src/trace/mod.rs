@@ -24,6 +24,7 @@ pub mod escape;
 pub mod intersect;
 pub mod lights;
 pub mod material;
+pub mod motion;
 pub mod render;
 pub mod sampling;
 pub mod texture;

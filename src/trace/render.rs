@@ -325,6 +325,20 @@ struct Kernels {
     _program: Program,
 }
 
+impl Kernels {
+    fn build(device: &Device, defines: &[(&'static str, String)]) -> Result<Kernels, TraceError> {
+        let program = device.build_program("pathtrace.cl", defines)?;
+        Ok(Kernels {
+            render: device.kernel(&program, "pt_render")?,
+            clear: device.kernel(&program, "pt_clear")?,
+            converge: device.kernel(&program, "pt_converge")?,
+            dilate: device.kernel(&program, "pt_dilate")?,
+            emissive_power: device.kernel(&program, "pt_emissive_power")?,
+            _program: program,
+        })
+    }
+}
+
 /// The defines `pathtrace.cl` is compiled with, assembled here and nowhere
 /// else (`tests/kernels_portable.rs` compiles every combination with clang).
 pub fn pathtrace_defines(
@@ -345,6 +359,28 @@ pub fn pathtrace_defines(
         defines.push((define, "1".to_owned()));
     }
     defines
+}
+
+/// The defines of `pathtrace.cl`'s motion-blur variant: `base` (from
+/// `pathtrace_defines`) and `MOTION_BLUR`.
+pub fn motion_defines(mut base: Vec<(&'static str, String)>) -> Vec<(&'static str, String)> {
+    base.push(("MOTION_BLUR", "1".to_owned()));
+    base
+}
+
+/// A frame that moves within the shutter, for `PathTracer::render_motion`:
+/// the soup at each motion step on the device (`trace::motion` gives the
+/// layout), its tree built over `motion_bounds`, and the camera at each
+/// step. Lights are those of the frame's instant.
+pub struct MotionFrame<'a> {
+    /// Positions at every step, `steps * 3 * triangles` corners.
+    pub positions: &'a Buffer<[f32; 4]>,
+    /// Shading normals at every step, when the soup has normals.
+    pub normals: Option<&'a Buffer<[f32; 4]>>,
+    /// Motion steps, at least 2.
+    pub steps: u32,
+    /// The camera at each step.
+    pub cameras: &'a [FrameCamera],
 }
 
 /// The path tracer of one scene on one device.
@@ -390,6 +426,13 @@ pub struct PathTracer<'d> {
     setup_warnings: Vec<String>,
     /// Host soup uploads for `render_soup`.
     host_soup: Option<HostSoupBuffers>,
+    /// The program's defines, for compiling its motion-blur variant.
+    defines: Vec<(&'static str, String)>,
+    /// `pathtrace.cl` with MOTION_BLUR, compiled at the first frame that
+    /// moves within its shutter.
+    motion_kernels: Option<Kernels>,
+    /// The camera at each motion step.
+    motion_cameras: GrowBuffer<DeviceCamera>,
 }
 
 /// An environment map on the device: its record, texels and CDFs.
@@ -491,15 +534,7 @@ impl<'d> PathTracer<'d> {
         }
 
         let defines = pathtrace_defines(settings.traversal, textures.is_some(), settings.sampler);
-        let program = device.build_program("pathtrace.cl", &defines)?;
-        let kernels = Kernels {
-            render: device.kernel(&program, "pt_render")?,
-            clear: device.kernel(&program, "pt_clear")?,
-            converge: device.kernel(&program, "pt_converge")?,
-            dilate: device.kernel(&program, "pt_dilate")?,
-            emissive_power: device.kernel(&program, "pt_emissive_power")?,
-            _program: program,
-        };
+        let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
         device.write(&mut materials, &host_materials)?;
@@ -580,6 +615,9 @@ impl<'d> PathTracer<'d> {
             pixel_list: GrowBuffer::new(),
             setup_warnings: warnings,
             host_soup: None,
+            defines,
+            motion_kernels: None,
+            motion_cameras: GrowBuffer::new(),
         })
     }
 
@@ -635,8 +673,159 @@ impl<'d> PathTracer<'d> {
             frame.camera,
             frame.lights,
             frame.frame,
+            None,
             progress,
         )
+    }
+
+    /// Compiles the motion-blur variant of the program, once.
+    pub fn prepare_motion(&mut self) -> Result<(), TraceError> {
+        if self.motion_kernels.is_none() {
+            let defines = motion_defines(self.defines.clone());
+            self.motion_kernels = Some(Kernels::build(self.device, &defines)?);
+        }
+        Ok(())
+    }
+
+    /// Renders a frame that moves within the shutter: `frame.bvh` and
+    /// `frame.prim_ids` are the tree over the triangles' bounds at every
+    /// step, `motion` the soup and camera at each step (`frame.soup`
+    /// supplies the uvs and material ids, which do not move). Each camera
+    /// sample draws a time in the shutter (sampler set 0, dimension 2) and
+    /// its whole path sees the scene at that time.
+    pub fn render_motion(
+        &mut self,
+        frame: &FrameInput,
+        motion: &MotionFrame,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let soup = SoupBuffers {
+            positions: motion.positions,
+            normals: motion.normals,
+            uvs: frame.soup.uvs(),
+            material_ids: frame.soup.material_ids(),
+            triangles: frame.soup.triangle_count(),
+        };
+        self.render_buffers(
+            &soup,
+            frame.bvh,
+            frame.prim_ids,
+            frame.camera,
+            frame.lights,
+            frame.frame,
+            Some((motion.steps, motion.cameras)),
+            progress,
+        )
+    }
+
+    /// `render_motion` at one sample per pixel, the image thrown away (the
+    /// motion program's first launch, as `warm_up`).
+    pub fn warm_up_motion(
+        &mut self,
+        frame: &FrameInput,
+        motion: &MotionFrame,
+    ) -> Result<(), TraceError> {
+        let saved = self.settings.clone();
+        let warnings = self.setup_warnings.clone();
+        self.settings.spp = 1;
+        let result = self.render_motion(frame, motion, &mut |_| {});
+        self.settings = saved;
+        self.setup_warnings = warnings;
+        result.map(|_| ())
+    }
+
+    /// Renders host soups at `steps.len()` >= 2 motion steps (same
+    /// triangles, uvs and materials in each; `cameras` one per step), their
+    /// tree built here on the device over the triangles' bounds at every
+    /// step (`motion::motion_bounds`). For tests and tools; the renderer
+    /// keeps everything on the device with `render_motion`.
+    pub fn render_motion_soup(
+        &mut self,
+        steps: &[Soup],
+        cameras: &[FrameCamera],
+        lights: &[FrameLight],
+        frame: i64,
+    ) -> Result<RenderOutput, TraceError> {
+        let count = steps.len();
+        if count < 2 || cameras.len() != count {
+            return Err(usage(format!(
+                "render_motion_soup: {count} soups and {} cameras; give at least 2 steps and one camera per step",
+                cameras.len()
+            )));
+        }
+        let n = steps[0].triangle_count();
+        if steps.iter().any(|s| s.triangle_count() != n) {
+            return Err(usage(
+                "render_motion_soup: every step must have the same triangles".into(),
+            ));
+        }
+        let d = self.device;
+        let mut data: Vec<[f32; 4]> = Vec::with_capacity(3 * n * count);
+        for s in steps {
+            data.extend_from_slice(&s.positions);
+        }
+        let has_normals = n > 0 && steps.iter().all(|s| s.normals.len() == 3 * n);
+        let mut normals: Vec<[f32; 4]> = Vec::new();
+        if has_normals {
+            for s in steps {
+                normals.extend_from_slice(&s.normals);
+            }
+        }
+        let bounds = Soup {
+            positions: super::motion::motion_bounds(&data, n, count as u32),
+            ..Soup::default()
+        };
+        let mut builder = DeviceBuilder::new(d, BuildParams::default())
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        let (bvh, _) = builder
+            .build(&bounds)
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        self.prepare_motion()?;
+        let first = &steps[0];
+        let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
+            positions: GrowBuffer::new(),
+            normals: GrowBuffer::new(),
+            uvs: GrowBuffer::new(),
+            material_ids: GrowBuffer::new(),
+        });
+        let result = (|| {
+            d.write(hs.positions.ensure(d, data.len().max(1))?, &data)?;
+            if has_normals {
+                d.write(hs.normals.ensure(d, normals.len())?, &normals)?;
+            }
+            let has_uvs = first.uvs.len() == 3 * n && n > 0;
+            if has_uvs {
+                d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
+            }
+            let ids = if first.material_ids.len() == n {
+                first.material_ids.clone()
+            } else {
+                vec![0; n]
+            };
+            d.write(hs.material_ids.ensure(d, n.max(1))?, &ids)?;
+            let buffers = SoupBuffers {
+                positions: hs.positions.get(),
+                normals: has_normals.then(|| hs.normals.get()),
+                uvs: has_uvs.then(|| hs.uvs.get()),
+                material_ids: hs.material_ids.get(),
+                triangles: n,
+            };
+            let prim_ids = builder
+                .device_prim_ids()
+                .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
+            self.render_buffers(
+                &buffers,
+                &bvh,
+                prim_ids,
+                &cameras[count / 2],
+                lights,
+                frame,
+                Some((count as u32, cameras)),
+                &mut |_| {},
+            )
+        })();
+        self.host_soup = Some(hs);
+        result
     }
 
     /// Renders a host soup (uploaded into buffers kept for the next call)
@@ -688,7 +877,16 @@ impl<'d> PathTracer<'d> {
             let prim_ids = builder
                 .device_prim_ids()
                 .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
-            self.render_buffers(&buffers, &bvh, prim_ids, camera, lights, frame, &mut |_| {})
+            self.render_buffers(
+                &buffers,
+                &bvh,
+                prim_ids,
+                camera,
+                lights,
+                frame,
+                None,
+                &mut |_| {},
+            )
         })();
         self.host_soup = Some(hs);
         result
@@ -703,6 +901,7 @@ impl<'d> PathTracer<'d> {
         camera: &FrameCamera,
         lights: &[FrameLight],
         frame_index: i64,
+        motion: Option<(u32, &[FrameCamera])>,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
         let d = self.device;
@@ -860,6 +1059,22 @@ impl<'d> PathTracer<'d> {
         };
         d.write(&mut self.frame, &[fr])?;
         d.write(&mut self.camera, &[device_camera(camera, w, h)])?;
+        let motion_steps = match motion {
+            Some((steps, cameras)) => {
+                if steps < 2 || cameras.len() != steps as usize || self.motion_kernels.is_none() {
+                    return Err(usage(format!(
+                        "a motion frame needs at least 2 steps, one camera per step and the motion program \
+                         (prepare_motion); got {steps} steps and {} cameras",
+                        cameras.len()
+                    )));
+                }
+                let cams: Vec<DeviceCamera> =
+                    cameras.iter().map(|c| device_camera(c, w, h)).collect();
+                d.write(self.motion_cameras.ensure(d, cams.len())?, &cams)?;
+                Some(steps)
+            }
+            None => None,
+        };
 
         // Accumulators.
         self.accum_color.ensure(d, pixels)?;
@@ -934,6 +1149,7 @@ impl<'d> PathTracer<'d> {
                 empty,
                 (begin, end),
                 listed,
+                motion_steps,
             )?;
             if check {
                 self.enqueue_check(pixels, w, h)?;
@@ -1086,7 +1302,12 @@ impl<'d> PathTracer<'d> {
         empty: bool,
         (begin, end): (u32, u32),
         listed: Option<u32>,
+        motion_steps: Option<u32>,
     ) -> Result<(), TraceError> {
+        let (kernel, camera) = match (motion_steps, &self.motion_kernels) {
+            (Some(_), Some(k)) => (&k.render, self.motion_cameras.get()),
+            _ => (&self.kernels.render, &self.camera),
+        };
         let d = self.device;
         // A listed launch is one "tile" of `listed` items in a row.
         let (w, h) = match listed {
@@ -1147,7 +1368,7 @@ impl<'d> PathTracer<'d> {
                 }
                 args.extend([
                     Arg::Buf(&self.filter),
-                    Arg::Buf(&self.camera),
+                    Arg::Buf(camera),
                     Arg::Buf(&self.frame),
                     Arg::Buf(self.accum_color.get()),
                     Arg::Buf(self.accum_normal.get()),
@@ -1171,9 +1392,13 @@ impl<'d> PathTracer<'d> {
                     args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
                     args.push(Arg::Buf(bindings));
                 }
+                if let Some(steps) = motion_steps {
+                    args.push(Arg::U32(steps));
+                    args.push(Arg::U32(soup.triangles as u32));
+                }
                 d.launch(
                     "pathtrace/render",
-                    &self.kernels.render,
+                    kernel,
                     items.div_ceil(local),
                     local,
                     &args,

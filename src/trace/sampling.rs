@@ -107,7 +107,8 @@ impl std::str::FromStr for NoisePattern {
     }
 }
 
-/// The set of the camera sample: (filter x, filter y, -, -).
+/// The set of the camera sample: (filter x, filter y, shutter time, -); the
+/// time (component 2) is read only with motion blur (`trace::motion`).
 pub const SET_CAMERA: u32 = 0;
 /// Slots of a bounce's sets (`set_bounce`).
 pub const SET_LIGHT: u32 = 0;
