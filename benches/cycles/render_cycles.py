@@ -190,7 +190,7 @@ def main():
     r.use_motion_blur = args.motion_blur > 0
     if args.motion_blur > 0:
         r.motion_blur_shutter = args.motion_blur
-        r.motion_blur_position = args.shutter_position
+        scene.cycles.motion_blur_position = args.shutter_position
         for o in scene.objects:
             o.cycles.use_motion_blur = True
     r.use_persistent_data = False
