@@ -554,6 +554,11 @@ pub struct RenderLog {
     pub traversal: String,
     /// The sampler (`--sampler`): `sobol` or `random`.
     pub sampler: String,
+    /// The material features compiled into the path tracer for this scene:
+    /// `metallic_roughness` always, `textures` when some material is
+    /// textured, `transmission` when some material uses
+    /// KHR_materials_transmission, _ior or _volume.
+    pub material_features: Vec<String>,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

@@ -806,6 +806,12 @@ fn render_frame(
         mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
         traversal: job.settings.traversal.name().to_owned(),
         sampler: job.settings.sampler.name().to_owned(),
+        material_features: pipe
+            .tracer
+            .material_features()
+            .iter()
+            .map(|f| (*f).to_owned())
+            .collect(),
     };
     log.camera = camera_log(&info.camera);
     log.output = output::OutputLog {
