@@ -7,7 +7,14 @@
 // (visible normals, Heitz 2018) with a probability from the lobes' albedo
 // estimate and returns the pdf of the whole mixture, for MIS.
 //
-// Directions are in the local shading frame (z = normal), both pointing
+// With HAS_TRANSMISSION (some material uses KHR_materials_transmission,
+// _ior or _volume): F0 comes from the ior, and the share `transmission` of
+// the dielectric's diffuse lobe becomes a GGX transmission lobe tinted by
+// the base colour, thin-walled (the reflection lobe mirrored through the
+// surface) or refracting (Walter et al. 2007, as pbrt-v4's DielectricBxDF
+// with its 1/eta^2 radiance scaling); wi may then lie below the surface.
+//
+// Directions are in the local shading frame (z = normal), wo pointing
 // away from the surface. Every function mirrors src/trace/material.rs
 // (`bsdf_eval`, `bsdf_sample`, `bsdf_pdf`); kernels/bsdf_probe.cl holds the
 // two to each other.
@@ -42,6 +49,17 @@ typedef struct {
     uint pad[3];
 } PtMaterial;
 
+// A material's dielectric extension factors (mirrored by
+// `DeviceMaterialExt`), in a table beside the materials that only
+// HAS_TRANSMISSION kernels take.
+typedef struct {
+    float transmission;
+    float ior;
+    float volume; // 1: refracting volume with attenuation; 0: thin-walled
+    float pad;
+    float sigma[4]; // attenuation per unit length, rgb
+} PtMaterialExt;
+
 // The material's parameters at one surface point, after textures.
 typedef struct {
     float3 base;
@@ -50,6 +68,12 @@ typedef struct {
     // Scales the dielectric's Fresnel reflectance: 1 for glTF materials,
     // 0 for the pure Lambertian of --clay.
     float specular;
+#ifdef HAS_TRANSMISSION
+    float f0;           // normal-incidence reflectance of the dielectric
+    float transmission; // share of the diffuse lobe that transmits
+    float eta;          // relative index, far side over wo's side (1: thin)
+    float thin;         // 1: thin-walled, transmission unbent
+#endif
 } BsdfParams;
 
 #define MIN_GGX_ALPHA 1.0e-3f
@@ -88,8 +112,106 @@ inline float bsdf_spec_probability(BsdfParams p, float cos_o) {
     return sum > 0.0f ? ws / sum : 0.0f;
 }
 
+
+#ifdef HAS_TRANSMISSION
+inline float f0_of_ior(float ior) {
+    float r = (ior - 1.0f) / (ior + 1.0f);
+    return r * r;
+}
+
+// Schlick's Fresnel on the optically thinner side; 1 under total internal
+// reflection.
+inline float fresnel_dielectric(float f0, float eta, float c) {
+    if (eta < 1.0f) {
+        float s2t = fmax(1.0f - c * c, 0.0f) / (eta * eta);
+        if (s2t >= 1.0f) return 1.0f;
+        c = sqrt(1.0f - s2t);
+    }
+    return f0 + (1.0f - f0) * schlick_weight(c);
+}
+
+// The probabilities of the specular reflection (x) and transmission (y)
+// lobes; the diffuse lobe has the rest.
+inline float2 lobe_probabilities(BsdfParams p, float cos_o) {
+    float fo = p.specular * fresnel_dielectric(p.f0, p.eta, cos_o);
+    float ws = p.metallic + (1.0f - p.metallic) * fo;
+    float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
+    float wt = wb * p.transmission;
+    float wd = wb * (1.0f - p.transmission);
+    float sum = (ws + wt) + wd;
+    return sum > 0.0f ? (float2)(ws / sum, wt / sum) : (float2)(0.0f);
+}
+
+// The half vector of a refraction wo -> wi; false when the pair is not a
+// refraction through a front-facing microfacet.
+inline bool refraction_half(float eta, float3 wo, float3 wi, float3* h_out, float* oh_out,
+                            float* ih_out) {
+    float3 hv = wo + wi * eta;
+    float hl = length(hv);
+    if (!(hl > 0.0f)) return false;
+    float3 h = hv / hl;
+    if (h.z < 0.0f) h = -h;
+    float oh = dot(wo, h);
+    float ih = dot(wi, h);
+    if (!(oh > 0.0f) || !(ih < 0.0f)) return false;
+    *h_out = h;
+    *oh_out = oh;
+    *ih_out = ih;
+    return true;
+}
+
+inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
+    if (wo.z <= 0.0f || wi.z == 0.0f) return (float3)(0.0f);
+    if (wi.z > 0.0f) {
+        float3 hv = wo + wi;
+        float hl = length(hv);
+        if (hl == 0.0f) return (float3)(0.0f);
+        float3 h = hv / hl;
+        float voh = fmax(dot(wo, h), 0.0f);
+        float d = ggx_d(p.alpha, h.z);
+        float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+        float s = (d * g2) / ((4.0f * wo.z) * wi.z);
+        float w = schlick_weight(voh);
+        float fd = p.specular * fresnel_dielectric(p.f0, p.eta, voh);
+        float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+        float3 dielectric =
+            p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) + (float3)(fd * s);
+        float3 metal = fm * s;
+        return dielectric * (1.0f - p.metallic) + metal * p.metallic;
+    }
+    float weight = (1.0f - p.metallic) * p.transmission;
+    if (!(weight > 0.0f)) return (float3)(0.0f);
+    if (p.thin != 0.0f) {
+        float3 r = (float3)(wi.x, wi.y, -wi.z);
+        float3 hv = wo + r;
+        float hl = length(hv);
+        if (hl == 0.0f) return (float3)(0.0f);
+        float3 h = hv / hl;
+        float voh = fmax(dot(wo, h), 0.0f);
+        float d = ggx_d(p.alpha, h.z);
+        float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
+        float s = (d * g2) / ((4.0f * wo.z) * r.z);
+        float fd = p.specular * fresnel_dielectric(p.f0, 1.0f, voh);
+        return p.base * ((weight * (1.0f - fd)) * s);
+    }
+    float3 h;
+    float oh, ih;
+    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return (float3)(0.0f);
+    float fd = p.specular * fresnel_dielectric(p.f0, p.eta, oh);
+    float denom = ih + oh / p.eta;
+    float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+    float ft = fabs(((ggx_d(p.alpha, h.z) * (1.0f - fd)) * g2) *
+                    ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
+               (p.eta * p.eta);
+    return p.base * (weight * ft);
+}
+#endif
+
 // The BSDF value (without the cosine) for wo, wi in the local frame.
 inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+#ifdef HAS_TRANSMISSION
+    return dielectric_eval(p, wo, wi);
+#endif
     if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
     // Pure Lambert (--clay): the same value as below, without the lobe.
     if (p.specular == 0.0f && p.metallic == 0.0f) return p.base * PT_INV_PI;
@@ -120,7 +242,31 @@ inline float ggx_vndf_pdf(float a, float3 wo, float3 wi) {
     return (g1 * ggx_d(a, h.z)) / (4.0f * wo.z);
 }
 
+#ifdef HAS_TRANSMISSION
+inline float dielectric_pdf(BsdfParams p, float3 wo, float3 wi) {
+    if (wo.z <= 0.0f || wi.z == 0.0f) return 0.0f;
+    float2 pr = lobe_probabilities(p, wo.z);
+    float ps = pr.x, pt = pr.y;
+    if (wi.z > 0.0f) {
+        float spec = ps > 0.0f ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+        return ps * spec + ((1.0f - ps) - pt) * (wi.z * PT_INV_PI);
+    }
+    if (!(pt > 0.0f)) return 0.0f;
+    if (p.thin != 0.0f) return pt * ggx_vndf_pdf(p.alpha, wo, (float3)(wi.x, wi.y, -wi.z));
+    float3 h;
+    float oh, ih;
+    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return 0.0f;
+    float g1 = 1.0f / (1.0f + ggx_lambda(p.alpha, wo.z));
+    float pdf_h = ((g1 * ggx_d(p.alpha, h.z)) * oh) / wo.z;
+    float denom = ih + oh / p.eta;
+    return pt * (pdf_h * (-ih / (denom * denom)));
+}
+#endif
+
 inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
+#ifdef HAS_TRANSMISSION
+    return dielectric_pdf(p, wo, wi);
+#endif
     if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
     if (p.specular == 0.0f && p.metallic == 0.0f) return wi.z * PT_INV_PI;
     float ps = bsdf_spec_probability(p, wo.z);
@@ -150,6 +296,41 @@ inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
 inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
                         float3* wi_out, float3* f_out, float* pdf_out) {
     if (wo.z <= 0.0f) return false;
+#ifdef HAS_TRANSMISSION
+    {
+        float2 pr = lobe_probabilities(p, wo.z);
+        float ps = pr.x, pt = pr.y;
+        float3 wi;
+        if (lobe_u < ps) {
+            float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+            wi = h * (2.0f * dot(wo, h)) - wo;
+            if (wi.z <= 0.0f) return false;
+        } else if (lobe_u < ps + pt) {
+            float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+            float c = dot(wo, h);
+            if (p.thin != 0.0f) {
+                float3 r = h * (2.0f * c) - wo;
+                wi = (float3)(r.x, r.y, -r.z);
+            } else {
+                if (!(c > 0.0f)) return false;
+                float s2t = fmax(1.0f - c * c, 0.0f) / (p.eta * p.eta);
+                if (s2t >= 1.0f) return false;
+                float ct = sqrt(1.0f - s2t);
+                wi = -wo / p.eta + h * (c / p.eta - ct);
+            }
+            if (wi.z >= 0.0f) return false;
+        } else {
+            wi = sample_cosine_hemisphere(u1, u2);
+            if (wi.z <= 0.0f) return false;
+        }
+        float pdf = dielectric_pdf(p, wo, wi);
+        if (!(pdf > 0.0f)) return false;
+        *wi_out = wi;
+        *f_out = dielectric_eval(p, wo, wi);
+        *pdf_out = pdf;
+        return true;
+    }
+#endif
     float ps = bsdf_spec_probability(p, wo.z);
     float3 wi;
     if (lobe_u < ps) {

@@ -15,8 +15,20 @@
 // materials are crossed with probability 1 - alpha (stochastic coverage),
 // for camera, bounce and shadow rays alike. Compiled with STACK_SIZE,
 // TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
-// the stack traversal of the 4-wide layout, and HAS_TEXTURES when some
-// material is textured.
+// the stack traversal of the 4-wide layout, HAS_TEXTURES when some
+// material is textured, and HAS_TRANSMISSION when some material uses
+// KHR_materials_transmission, _ior or _volume.
+//
+// Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
+// continues from just below it. Entering a volume material through its
+// front face starts attenuation by its coefficient (Beer-Lambert over each
+// segment's length), leaving through a back face ends it; one medium at a
+// time (a path entering a second volume takes that one's coefficient, and
+// relative indices assume the outside is air). Shadow rays are blocked by
+// transmissive surfaces like any other: light reaches through them by the
+// BSDF samples of the transmitting vertex (and that vertex's own light
+// samples for rough transmission), which MIS weighs against its light
+// sampling, so no light is counted twice or lost.
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
@@ -64,6 +76,9 @@ typedef struct {
     // The path's time: every triangle, normal and camera is read at it.
     MotionTime mt;
 #endif
+#ifdef HAS_TRANSMISSION
+    const __global PtMaterialExt* material_exts;
+#endif
 } PtScene;
 
 // The scene's geometry at the path's time (the soup itself without
@@ -87,6 +102,12 @@ typedef struct {
 #else
 #define MOTION_DECL
 #endif
+#ifdef HAS_TRANSMISSION
+// The dielectric extensions' table, beside the materials (last argument).
+#define MATX_DECL , __global const PtMaterialExt* material_exts
+#else
+#define MATX_DECL
+#endif
 
 inline Hit pt_trace_closest(PtScene* s, Ray ray) {
     s->rays += 1u;
@@ -104,6 +125,22 @@ inline PtMaterial pt_material(const PtScene* s, uint prim) {
     uint last = s->frame.material_count - 1u;
     return s->materials[min(id, last)];
 }
+
+#ifdef HAS_TRANSMISSION
+inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
+    uint id = s->material_ids[prim];
+    uint last = s->frame.material_count - 1u;
+    return s->material_exts[min(id, last)];
+}
+
+// Beer-Lambert transmittance over `t` for coefficients `sigma` (a zero
+// coefficient transmits everything, even over an infinite segment).
+inline float3 pt_attenuation(float3 sigma, float t) {
+    return (float3)(sigma.x > 0.0f ? exp(-sigma.x * t) : 1.0f,
+                    sigma.y > 0.0f ? exp(-sigma.y * t) : 1.0f,
+                    sigma.z > 0.0f ? exp(-sigma.z * t) : 1.0f);
+}
+#endif
 
 inline float2 pt_uv(const PtScene* s, uint prim, float u, float v) {
     if ((s->frame.flags & FRAME_UVS) == 0u) return (float2)(0.0f);
@@ -279,6 +316,9 @@ typedef struct {
     float3 ns;
     float2 uv;
     bool front;
+#ifdef HAS_TRANSMISSION
+    float3 below; // ray origin for directions below the surface
+#endif
 } PtSurface;
 
 inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TEX_DECL) {
@@ -351,14 +391,29 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
                              float3 b, float3 above, float3 beta, float3 wi_w, float3 contrib,
                              float light_pdf, float3 shadow_dir, float shadow_t, SampleRng rng,
                              uint bounce TEX_DECL) {
+#ifdef HAS_TRANSMISSION
+    // Below the surface: only through a transmissive material, and the
+    // shadow ray starts below it (towards the same point for finite lights).
+    bool reflected = dot(wi_w, sf.ng) > 0.0f;
+    if (!reflected && !(bp.transmission > 0.0f && dot(wi_w, sf.ng) < 0.0f)) return (float3)(0.0f);
+    float3 wi = to_local(wi_w, t, b, sf.ns);
+    if (reflected ? !(wi.z > 0.0f) : !(wi.z < 0.0f)) return (float3)(0.0f);
+    float cos_i = fabs(wi.z);
+    if (!reflected) {
+        if (!isinf(shadow_t)) shadow_dir = shadow_dir + (above - sf.below);
+        above = sf.below;
+    }
+#else
     if (!(dot(wi_w, sf.ng) > 0.0f)) return (float3)(0.0f);
     float3 wi = to_local(wi_w, t, b, sf.ns);
     if (!(wi.z > 0.0f)) return (float3)(0.0f);
+    float cos_i = wi.z;
+#endif
     float3 f = bsdf_eval(bp, wo, wi);
     if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) return (float3)(0.0f);
     float w = 1.0f;
     if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
-    float3 c = beta * f * (wi.z * w) * contrib;
+    float3 c = beta * f * (cos_i * w) * contrib;
     if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return (float3)(0.0f);
     if (pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS)) return (float3)(0.0f);
     return c;
@@ -515,11 +570,18 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     float3 beta = (float3)(1.0f);
     float prev_pdf = 0.0f;
     uint max_depth = s->frame.max_depth;
+#ifdef HAS_TRANSMISSION
+    // The attenuation coefficient of the volume the path is in (0: none).
+    float3 sigma = (float3)(0.0f);
+#endif
     for (uint bounce = 0u;; ++bounce) {
         Hit h;
         float travelled;
         bool blocked;
         bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked TEX_PASS);
+#ifdef HAS_TRANSMISSION
+        beta = beta * pt_attenuation(sigma, found ? travelled : INFINITY);
+#endif
         if (!found) {
             if (!blocked && s->env.kind != ENV_NONE) {
                 float3 le = env_radiance(s->env, s->env_texels, dir);
@@ -559,6 +621,22 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         onb(sf.ns, &t, &b);
         float3 wo = to_local(wo_w, t, b, sf.ns);
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
+#ifdef HAS_TRANSMISSION
+        sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
+        PtMaterialExt mx = pt_material_ext(s, h.prim);
+        bool volume = mx.volume != 0.0f;
+        if ((s->frame.flags & FRAME_CLAY) != 0u) {
+            bp.f0 = 0.04f;
+            bp.transmission = 0.0f;
+            bp.eta = 1.0f;
+            bp.thin = 1.0f;
+        } else {
+            bp.f0 = f0_of_ior(mx.ior);
+            bp.transmission = clamp(mx.transmission, 0.0f, 1.0f);
+            bp.eta = volume ? (sf.front ? mx.ior : 1.0f / mx.ior) : 1.0f;
+            bp.thin = volume ? 0.0f : 1.0f;
+        }
+#endif
 
         // Next-event estimation: every punctual light when the frame loops
         // over them, then one light from the selection distribution.
@@ -593,8 +671,19 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 wi_w = to_world(wi, t, b, sf.ns);
         float wl = length(wi_w);
         wi_w = wi_w / wl;
+#ifdef HAS_TRANSMISSION
+        bool transmitted = wi.z < 0.0f;
+        if (transmitted ? dot(wi_w, sf.ng) >= 0.0f : dot(wi_w, sf.ng) <= 0.0f) break;
+        beta = beta * f * (fabs(wi.z) / pdf);
+        if (transmitted) {
+            above = sf.below;
+            if (volume)
+                sigma = sf.front ? (float3)(mx.sigma[0], mx.sigma[1], mx.sigma[2]) : (float3)(0.0f);
+        }
+#else
         if (dot(wi_w, sf.ng) <= 0.0f) break;
         beta = beta * f * (wi.z / pdf);
+#endif
         prev_pdf = pdf;
         // Russian roulette from the sixth vertex on (after the fifth
         // bounce's sample), keeping throughput near 1 where it survives.
@@ -647,7 +736,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
-                        MOTION_DECL) {
+                        MATX_DECL MOTION_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -685,6 +774,9 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef MOTION_BLUR
     s.motion_steps = motion_steps;
     s.motion_triangles = motion_triangles;
+#endif
+#ifdef HAS_TRANSMISSION
+    s.material_exts = material_exts;
 #endif
     if (px >= s.frame.width || py >= s.frame.height) return;
     uint i = py * s.frame.width + px;

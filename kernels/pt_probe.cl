@@ -80,6 +80,46 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
     o[11] = ok ? spdf : 0.0f;
 }
 
+#ifdef HAS_TRANSMISSION
+// Layout of PtMaterialExt: size, offsets of volume and sigma.
+__kernel void pt_ext_layout_probe(__global uint* out) {
+    out[0] = (uint)sizeof(PtMaterialExt);
+    out[1] = (uint)offsetof(PtMaterialExt, volume);
+    out[2] = (uint)offsetof(PtMaterialExt, sigma);
+}
+
+// As bsdf_probe with the dielectric extensions: per case params (base rgb,
+// metallic, alpha, specular, f0, transmission), (eta, thin, 0, 0), wo,
+// wi, u: 24 floats. Out as bsdf_probe: 12 floats.
+__kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 24u;
+    BsdfParams p;
+    p.base = (float3)(c[0], c[1], c[2]);
+    p.metallic = c[3];
+    p.alpha = c[4];
+    p.specular = c[5];
+    p.f0 = c[6];
+    p.transmission = c[7];
+    p.eta = c[8];
+    p.thin = c[9];
+    float3 wo = (float3)(c[12], c[13], c[14]);
+    float3 wi = (float3)(c[16], c[17], c[18]);
+    __global float* o = out + (size_t)i * 12u;
+    float3 f = bsdf_eval(p, wo, wi);
+    o[0] = f.x; o[1] = f.y; o[2] = f.z;
+    o[3] = bsdf_pdf(p, wo, wi);
+    float3 swi, sf;
+    float spdf;
+    bool ok = bsdf_sample(p, wo, c[20], c[21], c[22], &swi, &sf, &spdf);
+    o[4] = ok ? 1.0f : 0.0f;
+    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
+    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
+    o[11] = ok ? spdf : 0.0f;
+}
+#endif
+
 // Per case: light index, point (xyz). Out: ok, wi xyz, dist, e rgb (8).
 __kernel void light_probe(__global const PtLight* lights, __global const float* in,
                           __global float* out, uint n) {

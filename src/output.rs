@@ -591,6 +591,11 @@ pub struct RenderLog {
     pub sampler: String,
     /// `--noise-pattern`: `per-frame` or `fixed`.
     pub noise_pattern: String,
+    /// The material features compiled into the path tracer for this scene:
+    /// `metallic_roughness` always, `textures` when some material is
+    /// textured, `transmission` when some material uses
+    /// KHR_materials_transmission, _ior or _volume.
+    pub material_features: Vec<String>,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

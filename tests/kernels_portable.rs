@@ -161,11 +161,13 @@ fn variants() -> Vec<Variant> {
     for traversal in all_traversals() {
         for textures in [false, true] {
             for sampler in all_samplers() {
-                v.push(Variant {
-                    entry: "pathtrace.cl",
-                    defines: pathtrace_defines(traversal, textures, sampler),
-                    codegen: true,
-                });
+                for transmission in [false, true] {
+                    v.push(Variant {
+                        entry: "pathtrace.cl",
+                        defines: pathtrace_defines(traversal, textures, sampler, transmission),
+                        codegen: true,
+                    });
+                }
             }
         }
     }
@@ -209,6 +211,11 @@ fn variants() -> Vec<Variant> {
             codegen: true,
         });
     }
+    v.push(Variant {
+        entry: "pt_probe.cl",
+        defines: vec![("HAS_TRANSMISSION", "1".to_owned())],
+        codegen: true,
+    });
     for entry in [
         "layout_probe.cl",
         "soup_layout_probe.cl",

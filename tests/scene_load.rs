@@ -486,3 +486,82 @@ fn fox_texture_decodes_from_the_glb() {
         (decoded.width * decoded.height * 4) as usize
     );
 }
+
+#[test]
+fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
+    let path = b.write(
+        json!({
+            "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_iridescence"],
+            "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "materials": [
+                {"name": "glass", "extensions": {
+                    "KHR_materials_transmission": {"transmissionFactor": 0.9},
+                    "KHR_materials_ior": {"ior": 1.33},
+                    "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationColor": [0.5, 0.8, 1.0], "attenuationDistance": 3.0},
+                    "KHR_materials_clearcoat": {"clearcoatFactor": 1.0}}},
+                {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5},
+                                                  "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}},
+                {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
+                                                "KHR_materials_ior": {"ior": 0.5}}}
+            ],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}]
+        }),
+        dir.path(),
+        "dielectric",
+        true,
+    );
+    // Required transmission and volume are accepted.
+    let scene = load(&path, None);
+    let m = &scene.materials().materials;
+    assert_eq!((m[0].transmission_factor, m[0].ior), (0.9, 1.33));
+    assert_eq!(m[0].thickness_factor, 0.2);
+    assert_eq!(m[0].attenuation_color, [0.5, 0.8, 1.0]);
+    assert_eq!(m[0].attenuation_distance, 3.0);
+    assert!(m[0].needs_transmission() && m[0].has_volume());
+    // Without the extensions: the glTF defaults, and no transmission code.
+    assert_eq!((m[1].transmission_factor, m[1].ior), (0.0, 1.5));
+    assert_eq!(m[1].attenuation_distance, f32::INFINITY);
+    assert!(!m[1].needs_transmission());
+    // Out of range: clamped with a warning.
+    assert_eq!((m[2].transmission_factor, m[2].ior), (1.0, 1.0));
+    let w = scene.warnings();
+    for (ext, first) in [
+        ("KHR_materials_clearcoat", "material 0 \"glass\" and 1 more"),
+        ("KHR_materials_sheen", "material 1 \"paint\""),
+        ("KHR_materials_iridescence", "extensionsUsed"),
+    ] {
+        let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
+        assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
+        assert!(
+            hits[0].contains(first) && hits[0].contains("ignores"),
+            "{}",
+            hits[0]
+        );
+    }
+    assert!(w
+        .iter()
+        .any(|w| w.contains("transmissionFactor 2") && w.contains("1 is used")));
+    assert!(!w.iter().any(|w| w.contains("KHR_materials_ior is used")));
+
+    // An unsupported material extension that is required is refused.
+    let path = b.write(
+        json!({
+            "extensionsUsed": ["KHR_materials_clearcoat"],
+            "extensionsRequired": ["KHR_materials_clearcoat"],
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
+        }),
+        dir.path(),
+        "coat",
+        true,
+    );
+    let Err(err) = Scene::load(&path, &LoadOptions::default()) else {
+        panic!("a required KHR_materials_clearcoat is refused");
+    };
+    assert!(err.to_string().contains("KHR_materials_clearcoat"), "{err}");
+}

@@ -1012,6 +1012,12 @@ fn render_frame(
         traversal: job.settings.traversal.name().to_owned(),
         sampler: job.settings.sampler.name().to_owned(),
         noise_pattern: job.settings.noise_pattern.name().to_owned(),
+        material_features: pipe
+            .tracer
+            .material_features()
+            .iter()
+            .map(|f| (*f).to_owned())
+            .collect(),
     };
     log.camera = camera_log(&info.camera);
     log.output = output::OutputLog {

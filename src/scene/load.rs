@@ -304,6 +304,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     for (i, m) in materials.materials.iter_mut().enumerate() {
         super::ranges::material(i, m, &mut warnings);
     }
+    warnings.extend(super::material::ignored_material_extensions(&src.json));
     let needs_default = instances
         .iter()
         .flat_map(|i| &meshes[i.mesh].primitives)

@@ -1,7 +1,10 @@
 //! The material table the renderer shades with: metallic-roughness factors
 //! and textures, normal and occlusion maps, emission (with
-//! KHR_materials_emissive_strength), alpha mode, double-sidedness and
-//! KHR_texture_transform. Images are kept as handles and decoded only when
+//! KHR_materials_emissive_strength), alpha mode, double-sidedness,
+//! KHR_texture_transform, and the dielectric extensions
+//! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
+//! (factors only). Every other `KHR_materials_*` extension a scene uses is
+//! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
 use std::path::PathBuf;
@@ -60,6 +63,19 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
     pub alpha_cutoff: f32,
     pub double_sided: bool,
+    /// KHR_materials_transmission `transmissionFactor` (0 without it): the
+    /// share of the dielectric's diffuse lobe replaced by transmission.
+    pub transmission_factor: f32,
+    /// KHR_materials_ior `ior` (1.5 without it).
+    pub ior: f32,
+    /// KHR_materials_volume `thicknessFactor` (0 without it: thin-walled).
+    /// Only whether it is above 0 matters to a path tracer: the mesh's
+    /// own geometry is the volume.
+    pub thickness_factor: f32,
+    /// KHR_materials_volume `attenuationColor` (white without it).
+    pub attenuation_color: [f32; 3],
+    /// KHR_materials_volume `attenuationDistance` (infinite without it).
+    pub attenuation_distance: f32,
 }
 
 impl Default for Material {
@@ -83,6 +99,11 @@ impl Default for Material {
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,
             double_sided: false,
+            transmission_factor: 0.0,
+            ior: 1.5,
+            thickness_factor: 0.0,
+            attenuation_color: [1.0; 3],
+            attenuation_distance: f32::INFINITY,
         }
     }
 }
@@ -103,6 +124,109 @@ impl Material {
     pub fn is_textured(&self) -> bool {
         self.texture_refs().next().is_some()
     }
+
+    /// Whether the material needs the dielectric extensions' code
+    /// (`HAS_TRANSMISSION`): some transmission, or an ior other than the
+    /// default 1.5 (the default's 4 % Fresnel is the base model's).
+    pub fn needs_transmission(&self) -> bool {
+        self.transmission_factor > 0.0 || self.ior != 1.5
+    }
+
+    /// Transmissive with a volume: refraction and Beer-Lambert attenuation
+    /// inside the mesh, rather than thin-walled straight-through.
+    pub fn has_volume(&self) -> bool {
+        self.transmission_factor > 0.0 && self.thickness_factor > 0.0
+    }
+}
+
+/// The `KHR_materials_*` extensions soupray renders (the rest are named in
+/// a warning when a scene uses them).
+pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+];
+
+/// One warning per `KHR_materials_*` extension the file uses (on a
+/// material, or in `extensionsUsed`) that soupray does not render, naming
+/// it and the first material using it; and one per texture of a supported
+/// extension that is read as its factor alone.
+pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<String> {
+    // extension -> (first material index, name, count)
+    let mut users: std::collections::BTreeMap<String, (Option<usize>, Option<String>, usize)> =
+        Default::default();
+    let mut warnings = Vec::new();
+    let materials = json.get("materials").and_then(|m| m.as_array());
+    for (i, m) in materials.into_iter().flatten().enumerate() {
+        let Some(exts) = m.get("extensions").and_then(|e| e.as_object()) else {
+            continue;
+        };
+        let name = m.get("name").and_then(|n| n.as_str()).map(str::to_owned);
+        for (ext, body) in exts {
+            if !ext.starts_with("KHR_materials_") {
+                continue;
+            }
+            if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
+                for key in ["transmissionTexture", "thicknessTexture"] {
+                    if body.get(key).is_some() {
+                        warnings.push(format!(
+                            "material {i}{}: {ext} {key} is not supported; the factor alone is used",
+                            name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
+                        ));
+                    }
+                }
+                continue;
+            }
+            let e = users
+                .entry(ext.clone())
+                .or_insert((Some(i), name.clone(), 0));
+            e.2 += 1;
+        }
+    }
+    let used = json.get("extensionsUsed").and_then(|u| u.as_array());
+    for ext in used.into_iter().flatten().filter_map(|e| e.as_str()) {
+        if ext.starts_with("KHR_materials_") && !SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext) {
+            users.entry(ext.to_owned()).or_insert((None, None, 0));
+        }
+    }
+    for (ext, (first, name, count)) in users {
+        let by = match first {
+            Some(i) => format!(
+                " by material {i}{}{}",
+                name.map(|n| format!(" \"{n}\"")).unwrap_or_default(),
+                if count > 1 {
+                    format!(" and {} more", count - 1)
+                } else {
+                    String::new()
+                }
+            ),
+            None => " (listed in extensionsUsed)".to_owned(),
+        };
+        warnings.push(format!(
+            "{ext} is used{by} but soupray ignores it; those materials render as plain metallic-roughness"
+        ));
+    }
+    warnings
+}
+
+/// The material's `extensions.NAME` object in the raw JSON.
+fn material_extension<'j>(
+    src: &'j Source,
+    material: usize,
+    name: &str,
+) -> Option<&'j serde_json::Value> {
+    src.json
+        .get("materials")?
+        .get(material)?
+        .get("extensions")?
+        .get(name)
+}
+
+fn number(v: Option<&serde_json::Value>, key: &str, default: f32) -> f32 {
+    v.and_then(|v| v.get(key))
+        .and_then(|x| x.as_f64())
+        .map_or(default, |x| x as f32)
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -334,6 +458,33 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
             },
             alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
             double_sided: m.double_sided(),
+            transmission_factor: number(
+                material_extension(src, i, "KHR_materials_transmission"),
+                "transmissionFactor",
+                0.0,
+            ),
+            ior: number(material_extension(src, i, "KHR_materials_ior"), "ior", 1.5),
+            thickness_factor: number(
+                material_extension(src, i, "KHR_materials_volume"),
+                "thicknessFactor",
+                0.0,
+            ),
+            attenuation_color: {
+                let v = material_extension(src, i, "KHR_materials_volume")
+                    .and_then(|v| v.get("attenuationColor"))
+                    .and_then(|a| a.as_array());
+                let c = |k: usize| {
+                    v.and_then(|a| a.get(k))
+                        .and_then(|x| x.as_f64())
+                        .map_or(1.0, |x| x as f32)
+                };
+                [c(0), c(1), c(2)]
+            },
+            attenuation_distance: number(
+                material_extension(src, i, "KHR_materials_volume"),
+                "attenuationDistance",
+                f32::INFINITY,
+            ),
         });
     }
 

@@ -246,4 +246,50 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         f32::MAX,
         0.5,
     );
+    clamp(
+        w,
+        &what,
+        "KHR_materials_transmission transmissionFactor",
+        &mut m.transmission_factor,
+        0.0,
+        1.0,
+        0.0,
+    );
+    // KHR_materials_ior: 1 or more, or 0 for an infinite index (a perfect
+    // mirror), which the largest finite index stands for here.
+    if m.ior == 0.0 {
+        m.ior = 1.0e6;
+    }
+    clamp(
+        w,
+        &what,
+        "KHR_materials_ior ior",
+        &mut m.ior,
+        1.0,
+        f32::MAX,
+        1.5,
+    );
+    clamp(
+        w,
+        &what,
+        "KHR_materials_volume thicknessFactor",
+        &mut m.thickness_factor,
+        0.0,
+        f32::MAX,
+        0.0,
+    );
+    for (c, name) in m.attenuation_color.iter_mut().zip([
+        "KHR_materials_volume attenuationColor.r",
+        "KHR_materials_volume attenuationColor.g",
+        "KHR_materials_volume attenuationColor.b",
+    ]) {
+        clamp(w, &what, name, c, 0.0, 1.0, 1.0);
+    }
+    if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
+        w.push(format!(
+            "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",
+            m.attenuation_distance
+        ));
+        m.attenuation_distance = f32::INFINITY;
+    }
 }

@@ -15,7 +15,18 @@ use super::error::{Result, SceneError};
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_texture_transform",
+];
+
+/// Supported extensions read from the raw JSON rather than by the `gltf`
+/// crate (`scene::material`).
+const READ_FROM_RAW_JSON: &[&str] = &[
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
 ];
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -97,7 +108,20 @@ pub fn load(path: &Path) -> Result<Source> {
     }
     // Every index and range checked before the `gltf` crate sees them.
     let mut warnings = super::validate::validate(&file, &mut json)?;
-    let root: gltf::json::Root = serde_json::from_value(json.clone()).map_err(|e| not_json(&e))?;
+    // The extensions soupray reads from the raw JSON itself are checked
+    // above; the `gltf` crate, built without them, would refuse them when
+    // required.
+    let mut for_crate = json.clone();
+    if let Some(required) = for_crate
+        .get_mut("extensionsRequired")
+        .and_then(|r| r.as_array_mut())
+    {
+        required.retain(|e| {
+            !e.as_str()
+                .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
+        });
+    }
+    let root: gltf::json::Root = serde_json::from_value(for_crate).map_err(|e| not_json(&e))?;
 
     let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
         file: file.clone(),

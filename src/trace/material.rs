@@ -9,6 +9,15 @@
 //! a 4 % Schlick Fresnel and blended by `metallic` towards a conductor whose
 //! Schlick Fresnel starts at the base colour. `--clay` replaces it with a
 //! pure Lambertian of albedo 0.8.
+//!
+//! With `BsdfParams::dielectric` set (the kernels' `HAS_TRANSMISSION`),
+//! KHR_materials_ior sets the dielectric's F0 and KHR_materials_transmission
+//! replaces the share `transmission` of the diffuse lobe by a GGX
+//! transmission lobe tinted by the base colour: thin-walled (the reflection
+//! lobe mirrored to the far side, no bending) or, with KHR_materials_volume,
+//! refracting (Walter et al. 2007, as pbrt-v4's `DielectricBxDF`, including
+//! its 1/eta^2 radiance scaling). Fresnel stays Schlick's, taken on the
+//! optically thinner side and 1 under total internal reflection.
 
 // `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -54,7 +63,9 @@ impl DeviceMaterial {
         let emissive = [e[0] * s, e[1] * s, e[2] * s, 0.0];
         let emits = emissive[..3].iter().any(|&c| c > 0.0 && c.is_finite());
         let mut flags = 0;
-        if m.double_sided {
+        // A volume's inside is seen through its back faces, so a refracting
+        // material is two-sided whatever `doubleSided` says.
+        if m.double_sided || m.has_volume() {
             flags |= MAT_DOUBLE_SIDED;
         }
         match m.alpha_mode {
@@ -99,6 +110,100 @@ pub fn device_materials(table: &MaterialTable) -> Vec<DeviceMaterial> {
     v
 }
 
+/// `PtMaterialExt` of `kernels/bsdf.h`: a material's dielectric extension
+/// factors, a table beside the materials' that only kernels compiled with
+/// `HAS_TRANSMISSION` read.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DeviceMaterialExt {
+    /// KHR_materials_transmission `transmissionFactor`.
+    pub transmission: f32,
+    /// KHR_materials_ior `ior`.
+    pub ior: f32,
+    /// 1 when transmissive with a volume (refraction, attenuation), 0
+    /// thin-walled.
+    pub volume: f32,
+    pub pad: f32,
+    /// The volume's attenuation coefficient per unit length,
+    /// `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
+    pub sigma: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 32);
+
+impl DeviceMaterialExt {
+    pub fn from_material(m: &Material) -> DeviceMaterialExt {
+        let d = m.attenuation_distance;
+        let sigma = |c: f32| {
+            if !(d > 0.0) || d.is_infinite() || c >= 1.0 {
+                0.0
+            } else if !(c > 0.0) {
+                f32::MAX
+            } else {
+                -c.ln() / d
+            }
+        };
+        let a = m.attenuation_color;
+        DeviceMaterialExt {
+            transmission: m.transmission_factor,
+            ior: m.ior,
+            volume: if m.has_volume() { 1.0 } else { 0.0 },
+            pad: 0.0,
+            sigma: [sigma(a[0]), sigma(a[1]), sigma(a[2]), 0.0],
+        }
+    }
+}
+
+/// The extension table beside `device_materials` (same order, the default
+/// material last).
+pub fn device_material_exts(table: &MaterialTable) -> Vec<DeviceMaterialExt> {
+    let mut v: Vec<DeviceMaterialExt> = table
+        .materials
+        .iter()
+        .map(DeviceMaterialExt::from_material)
+        .collect();
+    v.push(DeviceMaterialExt::from_material(&Material::default()));
+    v
+}
+
+/// The dielectric extensions at one point (`HAS_TRANSMISSION` only).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dielectric {
+    /// Normal-incidence reflectance, `((ior - 1) / (ior + 1))^2`.
+    pub f0: f32,
+    /// Share of the diffuse lobe that transmits.
+    pub transmission: f32,
+    /// Relative index: the far side's over wo's side (1 thin-walled).
+    pub eta: f32,
+    /// Thin-walled: transmission goes straight through, unbent.
+    pub thin: bool,
+}
+
+impl Dielectric {
+    /// For a material of index `ior`, seen from outside (`front`) or
+    /// inside; `volume`: refracting rather than thin-walled.
+    pub fn new(ior: f32, transmission: f32, volume: bool, front: bool) -> Dielectric {
+        let eta = if !volume {
+            1.0
+        } else if front {
+            ior
+        } else {
+            1.0 / ior
+        };
+        Dielectric {
+            f0: f0_of_ior(ior),
+            transmission: transmission.clamp(0.0, 1.0),
+            eta,
+            thin: !volume,
+        }
+    }
+}
+
+pub fn f0_of_ior(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
+}
+
 /// The BSDF's parameters at one point (`BsdfParams`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfParams {
@@ -108,6 +213,9 @@ pub struct BsdfParams {
     pub alpha: f32,
     /// 1 for glTF materials, 0 for the pure Lambertian of `--clay`.
     pub specular: f32,
+    /// The dielectric extensions (kernels compiled with
+    /// `HAS_TRANSMISSION`); `None`: the base model exactly as without.
+    pub dielectric: Option<Dielectric>,
 }
 
 pub const MIN_GGX_ALPHA: f32 = 1.0e-3;
@@ -119,6 +227,15 @@ impl BsdfParams {
             metallic: metallic.clamp(0.0, 1.0),
             alpha: ggx_alpha(roughness),
             specular: 1.0,
+            dielectric: None,
+        }
+    }
+
+    /// With the dielectric extensions' parameters.
+    pub fn with_dielectric(self, d: Dielectric) -> BsdfParams {
+        BsdfParams {
+            dielectric: Some(d),
+            ..self
         }
     }
 
@@ -129,6 +246,7 @@ impl BsdfParams {
             metallic: 0.0,
             alpha: 1.0,
             specular: 0.0,
+            dielectric: None,
         }
     }
 }
@@ -157,6 +275,200 @@ fn schlick_weight(c: f32) -> f32 {
     (m2 * m2) * m
 }
 
+/// Schlick's Fresnel of a dielectric of normal reflectance `f0` and
+/// relative index `eta` at cosine `c` on wo's side: taken with the cosine
+/// on the optically thinner side, 1 under total internal reflection.
+pub fn fresnel_dielectric(f0: f32, eta: f32, c: f32) -> f32 {
+    let mut c = c;
+    if eta < 1.0 {
+        let s2t = (1.0 - c * c).max(0.0) / (eta * eta);
+        if s2t >= 1.0 {
+            return 1.0;
+        }
+        c = (1.0 - s2t).sqrt();
+    }
+    f0 + (1.0 - f0) * schlick_weight(c)
+}
+
+/// The probabilities of the specular reflection and the transmission
+/// lobes (the diffuse lobe has the rest), with the dielectric extensions.
+pub fn lobe_probabilities(p: &BsdfParams, d: &Dielectric, cos_o: f32) -> (f32, f32) {
+    let fo = p.specular * fresnel_dielectric(d.f0, d.eta, cos_o);
+    let ws = p.metallic + (1.0 - p.metallic) * fo;
+    let wb = ((1.0 - p.metallic) * luminance(p.base)) * (1.0 - fo);
+    let wt = wb * d.transmission;
+    let wd = wb * (1.0 - d.transmission);
+    let sum = (ws + wt) + wd;
+    if sum > 0.0 {
+        (ws / sum, wt / sum)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// The half vector of a refraction from wo (z > 0) to wi (z < 0) with
+/// relative index eta, and its cosines with wo and wi; `None` when the
+/// pair cannot be a refraction through a front-facing microfacet.
+fn refraction_half(eta: f32, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, f32)> {
+    let hv = wo + wi * eta;
+    let hl = hv.length();
+    if !(hl > 0.0) {
+        return None;
+    }
+    let mut h = hv / hl;
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let oh = wo.dot(h);
+    let ih = wi.dot(h);
+    if !(oh > 0.0) || !(ih < 0.0) {
+        return None;
+    }
+    Some((h, oh, ih))
+}
+
+fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
+    if wo.z <= 0.0 || wi.z == 0.0 {
+        return Vec3::ZERO;
+    }
+    if wi.z > 0.0 {
+        let hv = wo + wi;
+        let hl = hv.length();
+        if hl == 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = hv / hl;
+        let voh = wo.dot(h).max(0.0);
+        let dd = ggx_d(p.alpha, h.z);
+        let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+        let s = (dd * g2) / ((4.0 * wo.z) * wi.z);
+        let w = schlick_weight(voh);
+        let fd = p.specular * fresnel_dielectric(d.f0, d.eta, voh);
+        let fm = p.base + (Vec3::ONE - p.base) * w;
+        let dielectric =
+            p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI) + Vec3::splat(fd * s);
+        let metal = fm * s;
+        return dielectric * (1.0 - p.metallic) + metal * p.metallic;
+    }
+    let weight = (1.0 - p.metallic) * d.transmission;
+    if !(weight > 0.0) {
+        return Vec3::ZERO;
+    }
+    if d.thin {
+        // The reflection lobe mirrored through the surface.
+        let r = Vec3::new(wi.x, wi.y, -wi.z);
+        let hv = wo + r;
+        let hl = hv.length();
+        if hl == 0.0 {
+            return Vec3::ZERO;
+        }
+        let h = hv / hl;
+        let voh = wo.dot(h).max(0.0);
+        let dd = ggx_d(p.alpha, h.z);
+        let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
+        let s = (dd * g2) / ((4.0 * wo.z) * r.z);
+        let fd = p.specular * fresnel_dielectric(d.f0, 1.0, voh);
+        return p.base * ((weight * (1.0 - fd)) * s);
+    }
+    let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
+        return Vec3::ZERO;
+    };
+    let fd = p.specular * fresnel_dielectric(d.f0, d.eta, oh);
+    let denom = ih + oh / d.eta;
+    let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
+    let ft = (((ggx_d(p.alpha, h.z) * (1.0 - fd)) * g2)
+        * ((ih * oh) / (((denom * denom) * wi.z) * wo.z)))
+        .abs()
+        / (d.eta * d.eta);
+    p.base * (weight * ft)
+}
+
+fn dielectric_pdf(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> f32 {
+    if wo.z <= 0.0 || wi.z == 0.0 {
+        return 0.0;
+    }
+    let (ps, pt) = lobe_probabilities(p, d, wo.z);
+    if wi.z > 0.0 {
+        let spec = if ps > 0.0 {
+            ggx_vndf_pdf(p.alpha, wo, wi)
+        } else {
+            0.0
+        };
+        return ps * spec + ((1.0 - ps) - pt) * (wi.z * INV_PI);
+    }
+    if !(pt > 0.0) {
+        return 0.0;
+    }
+    if d.thin {
+        return pt * ggx_vndf_pdf(p.alpha, wo, Vec3::new(wi.x, wi.y, -wi.z));
+    }
+    let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
+        return 0.0;
+    };
+    let g1 = 1.0 / (1.0 + ggx_lambda(p.alpha, wo.z));
+    let pdf_h = ((g1 * ggx_d(p.alpha, h.z)) * oh) / wo.z;
+    let denom = ih + oh / d.eta;
+    pt * (pdf_h * (-ih / (denom * denom)))
+}
+
+fn dielectric_sample(
+    p: &BsdfParams,
+    d: &Dielectric,
+    wo: Vec3,
+    lobe_u: f32,
+    u1: f32,
+    u2: f32,
+) -> Option<BsdfSample> {
+    if wo.z <= 0.0 {
+        return None;
+    }
+    let (ps, pt) = lobe_probabilities(p, d, wo.z);
+    let wi = if lobe_u < ps {
+        let h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+        let wi = h * (2.0 * wo.dot(h)) - wo;
+        if wi.z <= 0.0 {
+            return None;
+        }
+        wi
+    } else if lobe_u < ps + pt {
+        let h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+        let c = wo.dot(h);
+        let wi = if d.thin {
+            let r = h * (2.0 * c) - wo;
+            Vec3::new(r.x, r.y, -r.z)
+        } else {
+            if !(c > 0.0) {
+                return None;
+            }
+            let s2t = (1.0 - c * c).max(0.0) / (d.eta * d.eta);
+            if s2t >= 1.0 {
+                return None;
+            }
+            let ct = (1.0 - s2t).sqrt();
+            -wo / d.eta + h * (c / d.eta - ct)
+        };
+        if wi.z >= 0.0 {
+            return None;
+        }
+        wi
+    } else {
+        let wi = sample_cosine_hemisphere(u1, u2);
+        if wi.z <= 0.0 {
+            return None;
+        }
+        wi
+    };
+    let pdf = dielectric_pdf(p, d, wo, wi);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    Some(BsdfSample {
+        wi,
+        f: dielectric_eval(p, d, wo, wi),
+        pdf,
+    })
+}
+
 /// The probability of sampling the specular lobe.
 pub fn spec_probability(p: &BsdfParams, cos_o: f32) -> f32 {
     let fd = p.specular * (0.04 + 0.96 * schlick_weight(cos_o));
@@ -172,6 +484,9 @@ pub fn spec_probability(p: &BsdfParams, cos_o: f32) -> f32 {
 
 /// The BSDF (without the cosine) for local directions wo, wi (z = normal).
 pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+    if let Some(d) = &p.dielectric {
+        return dielectric_eval(p, d, wo, wi);
+    }
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return Vec3::ZERO;
     }
@@ -210,6 +525,9 @@ fn ggx_vndf_pdf(a: f32, wo: Vec3, wi: Vec3) -> f32 {
 
 /// The solid-angle pdf of `bsdf_sample` producing wi.
 pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+    if let Some(d) = &p.dielectric {
+        return dielectric_pdf(p, d, wo, wi);
+    }
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return 0.0;
     }
@@ -254,6 +572,9 @@ pub struct BsdfSample {
 
 /// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.
 pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+    if let Some(d) = &p.dielectric {
+        return dielectric_sample(p, d, wo, lobe_u, u1, u2);
+    }
     if wo.z <= 0.0 {
         return None;
     }

@@ -36,7 +36,7 @@ use super::lights::{
     environment_power, punctual_power, DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap,
     LightSelection, ENV_CONSTANT, ENV_MAP, ENV_NONE,
 };
-use super::material::{device_materials, DeviceMaterial};
+use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
 use super::sampling::{NoisePattern, Sampler};
 use super::texture::{Slot, TextureBinding, TextureSet};
 use super::TraceError;
@@ -345,6 +345,7 @@ pub fn pathtrace_defines(
     traversal: Traversal,
     textures: bool,
     sampler: Sampler,
+    transmission: bool,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -357,6 +358,9 @@ pub fn pathtrace_defines(
     }
     if let Some(define) = sampler.define() {
         defines.push((define, "1".to_owned()));
+    }
+    if transmission {
+        defines.push(("HAS_TRANSMISSION", "1".to_owned()));
     }
     defines
 }
@@ -383,6 +387,19 @@ pub struct MotionFrame<'a> {
     pub cameras: &'a [FrameCamera],
 }
 
+/// The material features a table compiles into the path tracer, by define
+/// name (for the frame log): only what some material uses.
+pub fn material_features(table: &MaterialTable, textures: bool) -> Vec<&'static str> {
+    let mut v = vec!["metallic_roughness"];
+    if textures {
+        v.push("textures");
+    }
+    if table.materials.iter().any(|m| m.needs_transmission()) {
+        v.push("transmission");
+    }
+    v
+}
+
 /// The path tracer of one scene on one device.
 pub struct PathTracer<'d> {
     device: &'d Device,
@@ -393,6 +410,10 @@ pub struct PathTracer<'d> {
     material_count: u32,
     any_emissive: bool,
     textures: Option<(TextureSet<'d>, Buffer<TextureBinding>)>,
+    /// The dielectric extensions' table, when compiled in (`HAS_TRANSMISSION`).
+    material_exts: Option<Buffer<DeviceMaterialExt>>,
+    /// The material features compiled in (`material_features`).
+    features: Vec<&'static str>,
     env_map: Option<EnvBuffers>,
     filter: Buffer<f32>,
     camera: Buffer<DeviceCamera>,
@@ -452,6 +473,11 @@ fn usage(msg: String) -> TraceError {
 }
 
 impl<'d> PathTracer<'d> {
+    /// The material features compiled in (`material_features`).
+    pub fn material_features(&self) -> &[&'static str] {
+        &self.features
+    }
+
     /// Compiles the kernels for what the scene needs and uploads its
     /// materials, textures and the environment once.
     pub fn new(
@@ -533,11 +559,26 @@ impl<'d> PathTracer<'d> {
             }
         }
 
-        let defines = pathtrace_defines(settings.traversal, textures.is_some(), settings.sampler);
+        let transmission = table.materials.iter().any(|m| m.needs_transmission());
+        let features = material_features(table, textures.is_some());
+        let defines = pathtrace_defines(
+            settings.traversal,
+            textures.is_some(),
+            settings.sampler,
+            transmission,
+        );
         let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
         device.write(&mut materials, &host_materials)?;
+        let material_exts = if transmission {
+            let exts = device_material_exts(table);
+            let mut buf = device.buffer::<DeviceMaterialExt>(exts.len())?;
+            device.write(&mut buf, &exts)?;
+            Some(buf)
+        } else {
+            None
+        };
         let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
 
         let env_map = match &settings.environment {
@@ -588,6 +629,8 @@ impl<'d> PathTracer<'d> {
             material_count: host_materials.len() as u32,
             any_emissive,
             textures,
+            material_exts,
+            features,
             env_map,
             filter,
             camera: device.buffer(1)?,
@@ -1391,6 +1434,9 @@ impl<'d> PathTracer<'d> {
                     args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
                     args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
                     args.push(Arg::Buf(bindings));
+                }
+                if let Some(exts) = &self.material_exts {
+                    args.push(Arg::Buf(exts));
                 }
                 if let Some(steps) = motion_steps {
                     args.push(Arg::U32(steps));
