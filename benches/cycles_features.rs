@@ -41,46 +41,28 @@ use soupray::film::Image;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-struct Opts {
-    width: u32,
-    height: u32,
-    spp: u32,
-    cases: Vec<String>,
-    out: PathBuf,
+/// `WxH`, for `--size`.
+fn parse_size(v: &str) -> Result<(u32, u32), String> {
+    let (w, h) = v.split_once('x').ok_or("expected WxH")?;
+    Ok((
+        w.parse().map_err(|_| "expected WxH")?,
+        h.parse().map_err(|_| "expected WxH")?,
+    ))
 }
 
-fn parse() -> Result<Opts, String> {
-    let mut o = Opts {
-        width: 320,
-        height: 200,
-        spp: 256,
-        cases: vec!["still".into(), "blur".into(), "glass".into()],
-        out: PathBuf::from("out/bench-cycles-features"),
-    };
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut i = 0;
-    while i < args.len() {
-        let flag = args[i].as_str();
-        if flag == "--bench" {
-            i += 1;
-            continue;
-        }
-        let v = args.get(i + 1).ok_or(format!("{flag} needs a value"))?;
-        let bad = |what: &str| format!("{flag} {v}: expected {what}");
-        match flag {
-            "--size" => {
-                let (w, h) = v.split_once('x').ok_or_else(|| bad("WxH"))?;
-                o.width = w.parse().map_err(|_| bad("WxH"))?;
-                o.height = h.parse().map_err(|_| bad("WxH"))?;
-            }
-            "--spp" => o.spp = v.parse().map_err(|_| bad("a number"))?,
-            "--cases" => o.cases = v.split(',').map(str::to_string).collect(),
-            "--out" => o.out = PathBuf::from(v),
-            _ => return Err(format!("unknown flag {flag}")),
-        }
-        i += 2;
-    }
-    Ok(o)
+#[derive(clap::Parser)]
+struct Opts {
+    #[arg(long, value_parser = parse_size, default_value = "320x200")]
+    size: (u32, u32),
+    #[arg(long, default_value_t = 256)]
+    spp: u32,
+    #[arg(long, value_delimiter = ',', default_value = "still,blur,glass")]
+    cases: Vec<String>,
+    #[arg(long, default_value = "out/bench-cycles-features")]
+    out: PathBuf,
+    /// Passed by `cargo bench`.
+    #[arg(long, hide = true)]
+    bench: bool,
 }
 
 /// Frames per second of the scene's keys (Blender's importer keys at 24).
@@ -338,9 +320,9 @@ fn soupray(o: &Opts, scene: &Path, extra: &[&str], dir: &Path) -> Result<Image, 
         ])
         .args([
             "--width",
-            &o.width.to_string(),
+            &o.size.0.to_string(),
             "--height",
-            &o.height.to_string(),
+            &o.size.1.to_string(),
         ])
         .args(["--spp", &o.spp.to_string(), "--seed", "1"])
         .args(extra)
@@ -372,9 +354,9 @@ fn cycles(
         .arg(scene)
         .args([
             "--width",
-            &o.width.to_string(),
+            &o.size.0.to_string(),
             "--height",
-            &o.height.to_string(),
+            &o.size.1.to_string(),
         ])
         .args(["--spp", &o.spp.to_string(), "--seed", &seed.to_string()])
         .args(["--frame", &FRAME.to_string()])
@@ -454,13 +436,7 @@ fn side_by_side(a: &Image, b: &Image, path: &Path) {
 }
 
 fn main() -> ExitCode {
-    let o = match parse() {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("bench cycles_features: {e}");
-            return ExitCode::from(2);
-        }
-    };
+    let o = <Opts as clap::Parser>::parse();
     let blender = std::env::var("BLENDER").unwrap_or_else(|_| "blender".into());
     if Command::new(&blender).arg("--version").output().is_err() {
         eprintln!("bench cycles_features: no Blender ({blender}); skipped");
@@ -534,8 +510,8 @@ fn main() -> ExitCode {
     println!(
         "\nsoupray and Cycles ({} spp, {}x{}, frame {FRAME}; scenes in {}):\n\n{table}",
         o.spp,
-        o.width,
-        o.height,
+        o.size.0,
+        o.size.1,
         dir.display()
     );
     std::fs::write(o.out.join("results.md"), table + "\n").unwrap();

@@ -34,74 +34,51 @@ use soupray::film::Image;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-struct Opts {
-    width: u32,
-    height: u32,
-    first: i64,
-    last: i64,
-    spp: u32,
-    threshold: f32,
-    ref_spp: u32,
-    scene: PathBuf,
-    out: PathBuf,
-    fresh_refs: bool,
+/// `WxH`, for `--size`.
+fn parse_size(v: &str) -> Result<(u32, u32), String> {
+    let (w, h) = v.split_once('x').ok_or("expected WxH")?;
+    Ok((
+        w.parse().map_err(|_| "expected WxH")?,
+        h.parse().map_err(|_| "expected WxH")?,
+    ))
 }
 
-fn parse() -> Result<Opts, String> {
-    let mut o = Opts {
-        width: 480,
-        height: 270,
-        first: 10,
-        last: 17,
-        spp: 16,
-        threshold: 0.07,
-        ref_spp: 1024,
-        scene: PathBuf::from("tests/assets/BoxAnimated/BoxAnimated.glb"),
-        out: PathBuf::from("out/bench-flicker"),
-        fresh_refs: false,
-    };
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut i = 0;
-    while i < args.len() {
-        let flag = args[i].as_str();
-        // cargo bench passes --bench to harness-less benches.
-        if flag == "--bench" {
-            i += 1;
-            continue;
-        }
-        if flag == "--fresh-refs" {
-            o.fresh_refs = true;
-            i += 1;
-            continue;
-        }
-        let v = args
-            .get(i + 1)
-            .ok_or_else(|| format!("{flag} needs a value"))?;
-        let bad = |what: &str| format!("{flag} {v}: expected {what}");
-        match flag {
-            "--size" => {
-                let (w, h) = v.split_once('x').ok_or_else(|| bad("WxH"))?;
-                o.width = w.parse().map_err(|_| bad("WxH"))?;
-                o.height = h.parse().map_err(|_| bad("WxH"))?;
-            }
-            "--frames" => {
-                let (a, b) = v.split_once('-').ok_or_else(|| bad("A-B"))?;
-                o.first = a.parse().map_err(|_| bad("A-B"))?;
-                o.last = b.parse().map_err(|_| bad("A-B"))?;
-                if o.last <= o.first {
-                    return Err(bad("A-B with B > A"));
-                }
-            }
-            "--spp" => o.spp = v.parse().map_err(|_| bad("a number"))?,
-            "--threshold" => o.threshold = v.parse().map_err(|_| bad("a number"))?,
-            "--ref-spp" => o.ref_spp = v.parse().map_err(|_| bad("a number"))?,
-            "--scene" => o.scene = PathBuf::from(v),
-            "--out" => o.out = PathBuf::from(v),
-            _ => return Err(format!("unknown flag {flag}")),
-        }
-        i += 2;
+/// `A-B` with B > A, for `--frames`.
+fn parse_range(v: &str) -> Result<(i64, i64), String> {
+    let (a, b) = v.split_once('-').ok_or("expected A-B")?;
+    let (a, b): (i64, i64) = (
+        a.parse().map_err(|_| "expected A-B")?,
+        b.parse().map_err(|_| "expected A-B")?,
+    );
+    if b <= a {
+        return Err("expected A-B with B > A".into());
     }
-    Ok(o)
+    Ok((a, b))
+}
+
+#[derive(clap::Parser)]
+struct Opts {
+    #[arg(long, value_parser = parse_size, default_value = "480x270")]
+    size: (u32, u32),
+    #[arg(long, value_parser = parse_range, default_value = "10-17")]
+    frames: (i64, i64),
+    /// Samples per pixel of the raw and denoised renders.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// `--noise-threshold` of the adaptive renders (up to 256 spp).
+    #[arg(long, default_value_t = 0.07)]
+    threshold: f32,
+    #[arg(long, default_value_t = 1024)]
+    ref_spp: u32,
+    #[arg(long, default_value = "tests/assets/BoxAnimated/BoxAnimated.glb")]
+    scene: PathBuf,
+    #[arg(long, default_value = "out/bench-flicker")]
+    out: PathBuf,
+    #[arg(long)]
+    fresh_refs: bool,
+    /// Passed by `cargo bench`.
+    #[arg(long, hide = true)]
+    bench: bool,
 }
 
 /// Renders frames first..=last into `dir`; returns their images.
@@ -111,9 +88,9 @@ fn render(o: &Opts, flags: &[String], seed: u32, dir: &Path) -> Result<Vec<Image
         .arg("render")
         .arg(&o.scene)
         .args(["--quiet", "--name", "img.####.exr"])
-        .args(["--frames", &format!("{}-{}", o.first, o.last)])
-        .args(["--width", &o.width.to_string()])
-        .args(["--height", &o.height.to_string()])
+        .args(["--frames", &format!("{}-{}", o.frames.0, o.frames.1)])
+        .args(["--width", &o.size.0.to_string()])
+        .args(["--height", &o.size.1.to_string()])
         .args(["--seed", &seed.to_string()])
         .args(flags)
         .arg("--out")
@@ -130,7 +107,7 @@ fn render(o: &Opts, flags: &[String], seed: u32, dir: &Path) -> Result<Vec<Image
 }
 
 fn read_frames(o: &Opts, dir: &Path) -> Result<Vec<Image>, String> {
-    (o.first..=o.last)
+    (o.frames.0..=o.frames.1)
         .map(|f| {
             let p = dir.join(format!("img.{f:04}.exr"));
             soupray::output::read_exr_rgba(&p).map_err(|e| format!("{}: {e}", p.display()))
@@ -199,20 +176,14 @@ fn flicker(frames: &[Image], refs: &[Image], still: &[bool]) -> f64 {
 }
 
 fn main() {
-    let o = match parse() {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("bench flicker: {e}");
-            std::process::exit(2);
-        }
-    };
+    let o = <Opts as clap::Parser>::parse();
     let ref_dir = o.out.join("refs").join(format!(
         "{}-{}x{}-{}-{}-spp{}",
         o.scene.file_stem().unwrap_or_default().to_string_lossy(),
-        o.width,
-        o.height,
-        o.first,
-        o.last,
+        o.size.0,
+        o.size.1,
+        o.frames.0,
+        o.frames.1,
         o.ref_spp
     ));
     let refs = match read_frames(&o, &ref_dir) {
@@ -276,10 +247,10 @@ fn main() {
     println!(
         "\n{}, frames {}-{} at {}x{}, {:.1}% of the pixels still, against {}-spp references:\n\n{table}",
         o.scene.display(),
-        o.first,
-        o.last,
-        o.width,
-        o.height,
+        o.frames.0,
+        o.frames.1,
+        o.size.0,
+        o.size.1,
         still_share * 100.0,
         o.ref_spp
     );
