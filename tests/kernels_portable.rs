@@ -29,8 +29,9 @@ use soupray::bvh::device_builder::{program_defines, Mapping};
 use soupray::bvh::BuildParams;
 use soupray::device::{assemble_source, build_options, Device, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
+use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{pathtrace_defines, Traversal};
+use soupray::trace::render::{motion_defines, pathtrace_defines, Traversal};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -166,6 +167,12 @@ fn variants() -> Vec<Variant> {
                     defines: pathtrace_defines(traversal, textures, sampler),
                     codegen: true,
                 });
+                // The motion-blur variant of every combination.
+                v.push(Variant {
+                    entry: "pathtrace.cl",
+                    defines: motion_defines(pathtrace_defines(traversal, textures, sampler)),
+                    codegen: true,
+                });
             }
         }
     }
@@ -198,6 +205,11 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
+    v.push(Variant {
+        entry: "motion.cl",
+        defines: motion_program_defines(),
+        codegen: true,
+    });
     // Test-only probes, built by the tests on the device.
     for sampler in all_samplers() {
         v.push(Variant {
