@@ -419,19 +419,45 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     return c;
 }
 
+// Punctual light `i` at the path's time: with MOTION_BLUR the lights buffer
+// holds every light at each motion step (step after step), and position and
+// direction are interpolated between the two steps around the time (the
+// direction renormalised). Rust twin: trace::motion::light_at.
+inline PtLight pt_light(const PtScene* s, uint i) {
+#ifdef MOTION_BLUR
+    uint count = s->frame.light_count;
+    PtLight a = s->lights[s->mt.step * count + i];
+    PtLight b = s->lights[(s->mt.step + 1u) * count + i];
+    float f = s->mt.frac;
+    float3 d;
+    for (uint k = 0u; k < 3u; ++k) a.position[k] = a.position[k] + f * (b.position[k] - a.position[k]);
+    d = (float3)(a.direction[0] + f * (b.direction[0] - a.direction[0]),
+                 a.direction[1] + f * (b.direction[1] - a.direction[1]),
+                 a.direction[2] + f * (b.direction[2] - a.direction[2]));
+    float l = length(d);
+    if (l > 0.0f) d = d / l;
+    a.direction[0] = d.x;
+    a.direction[1] = d.y;
+    a.direction[2] = d.z;
+    return a;
+#else
+    return s->lights[i];
+#endif
+}
+
 // Punctual light `i`, chosen with probability `pmf`.
 inline float3 pt_punctual_direct(PtScene* s, uint i, float pmf, PtSurface sf, BsdfParams bp,
                                  float3 wo, float3 t, float3 b, float3 above, float3 beta,
                                  SampleRng rng, uint bounce TEX_DECL) {
     float3 wi_w, e;
     float dist;
-    if (!(pmf > 0.0f) || !punctual_incident(s->lights[i], sf.p, &wi_w, &dist, &e))
+    PtLight light = pt_light(s, i);
+    if (!(pmf > 0.0f) || !punctual_incident(light, sf.p, &wi_w, &dist, &e))
         return (float3)(0.0f);
     float3 shadow_dir = wi_w;
     float shadow_t = INFINITY;
     if (!isinf(dist)) {
-        float3 lp = (float3)(s->lights[i].position[0], s->lights[i].position[1],
-                             s->lights[i].position[2]);
+        float3 lp = (float3)(light.position[0], light.position[1], light.position[2]);
         shadow_dir = lp - above;
         shadow_t = 1.0f;
     }

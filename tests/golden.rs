@@ -296,6 +296,22 @@ fn textured_skinned_character_at_two_frames() {
     check("cesiumman_f30", &scene, 30, 64, &[]);
 }
 
+/// Motion blur (`--motion-blur`, the default half-frame shutter on the
+/// walk; a whole-frame shutter on the fox's run), beside the sharp frames
+/// above.
+#[test]
+fn motion_blurred_character_and_fox() {
+    let scene = asset("animations/CesiumMan/CesiumMan.glb");
+    check("cesiumman_f30_blur", &scene, 30, 64, &["--motion-blur"]);
+    check(
+        "fox_run_f8_blur",
+        &asset("tests/assets/Fox/Fox.glb"),
+        8,
+        64,
+        &["--animation", "2", "--motion-blur", "--shutter", "1"],
+    );
+}
+
 #[test]
 fn skinned_fox_running() {
     check(

@@ -29,8 +29,9 @@ use soupray::bvh::device_builder::{program_defines, Mapping};
 use soupray::bvh::BuildParams;
 use soupray::device::{assemble_source, build_options, Device, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
+use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{pathtrace_defines, Traversal};
+use soupray::trace::render::{motion_defines, pathtrace_defines, Traversal};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -162,9 +163,16 @@ fn variants() -> Vec<Variant> {
         for textures in [false, true] {
             for sampler in all_samplers() {
                 for transmission in [false, true] {
+                    let defines = pathtrace_defines(traversal, textures, sampler, transmission);
                     v.push(Variant {
                         entry: "pathtrace.cl",
-                        defines: pathtrace_defines(traversal, textures, sampler, transmission),
+                        defines: defines.clone(),
+                        codegen: true,
+                    });
+                    // The motion-blur variant of every combination.
+                    v.push(Variant {
+                        entry: "pathtrace.cl",
+                        defines: motion_defines(defines),
                         codegen: true,
                     });
                 }
@@ -200,6 +208,11 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
+    v.push(Variant {
+        entry: "motion.cl",
+        defines: motion_program_defines(),
+        codegen: true,
+    });
     // Test-only probes, built by the tests on the device.
     for sampler in all_samplers() {
         v.push(Variant {

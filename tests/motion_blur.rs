@@ -538,3 +538,163 @@ fn shutter_zero_is_the_unblurred_frame_bit_for_bit_and_the_log_says_so() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--shutter-position"));
 }
+
+/// An emitter sliding over a lit floor: the blurred floor is the average of
+/// the floor lit from where the emitter is over the shutter (next-event
+/// estimation samples the emitter where it is at each path's time, and MIS
+/// weighs it with the same time's pdf), not the floor lit from where it
+/// was when the shutter opened.
+#[test]
+fn a_moving_emitter_lights_the_floor_from_where_it_is_at_each_time() {
+    let d = common::device();
+    let size = 24;
+    let spp = 64;
+    let travel = 1.2f32;
+    let floor_and_emitter = |x: f32| {
+        let mut s = ground_plane();
+        quad(
+            &mut s,
+            Vec3::new(x, 1.0, 0.0),
+            Vec3::X * 0.6,
+            Vec3::Z * 0.4,
+            Vec3::NEG_Y,
+            1,
+        );
+        s
+    };
+    let mut emitter = material([0.0, 0.0, 0.0, 1.0], 0.0, 1.0);
+    emitter.emissive_factor = [1.0, 1.0, 1.0];
+    emitter.emissive_strength = 4.0;
+    let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0), emitter]);
+    let mut st = settings(size, spp);
+    st.max_depth = 1;
+    st.environment = Environment::Color([0.0, 0.0, 0.0]);
+    // The camera above sees the floor through the emitter's culled back.
+    let cam = top_down(1.5);
+    let bands = |img: &soupray::film::Image| -> [f64; 3] {
+        let mut sums = [0.0; 3];
+        for (i, p) in img.rgba.iter().enumerate() {
+            sums[(i % size as usize) * 3 / size as usize] += grey(*p);
+        }
+        sums.map(|s| s / (img.rgba.len() / 3) as f64)
+    };
+    let mut pt = PathTracer::with_materials(&d, &t, &st).unwrap();
+    let blurred = pt
+        .render_motion_soup(
+            &[
+                floor_and_emitter(-0.5 * travel),
+                floor_and_emitter(0.5 * travel),
+            ],
+            &[cam.clone(), cam.clone()],
+            &[],
+            0,
+        )
+        .unwrap();
+    let blurred = bands(&blurred.image);
+    // The time average by the midpoint rule over still frames.
+    let k = 12;
+    let mut average = [0.0; 3];
+    let mut at_open = [0.0; 3];
+    for i in 0..k {
+        let x = travel * ((i as f32 + 0.5) / k as f32 - 0.5);
+        let img = pt
+            .render_soup(&floor_and_emitter(x), &cam, &[], i as i64)
+            .unwrap()
+            .image;
+        let b = bands(&img);
+        for j in 0..3 {
+            average[j] += b[j] / k as f64;
+        }
+        if i == 0 {
+            at_open = b;
+        }
+    }
+    for j in 0..3 {
+        let rel = (blurred[j] - average[j]).abs() / average[j];
+        assert!(
+            rel < 0.03,
+            "band {j}: blurred {} against the time average {} ({rel})",
+            blurred[j],
+            average[j]
+        );
+    }
+    // The test can tell: the floor lit from the opening position differs.
+    let rel_open = (at_open[0] - average[0]).abs() / average[0];
+    assert!(
+        rel_open > 0.1,
+        "opening position differs by only {rel_open}"
+    );
+}
+
+/// A point light sliding over the floor: the blurred floor is the time
+/// average of the floor lit from each position (lights are read at each
+/// path's time), not the floor lit from the frame's instant.
+#[test]
+fn a_moving_point_light_lights_the_floor_from_where_it_is_at_each_time() {
+    use soupray::scene::LightKind;
+    let d = common::device();
+    let size = 24;
+    let spp = 16;
+    let travel = 1.6f32;
+    let lamp = |x: f32| {
+        vec![light(
+            LightKind::Point,
+            Vec3::new(x, 0.7, 0.0),
+            Vec3::NEG_Y,
+            [1.0, 1.0, 1.0],
+            2.0,
+        )]
+    };
+    let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0)]);
+    let mut st = settings(size, spp);
+    st.max_depth = 1;
+    st.environment = Environment::Color([0.0, 0.0, 0.0]);
+    let cam = top_down(1.5);
+    let bands = |img: &soupray::film::Image| -> [f64; 3] {
+        let mut sums = [0.0; 3];
+        for (i, p) in img.rgba.iter().enumerate() {
+            sums[(i % size as usize) * 3 / size as usize] += grey(*p);
+        }
+        sums.map(|s| s / (img.rgba.len() / 3) as f64)
+    };
+    let floor = ground_plane();
+    let mut pt = PathTracer::with_materials(&d, &t, &st).unwrap();
+    let blurred = pt
+        .render_motion_soup(
+            &[floor.clone(), floor.clone()],
+            &[cam.clone(), cam.clone()],
+            &[lamp(-0.5 * travel), lamp(0.5 * travel)],
+            0,
+        )
+        .unwrap();
+    let blurred = bands(&blurred.image);
+    let k = 16;
+    let mut average = [0.0; 3];
+    for i in 0..k {
+        let x = travel * ((i as f32 + 0.5) / k as f32 - 0.5);
+        let img = pt
+            .render_soup(&floor, &cam, &lamp(x), i as i64)
+            .unwrap()
+            .image;
+        let b = bands(&img);
+        for j in 0..3 {
+            average[j] += b[j] / k as f64;
+        }
+    }
+    let still = bands(&pt.render_soup(&floor, &cam, &lamp(0.0), 0).unwrap().image);
+    for j in 0..3 {
+        let rel = (blurred[j] - average[j]).abs() / average[j];
+        assert!(
+            rel < 0.03,
+            "band {j}: blurred {} against the time average {} ({rel})",
+            blurred[j],
+            average[j]
+        );
+    }
+    // The frame's instant alone lights the side bands differently.
+    let rel_still = (still[0] - average[0]).abs() / average[0];
+    assert!(
+        rel_still > 0.1,
+        "the still light differs by only {rel_still}"
+    );
+}

@@ -727,8 +727,9 @@ struct Pipeline<'d> {
 /// A frame that moves within its shutter, as evaluated.
 struct MotionState {
     steps: u32,
-    /// The camera at each step.
+    /// The camera and the punctual lights at each step.
     cameras: Vec<crate::scene::FrameCamera>,
+    lights: Vec<Vec<crate::scene::FrameLight>>,
     extra_evaluate_ms: f64,
     extra_build_ms: f64,
 }
@@ -819,6 +820,7 @@ impl<'d> Pipeline<'d> {
             info,
             motion: Some(MotionState {
                 steps,
+                lights: infos.iter().map(|i| i.lights.clone()).collect(),
                 cameras: infos.into_iter().map(|i| i.camera).collect(),
                 extra_evaluate_ms: (all_ms - motion.bounds_ms()) * (steps - 1) as f64
                     / steps as f64,
@@ -872,6 +874,7 @@ impl<'d> Pipeline<'d> {
                     normals: m.normals(),
                     steps: state.steps,
                     cameras: &state.cameras,
+                    lights: &state.lights,
                 };
                 if progress.is_none() {
                     self.tracer.warm_up_motion(&input, &motion)?;

@@ -91,7 +91,8 @@ pub fn motion_steps(scene: &Scene, open: f64, close: f64, requested: Option<u32>
         steps: 1,
         turn_degrees: 0.0,
     };
-    if !(close > open) {
+    // A closed shutter (or a NaN time) sees one instant.
+    if close.partial_cmp(&open) != Some(std::cmp::Ordering::Greater) {
         return still;
     }
     let poses: Vec<Pose> = (0..=PROBES)
@@ -109,6 +110,9 @@ pub fn motion_steps(scene: &Scene, open: f64, close: f64, requested: Option<u32>
         turn_degrees: turn,
     }
 }
+
+/// The step positions and the bounds triangles, read back.
+pub type StepsAndBounds = (Vec<[f32; 4]>, Vec<[f32; 4]>);
 
 /// A scene's soup at every motion step of a frame, on the device.
 pub struct MotionSoup<'d> {
@@ -233,7 +237,7 @@ impl<'d> MotionSoup<'d> {
     }
 
     /// Reads the step positions and the bounds back (tests).
-    pub fn read_back(&self) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>), DeviceError> {
+    pub fn read_back(&self) -> Result<StepsAndBounds, DeviceError> {
         let n3 = 3 * self.triangles;
         let mut positions = vec![[0.0f32; 4]; n3 * self.steps as usize];
         let mut bounds = vec![[0.0f32; 4]; n3];

@@ -4,7 +4,8 @@
 //!
 //! Every function here is the twin of the one of the same name in
 //! `kernels/trace_common.h` (`motion_time`, `motion_triangle`) and
-//! `kernels/motion.cl` (`motion_bounds`), the same float operations in the
+//! `kernels/motion.cl` (`motion_bounds`) and `kernels/pathtrace.cl`
+//! (`pt_camera_at`, `pt_light`), the same float operations in the
 //! same order, so the device agrees with them bit for bit; and
 //! `trace_closest_motion` is the CPU reference of the device's traversal at
 //! a ray's time. `tests/motion_blur.rs` holds the two together.
@@ -168,6 +169,25 @@ pub fn camera_at(cameras: &[DeviceCamera], (step, frac): (u32, f32)) -> DeviceCa
         forward: lerp(a.forward, b.forward),
         ..a
     }
+}
+
+/// `pt_light` of `kernels/pathtrace.cl`: a light's position and direction
+/// interpolated between the steps around the time, the direction
+/// renormalised (to rounding: the kernel's `length` may round differently).
+pub fn light_at(
+    a: &crate::trace::lights::DeviceLight,
+    b: &crate::trace::lights::DeviceLight,
+    (_, frac): (u32, f32),
+) -> crate::trace::lights::DeviceLight {
+    let mut l = *a;
+    for k in 0..3 {
+        l.position[k] = a.position[k] + frac * (b.position[k] - a.position[k]);
+    }
+    let d: [f32; 3] =
+        std::array::from_fn(|k| a.direction[k] + frac * (b.direction[k] - a.direction[k]));
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    l.direction = if len > 0.0 { d.map(|x| x / len) } else { d };
+    l
 }
 
 #[cfg(test)]

@@ -385,6 +385,9 @@ pub struct MotionFrame<'a> {
     pub steps: u32,
     /// The camera at each step.
     pub cameras: &'a [FrameCamera],
+    /// The punctual lights at each step (each as many as `FrameInput`'s),
+    /// or empty: the frame's lights throughout.
+    pub lights: &'a [Vec<FrameLight>],
 }
 
 /// The material features a table compiles into the path tracer, by define
@@ -756,7 +759,7 @@ impl<'d> PathTracer<'d> {
             frame.camera,
             frame.lights,
             frame.frame,
-            Some((motion.steps, motion.cameras)),
+            Some((motion.steps, motion.cameras, motion.lights)),
             progress,
         )
     }
@@ -778,7 +781,8 @@ impl<'d> PathTracer<'d> {
     }
 
     /// Renders host soups at `steps.len()` >= 2 motion steps (same
-    /// triangles, uvs and materials in each; `cameras` one per step), their
+    /// triangles, uvs and materials in each; `cameras` one per step, and
+    /// `lights` the punctual lights at each step or none at all), their
     /// tree built here on the device over the triangles' bounds at every
     /// step (`motion::motion_bounds`). For tests and tools; the renderer
     /// keeps everything on the device with `render_motion`.
@@ -786,14 +790,16 @@ impl<'d> PathTracer<'d> {
         &mut self,
         steps: &[Soup],
         cameras: &[FrameCamera],
-        lights: &[FrameLight],
+        lights: &[Vec<FrameLight>],
         frame: i64,
     ) -> Result<RenderOutput, TraceError> {
         let count = steps.len();
-        if count < 2 || cameras.len() != count {
+        if count < 2 || cameras.len() != count || !(lights.is_empty() || lights.len() == count) {
             return Err(usage(format!(
-                "render_motion_soup: {count} soups and {} cameras; give at least 2 steps and one camera per step",
-                cameras.len()
+                "render_motion_soup: {count} soups, {} cameras and {} light sets; give at least 2 steps, \
+                 one camera per step and one light set per step (or none)",
+                cameras.len(),
+                lights.len()
             )));
         }
         let n = steps[0].triangle_count();
@@ -861,9 +867,9 @@ impl<'d> PathTracer<'d> {
                 &bvh,
                 prim_ids,
                 &cameras[count / 2],
-                lights,
+                lights.get(count / 2).map_or(&[], |l| l.as_slice()),
                 frame,
-                Some((count as u32, cameras)),
+                Some((count as u32, cameras, lights)),
                 &mut |_| {},
             )
         })();
@@ -944,7 +950,7 @@ impl<'d> PathTracer<'d> {
         camera: &FrameCamera,
         lights: &[FrameLight],
         frame_index: i64,
-        motion: Option<(u32, &[FrameCamera])>,
+        motion: Option<(u32, &[FrameCamera], &[Vec<FrameLight>])>,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
         let d = self.device;
@@ -975,8 +981,27 @@ impl<'d> PathTracer<'d> {
         self.layouts.ensure_all(d)?;
 
         // Lights.
-        let host_lights: Vec<DeviceLight> =
+        let mut host_lights: Vec<DeviceLight> =
             lights.iter().map(DeviceLight::from_frame_light).collect();
+        if let Some((steps, _, step_lights)) = motion {
+            // Every light at each step, step after step (`pt_light`).
+            let at_frame = std::mem::take(&mut host_lights);
+            for s in 0..steps as usize {
+                match step_lights.get(s) {
+                    Some(l) if l.len() == at_frame.len() => {
+                        host_lights.extend(l.iter().map(DeviceLight::from_frame_light))
+                    }
+                    Some(l) => {
+                        return Err(usage(format!(
+                            "motion step {s} has {} lights, the frame {}",
+                            l.len(),
+                            at_frame.len()
+                        )))
+                    }
+                    None => host_lights.extend_from_slice(&at_frame),
+                }
+            }
+        }
         let lbuf = self.lights.ensure(d, host_lights.len())?;
         d.write(lbuf, &host_lights)?;
 
@@ -1103,7 +1128,7 @@ impl<'d> PathTracer<'d> {
         d.write(&mut self.frame, &[fr])?;
         d.write(&mut self.camera, &[device_camera(camera, w, h)])?;
         let motion_steps = match motion {
-            Some((steps, cameras)) => {
+            Some((steps, cameras, _)) => {
                 if steps < 2 || cameras.len() != steps as usize || self.motion_kernels.is_none() {
                     return Err(usage(format!(
                         "a motion frame needs at least 2 steps, one camera per step and the motion program \
