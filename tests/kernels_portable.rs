@@ -162,11 +162,23 @@ fn variants() -> Vec<Variant> {
         for textures in [false, true] {
             for sampler in all_samplers() {
                 for transmission in [false, true] {
-                    v.push(Variant {
-                        entry: "pathtrace.cl",
-                        defines: pathtrace_defines(traversal, textures, sampler, transmission),
-                        codegen: true,
-                    });
+                    for compensation in [false, true] {
+                        // Compensation is independent of the traversal.
+                        if compensation && traversal != Traversal::Wide {
+                            continue;
+                        }
+                        v.push(Variant {
+                            entry: "pathtrace.cl",
+                            defines: pathtrace_defines(
+                                traversal,
+                                textures,
+                                sampler,
+                                transmission,
+                                compensation,
+                            ),
+                            codegen: true,
+                        });
+                    }
                 }
             }
         }

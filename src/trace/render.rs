@@ -111,6 +111,9 @@ pub struct RenderSettings {
     pub time_limit: Option<std::time::Duration>,
     pub environment: Environment,
     pub aovs: Aovs,
+    /// `--energy-compensation`: Turquin's multiple-scattering compensation
+    /// of the GGX reflection lobes (`GGX_ENERGY_COMPENSATION`).
+    pub energy_compensation: bool,
 }
 
 impl Default for RenderSettings {
@@ -128,6 +131,7 @@ impl Default for RenderSettings {
             time_limit: None,
             environment: Environment::Default,
             aovs: Aovs::NONE,
+            energy_compensation: false,
         }
     }
 }
@@ -329,6 +333,7 @@ pub fn pathtrace_defines(
     textures: bool,
     sampler: Sampler,
     transmission: bool,
+    energy_compensation: bool,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -345,13 +350,23 @@ pub fn pathtrace_defines(
     if transmission {
         defines.push(("HAS_TRANSMISSION", "1".to_owned()));
     }
+    if energy_compensation {
+        defines.push(("GGX_ENERGY_COMPENSATION", "1".to_owned()));
+    }
     defines
 }
 
 /// The material features a table compiles into the path tracer, by define
 /// name (for the frame log): only what some material uses.
-pub fn material_features(table: &MaterialTable, textures: bool) -> Vec<&'static str> {
+pub fn material_features(
+    table: &MaterialTable,
+    textures: bool,
+    energy_compensation: bool,
+) -> Vec<&'static str> {
     let mut v = vec!["metallic_roughness"];
+    if energy_compensation {
+        v.push("energy_compensation");
+    }
     if textures {
         v.push("textures");
     }
@@ -514,12 +529,13 @@ impl<'d> PathTracer<'d> {
         }
 
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
-        let features = material_features(table, textures.is_some());
+        let features = material_features(table, textures.is_some(), settings.energy_compensation);
         let defines = pathtrace_defines(
             settings.traversal,
             textures.is_some(),
             settings.sampler,
             transmission,
+            settings.energy_compensation,
         );
         let program = device.build_program("pathtrace.cl", &defines)?;
         let kernels = Kernels {
