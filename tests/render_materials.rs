@@ -584,3 +584,26 @@ fn energy_compensated_bsdf_matches_the_reference() {
         }
     }
 }
+
+#[test]
+fn the_shipped_animation_compiles_no_material_extension_code() {
+    // Only what the scene needs: CesiumMan uses none of the extensions, so
+    // its program is built with exactly the defines it had before them.
+    use soupray::scene::{LoadOptions, Scene};
+    use soupray::trace::render::{material_features, pathtrace_defines, Traversal};
+    use soupray::trace::sampling::Sampler;
+    let path = common::repo().join("animations/CesiumMan/CesiumMan.glb");
+    let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
+    let table = scene.materials();
+    assert!(!table.materials.iter().any(|m| m.needs_transmission()));
+    assert!(!scene.warnings().iter().any(|w| w.contains("KHR_materials")));
+    assert_eq!(
+        material_features(table, true, false),
+        ["metallic_roughness", "textures"]
+    );
+    let names: Vec<&str> = pathtrace_defines(Traversal::Wide, true, Sampler::Sobol, false, false)
+        .iter()
+        .map(|(n, _)| *n)
+        .collect();
+    assert_eq!(names, ["STACK_SIZE", "TRAVERSAL_WIDE", "HAS_TEXTURES"]);
+}
