@@ -175,6 +175,7 @@ fn variants() -> Vec<Variant> {
                                 sampler,
                                 transmission,
                                 compensation,
+                                compensation,
                             ),
                             codegen: true,
                         });

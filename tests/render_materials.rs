@@ -601,9 +601,55 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
         material_features(table, true, false),
         ["metallic_roughness", "textures"]
     );
-    let names: Vec<&str> = pathtrace_defines(Traversal::Wide, true, Sampler::Sobol, false, false)
-        .iter()
-        .map(|(n, _)| *n)
-        .collect();
+    let names: Vec<&str> =
+        pathtrace_defines(Traversal::Wide, true, Sampler::Sobol, false, false, false)
+            .iter()
+            .map(|(n, _)| *n)
+            .collect();
     assert_eq!(names, ["STACK_SIZE", "TRAVERSAL_WIDE", "HAS_TEXTURES"]);
+}
+
+#[test]
+fn unlit_surfaces_show_their_base_colour_whatever_the_light() {
+    // KHR_materials_unlit: an unlit quad under a bright sun and sky shows
+    // exactly its base colour; beside it, a lit white diffuse quad does not.
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(
+        &mut s,
+        Vec3::new(-0.5, 0.0, 0.0),
+        Vec3::X * 0.5,
+        Vec3::Z * 0.5,
+        Vec3::Y,
+        0,
+    );
+    quad(
+        &mut s,
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::X * 0.5,
+        Vec3::Z * 0.5,
+        Vec3::Y,
+        1,
+    );
+    let unlit = Material {
+        unlit: true,
+        ..material([0.2, 0.5, 0.9, 1.0], 0.0, 1.0)
+    };
+    let t = table(vec![unlit, material([1.0; 4], 0.0, 1.0)]);
+    let sun = light(
+        soupray::scene::LightKind::Directional,
+        Vec3::ZERO,
+        Vec3::NEG_Y,
+        [1.0; 3],
+        5.0,
+    );
+    let mut st = settings(16, 4);
+    st.environment = Environment::Color([0.5, 0.5, 0.5]);
+    let out = render_soup(&d, &s, &t, &top_down(1.0), &[sun], &st, 0).unwrap();
+    let left = out.image.rgba[8 * 16 + 3];
+    let right = out.image.rgba[8 * 16 + 12];
+    for (k, want) in [0.2f32, 0.5, 0.9].iter().enumerate() {
+        assert!((left[k] - want).abs() < 1e-6, "unlit pixel {left:?}");
+    }
+    assert!(right[0] > 1.0, "lit pixel {right:?}");
 }

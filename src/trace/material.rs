@@ -33,6 +33,8 @@ pub const MAT_DOUBLE_SIDED: u32 = 1;
 pub const MAT_ALPHA_MASK: u32 = 2;
 pub const MAT_ALPHA_BLEND: u32 = 4;
 pub const MAT_EMISSIVE: u32 = 8;
+/// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
+pub const MAT_UNLIT: u32 = 16;
 
 /// `PtMaterial` of `kernels/bsdf.h`: factors, flags and texture binding
 /// indices (-1: none).
@@ -76,6 +78,9 @@ impl DeviceMaterial {
         }
         if emits {
             flags |= MAT_EMISSIVE;
+        }
+        if m.unlit {
+            flags |= MAT_UNLIT;
         }
         DeviceMaterial {
             base_color: m.base_color_factor,

@@ -334,6 +334,7 @@ pub fn pathtrace_defines(
     sampler: Sampler,
     transmission: bool,
     energy_compensation: bool,
+    unlit: bool,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -352,6 +353,9 @@ pub fn pathtrace_defines(
     }
     if energy_compensation {
         defines.push(("GGX_ENERGY_COMPENSATION", "1".to_owned()));
+    }
+    if unlit {
+        defines.push(("HAS_UNLIT", "1".to_owned()));
     }
     defines
 }
@@ -372,6 +376,9 @@ pub fn material_features(
     }
     if table.materials.iter().any(|m| m.needs_transmission()) {
         v.push("transmission");
+    }
+    if table.materials.iter().any(|m| m.unlit) {
+        v.push("unlit");
     }
     v
 }
@@ -536,6 +543,7 @@ impl<'d> PathTracer<'d> {
             settings.sampler,
             transmission,
             settings.energy_compensation,
+            table.materials.iter().any(|m| m.unlit),
         );
         let program = device.build_program("pathtrace.cl", &defines)?;
         let kernels = Kernels {
