@@ -14,6 +14,11 @@
 // surface) or refracting (Walter et al. 2007, as pbrt-v4's DielectricBxDF
 // with its 1/eta^2 radiance scaling); wi may then lie below the surface.
 //
+// With GGX_ENERGY_COMPENSATION (`--energy-compensation`), the GGX
+// reflection lobes are scaled by 1 + F0 (1 / E(mu_o) - 1) (Turquin 2019),
+// E the white single-scattering albedo tabulated in ggx_energy.h
+// (src/trace/energy.rs), so a white rough metal loses no energy.
+//
 // Directions are in the local shading frame (z = normal), wo pointing
 // away from the surface. Every function mirrors src/trace/material.rs
 // (`bsdf_eval`, `bsdf_sample`, `bsdf_pdf`); kernels/bsdf_probe.cl holds the
@@ -24,12 +29,16 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "sampling.h"
+#ifdef GGX_ENERGY_COMPENSATION
+#include "ggx_energy.h"
+#endif
 
 // Material flags (PtMaterial.flags).
 #define MAT_DOUBLE_SIDED 1u
 #define MAT_ALPHA_MASK 2u
 #define MAT_ALPHA_BLEND 4u
 #define MAT_EMISSIVE 8u
+#define MAT_UNLIT 16u // read only with HAS_UNLIT
 
 // One material as the device shades it (mirrored by `DeviceMaterial` in
 // src/trace/material.rs; `pt_layout_probe` compares the layouts). Texture
@@ -103,6 +112,25 @@ inline float schlick_weight(float c) {
     return (m2 * m2) * m;
 }
 
+#ifdef GGX_ENERGY_COMPENSATION
+// The white single-scattering albedo E(alpha, mu), bilinear in (roughness,
+// cosine); mirrors trace::energy::ggx_albedo.
+inline float ggx_albedo(float a, float mu) {
+    float last = (float)(GGX_ENERGY_SIZE - 1u);
+    float x = clamp(sqrt(a), 0.0f, 1.0f) * last;
+    float y = clamp(mu, 0.0f, 1.0f) * last;
+    uint i0 = min((uint)x, GGX_ENERGY_SIZE - 2u);
+    uint j0 = min((uint)y, GGX_ENERGY_SIZE - 2u);
+    float fx = x - (float)i0;
+    float fy = y - (float)j0;
+    float e00 = GGX_ALBEDO[i0 * GGX_ENERGY_SIZE + j0];
+    float e10 = GGX_ALBEDO[(i0 + 1u) * GGX_ENERGY_SIZE + j0];
+    float e01 = GGX_ALBEDO[i0 * GGX_ENERGY_SIZE + j0 + 1u];
+    float e11 = GGX_ALBEDO[(i0 + 1u) * GGX_ENERGY_SIZE + j0 + 1u];
+    return (e00 * (1.0f - fx) + e10 * fx) * (1.0f - fy) + (e01 * (1.0f - fx) + e11 * fx) * fy;
+}
+#endif
+
 // The probability of sampling the specular lobe, for outgoing cosine `cos_o`.
 inline float bsdf_spec_probability(BsdfParams p, float cos_o) {
     float fd = p.specular * (0.04f + 0.96f * schlick_weight(cos_o));
@@ -174,9 +202,16 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float w = schlick_weight(voh);
         float fd = p.specular * fresnel_dielectric(p.f0, p.eta, voh);
         float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+#ifdef GGX_ENERGY_COMPENSATION
+        float ms = 1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f;
+        float3 dielectric = p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) +
+                            (float3)(fd * s) * (1.0f + p.f0 * ms);
+        float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
+#else
         float3 dielectric =
             p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) + (float3)(fd * s);
         float3 metal = fm * s;
+#endif
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
     }
     float weight = (1.0f - p.metallic) * p.transmission;
@@ -226,8 +261,13 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+#ifdef GGX_ENERGY_COMPENSATION
+    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f));
+    float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f));
+#else
     float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s);
     float3 metal = fm * s;
+#endif
     return dielectric * (1.0f - p.metallic) + metal * p.metallic;
 }
 

@@ -17,7 +17,10 @@
 // TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
 // the stack traversal of the 4-wide layout, HAS_TEXTURES when some
 // material is textured, and HAS_TRANSMISSION when some material uses
-// KHR_materials_transmission, _ior or _volume.
+// KHR_materials_transmission, _ior or _volume, and HAS_UNLIT when some
+// material is KHR_materials_unlit: such a surface returns its base colour
+// (factor times texture) to any ray that reaches it, camera or bounce, and
+// ends the path; light sampling does not aim at it.
 //
 // Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
 // continues from just below it. Entering a volume material through its
@@ -640,6 +643,12 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             }
             out.radiance += beta * le * w;
         }
+#ifdef HAS_UNLIT
+        if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
+            out.radiance += beta * albedo;
+            break;
+        }
+#endif
         if (bounce >= max_depth) break;
 
         float3 wo_w = -dir;

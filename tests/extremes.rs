@@ -274,6 +274,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         time_limit: None,
         environment: Environment::Color([0.2, 0.25, 0.3]),
         aovs: Aovs::NONE,
+        energy_compensation: false,
     }
 }
 

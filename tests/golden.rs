@@ -494,3 +494,61 @@ fn glossy_metal() {
         &["--env-color", "0.2,0.25,0.3"],
     );
 }
+
+#[test]
+fn glass_transmission_and_volume() {
+    // KHR_materials_transmission + _ior + _volume: a refracting, tinted
+    // glass ball in front of two coloured balls, and a thin-walled, rough
+    // transmissive ball, under a sky and a point light.
+    let dir = tempfile::tempdir().unwrap();
+    let glass = json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationColor": [0.7, 0.9, 1.0], "attenuationDistance": 1.5}
+        }
+    });
+    let frosted = json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [0.9, 1.0, 0.9, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.35},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.9}}
+    });
+    let scene = scene_file(
+        dir.path(),
+        "glass",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.6, 0.6, 0.6]),
+            },
+            MeshSpec {
+                geometry: sphere([-0.5, 0.35, -1.2], 0.35, 32),
+                material: diffuse([0.8, 0.1, 0.1]),
+            },
+            MeshSpec {
+                geometry: sphere([0.5, 0.35, -1.2], 0.35, 32),
+                material: diffuse([0.1, 0.2, 0.8]),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.5, 0.0], 0.5, 48),
+                material: glass,
+            },
+            MeshSpec {
+                geometry: sphere([1.1, 0.3, 0.4], 0.3, 32),
+                material: frosted,
+            },
+        ],
+        [0.0, 1.2, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 15.0}),
+            json!({"translation": [1.5, 3.0, 2.0]}),
+        )],
+    );
+    check(
+        "glass_transmission_and_volume",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.5,0.6,0.8", "--max-depth", "12"],
+    );
+}

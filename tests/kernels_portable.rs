@@ -163,18 +163,34 @@ fn variants() -> Vec<Variant> {
         for textures in [false, true] {
             for sampler in all_samplers() {
                 for transmission in [false, true] {
-                    let defines = pathtrace_defines(traversal, textures, sampler, transmission);
-                    v.push(Variant {
-                        entry: "pathtrace.cl",
-                        defines: defines.clone(),
-                        codegen: true,
-                    });
-                    // The motion-blur variant of every combination.
-                    v.push(Variant {
-                        entry: "pathtrace.cl",
-                        defines: motion_defines(defines),
-                        codegen: true,
-                    });
+                    for compensation in [false, true] {
+                        // Compensation is independent of the traversal.
+                        if compensation && traversal != Traversal::Wide {
+                            continue;
+                        }
+                        let defines = pathtrace_defines(
+                            traversal,
+                            textures,
+                            sampler,
+                            transmission,
+                            compensation,
+                            compensation,
+                        );
+                        v.push(Variant {
+                            entry: "pathtrace.cl",
+                            defines: defines.clone(),
+                            codegen: true,
+                        });
+                        // The motion-blur variant of every combination (the
+                        // compensation tables are independent of motion).
+                        if !compensation {
+                            v.push(Variant {
+                                entry: "pathtrace.cl",
+                                defines: motion_defines(defines),
+                                codegen: true,
+                            });
+                        }
+                    }
                 }
             }
         }

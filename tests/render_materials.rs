@@ -404,3 +404,252 @@ fn glass_ball_shows_the_boxes_behind_it_flipped() {
         "right of the ball's centre shows red: {right:?}"
     );
 }
+
+#[test]
+fn energy_table_is_what_the_generator_makes() {
+    use soupray::trace::energy::{generate, header_text, parse_header, table, ENERGY_SIZE};
+    let fresh = generate();
+    let path = common::repo().join("kernels/ggx_energy.h");
+    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
+        std::fs::write(&path, header_text(&fresh)).unwrap();
+    }
+    assert_eq!(fresh.len(), ENERGY_SIZE * ENERGY_SIZE);
+    // The header round-trips every value, and holds what the generator makes.
+    assert_eq!(parse_header(&header_text(&fresh)), fresh);
+    assert_eq!(
+        table(),
+        &fresh[..],
+        "kernels/ggx_energy.h is stale: rerun with SOUPRAY_REGENERATE=1"
+    );
+    // Smooth: no loss; alpha = 1 head-on: 1 - ln 2 + ... (the analytic
+    // single-scattering albedo at alpha 1, mu 1 is exactly 1 - ln 2 only
+    // for D = 1/pi, which alpha = 1 is).
+    assert!((fresh[ENERGY_SIZE - 1] - 1.0).abs() < 1e-3);
+    let rough_head_on = fresh[ENERGY_SIZE * ENERGY_SIZE - 1] as f64;
+    assert!(
+        (rough_head_on - (1.0 - 2f64.ln())).abs() < 2e-3,
+        "{rough_head_on}"
+    );
+}
+
+#[test]
+fn energy_compensated_white_metal_returns_what_it_receives() {
+    // The Rust reference's directional albedo, then the device in a
+    // white furnace.
+    for &r in &[0.3f32, 0.6, 0.8, 1.0] {
+        let mut p = BsdfParams::new([1.0; 3], 1.0, r);
+        let plain: Vec<f64> = [1.0f32, 0.5, 0.2]
+            .iter()
+            .map(|&mu| albedo(&p, mu, 1.0))
+            .collect();
+        p.energy_compensation = true;
+        for (k, &mu) in [1.0f32, 0.5, 0.2].iter().enumerate() {
+            let a = albedo(&p, mu, 1.0);
+            eprintln!("roughness {r} mu {mu}: {} -> {a}", plain[k]);
+            assert!((a - 1.0).abs() < 0.01, "roughness {r} mu {mu}: {a}");
+        }
+    }
+    let d = common::device();
+    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
+    let mut s = Soup::default();
+    sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
+    let t = table(vec![material([1.0; 4], 1.0, 1.0)]);
+    let mut means = Vec::new();
+    for compensate in [false, true] {
+        let mut st = settings(24, 64);
+        st.environment = Environment::Color([1.0, 1.0, 1.0]);
+        st.energy_compensation = compensate;
+        let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
+        let v: Vec<f64> = out
+            .image
+            .rgba
+            .iter()
+            .filter(|p| p[3] == 1.0)
+            .map(|p| grey(*p))
+            .collect();
+        let (m, se) = mean_se(&v);
+        eprintln!("rough white metal furnace, compensation {compensate}: {m} ± {se}");
+        means.push((m, se));
+    }
+    // Without: single scattering loses a good part; with: within 1%.
+    assert!(means[0].0 < 0.9, "{:?}", means[0]);
+    assert!(
+        (means[1].0 - 1.0).abs() < 0.01 + 4.0 * means[1].1,
+        "{:?}",
+        means[1]
+    );
+}
+
+#[test]
+fn energy_compensated_bsdf_matches_the_reference() {
+    let d = common::device();
+    let mut rng = Rng::new(17);
+    let n = 1000;
+    let mut input = Vec::new();
+    let mut cases = Vec::new();
+    for i in 0..n {
+        let mut p = BsdfParams::new(
+            [rng.f32(), rng.f32(), rng.f32()],
+            rng.f32(),
+            rng.f32().max(0.05),
+        );
+        p.energy_compensation = true;
+        if i % 2 == 0 {
+            p = p.with_dielectric(Dielectric::new(
+                1.0 + rng.f32(),
+                rng.f32(),
+                i % 4 == 0,
+                true,
+            ));
+        }
+        let mut wo = random_dir(&mut rng);
+        wo.z = wo.z.abs().max(0.02);
+        let wo = wo.normalize();
+        let mut wi = random_dir(&mut rng);
+        if p.dielectric.is_none() {
+            wi.z = wi.z.abs();
+        }
+        cases.push((p, wo, wi));
+    }
+    for with_ext in [false, true] {
+        let mut defines = vec![("GGX_ENERGY_COMPENSATION", "1".to_owned())];
+        if with_ext {
+            defines.push(("HAS_TRANSMISSION", "1".to_owned()));
+        }
+        let program = d.build_program("pt_probe.cl", &defines).unwrap();
+        let subset: Vec<&(BsdfParams, Vec3, Vec3)> = cases
+            .iter()
+            .filter(|c| c.0.dielectric.is_some() == with_ext)
+            .collect();
+        input.clear();
+        for (p, wo, wi) in &subset {
+            let dl = p
+                .dielectric
+                .unwrap_or(Dielectric::new(1.5, 0.0, false, true));
+            let head = [
+                p.base.x, p.base.y, p.base.z, p.metallic, p.alpha, p.specular,
+            ];
+            if with_ext {
+                input.extend_from_slice(&head);
+                input.extend_from_slice(&[
+                    dl.f0,
+                    dl.transmission,
+                    dl.eta,
+                    if dl.thin { 1.0 } else { 0.0 },
+                    0.0,
+                    0.0,
+                ]);
+            } else {
+                input.extend_from_slice(&head);
+                input.extend_from_slice(&[0.0, 0.0]);
+            }
+            input.extend_from_slice(&[
+                wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0, 0.5, 0.5, 0.5, 0.0,
+            ]);
+        }
+        let m = subset.len();
+        let k = d
+            .kernel(
+                &program,
+                if with_ext {
+                    "bsdf_ext_probe"
+                } else {
+                    "bsdf_probe"
+                },
+            )
+            .unwrap();
+        let inb = upload(&d, &input);
+        let out = upload(&d, &vec![0.0f32; 12 * m]);
+        d.launch(
+            "probe",
+            &k,
+            m.div_ceil(64),
+            64,
+            &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(m as u32)],
+        )
+        .unwrap();
+        d.finish().unwrap();
+        let mut got = vec![0.0f32; 12 * m];
+        d.read(&out, &mut got).unwrap();
+        for (i, (p, wo, wi)) in subset.iter().enumerate() {
+            let f = bsdf_eval(p, *wo, *wi);
+            for c in 0..3 {
+                close(
+                    got[12 * i + c],
+                    f[c],
+                    5e-4,
+                    &format!("eval {p:?} {wo} {wi}"),
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_shipped_animation_compiles_no_material_extension_code() {
+    // Only what the scene needs: CesiumMan uses none of the extensions, so
+    // its program is built with exactly the defines it had before them.
+    use soupray::scene::{LoadOptions, Scene};
+    use soupray::trace::render::{material_features, pathtrace_defines, Traversal};
+    use soupray::trace::sampling::Sampler;
+    let path = common::repo().join("animations/CesiumMan/CesiumMan.glb");
+    let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
+    let table = scene.materials();
+    assert!(!table.materials.iter().any(|m| m.needs_transmission()));
+    assert!(!scene.warnings().iter().any(|w| w.contains("KHR_materials")));
+    assert_eq!(
+        material_features(table, true, false),
+        ["metallic_roughness", "textures"]
+    );
+    let names: Vec<&str> =
+        pathtrace_defines(Traversal::Wide, true, Sampler::Sobol, false, false, false)
+            .iter()
+            .map(|(n, _)| *n)
+            .collect();
+    assert_eq!(names, ["STACK_SIZE", "TRAVERSAL_WIDE", "HAS_TEXTURES"]);
+}
+
+#[test]
+fn unlit_surfaces_show_their_base_colour_whatever_the_light() {
+    // KHR_materials_unlit: an unlit quad under a bright sun and sky shows
+    // exactly its base colour; beside it, a lit white diffuse quad does not.
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(
+        &mut s,
+        Vec3::new(-0.5, 0.0, 0.0),
+        Vec3::X * 0.5,
+        Vec3::Z * 0.5,
+        Vec3::Y,
+        0,
+    );
+    quad(
+        &mut s,
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::X * 0.5,
+        Vec3::Z * 0.5,
+        Vec3::Y,
+        1,
+    );
+    let unlit = Material {
+        unlit: true,
+        ..material([0.2, 0.5, 0.9, 1.0], 0.0, 1.0)
+    };
+    let t = table(vec![unlit, material([1.0; 4], 0.0, 1.0)]);
+    let sun = light(
+        soupray::scene::LightKind::Directional,
+        Vec3::ZERO,
+        Vec3::NEG_Y,
+        [1.0; 3],
+        5.0,
+    );
+    let mut st = settings(16, 4);
+    st.environment = Environment::Color([0.5, 0.5, 0.5]);
+    let out = render_soup(&d, &s, &t, &top_down(1.0), &[sun], &st, 0).unwrap();
+    let left = out.image.rgba[8 * 16 + 3];
+    let right = out.image.rgba[8 * 16 + 12];
+    for (k, want) in [0.2f32, 0.5, 0.9].iter().enumerate() {
+        assert!((left[k] - want).abs() < 1e-6, "unlit pixel {left:?}");
+    }
+    assert!(right[0] > 1.0, "lit pixel {right:?}");
+}

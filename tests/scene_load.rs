@@ -507,7 +507,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                 {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5},
                                                   "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}},
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
-                                                "KHR_materials_ior": {"ior": 0.5}}}
+                                                "KHR_materials_ior": {"ior": 0.5}}},
+                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}]
         }),
@@ -527,6 +528,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert_eq!((m[1].transmission_factor, m[1].ior), (0.0, 1.5));
     assert_eq!(m[1].attenuation_distance, f32::INFINITY);
     assert!(!m[1].needs_transmission());
+    assert!(m[3].unlit && !m[0].unlit);
     // Out of range: clamped with a warning.
     assert_eq!((m[2].transmission_factor, m[2].ior), (1.0, 1.0));
     let w = scene.warnings();

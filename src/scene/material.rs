@@ -3,7 +3,7 @@
 //! KHR_materials_emissive_strength), alpha mode, double-sidedness,
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
-//! (factors only). Every other `KHR_materials_*` extension a scene uses is
+//! (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -76,6 +76,8 @@ pub struct Material {
     pub attenuation_color: [f32; 3],
     /// KHR_materials_volume `attenuationDistance` (infinite without it).
     pub attenuation_distance: f32,
+    /// KHR_materials_unlit: the surface shows its base colour, unlit.
+    pub unlit: bool,
 }
 
 impl Default for Material {
@@ -104,6 +106,7 @@ impl Default for Material {
             thickness_factor: 0.0,
             attenuation_color: [1.0; 3],
             attenuation_distance: f32::INFINITY,
+            unlit: false,
         }
     }
 }
@@ -146,6 +149,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_volume",
+    "KHR_materials_unlit",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -485,6 +489,7 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 "attenuationDistance",
                 f32::INFINITY,
             ),
+            unlit: material_extension(src, i, "KHR_materials_unlit").is_some(),
         });
     }
 

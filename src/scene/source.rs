@@ -17,6 +17,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
+    "KHR_materials_unlit",
     "KHR_materials_volume",
     "KHR_texture_transform",
 ];
@@ -26,6 +27,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 const READ_FROM_RAW_JSON: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
+    "KHR_materials_unlit",
     "KHR_materials_volume",
 ];
 

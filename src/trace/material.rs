@@ -25,6 +25,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use super::energy::ggx_albedo;
 use super::sampling::{cos_sin_turns, luminance, sample_cosine_hemisphere, INV_PI, PI};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 
@@ -32,6 +33,8 @@ pub const MAT_DOUBLE_SIDED: u32 = 1;
 pub const MAT_ALPHA_MASK: u32 = 2;
 pub const MAT_ALPHA_BLEND: u32 = 4;
 pub const MAT_EMISSIVE: u32 = 8;
+/// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
+pub const MAT_UNLIT: u32 = 16;
 
 /// `PtMaterial` of `kernels/bsdf.h`: factors, flags and texture binding
 /// indices (-1: none).
@@ -75,6 +78,9 @@ impl DeviceMaterial {
         }
         if emits {
             flags |= MAT_EMISSIVE;
+        }
+        if m.unlit {
+            flags |= MAT_UNLIT;
         }
         DeviceMaterial {
             base_color: m.base_color_factor,
@@ -216,6 +222,9 @@ pub struct BsdfParams {
     /// The dielectric extensions (kernels compiled with
     /// `HAS_TRANSMISSION`); `None`: the base model exactly as without.
     pub dielectric: Option<Dielectric>,
+    /// Turquin's multiple-scattering compensation of the GGX reflection
+    /// lobes (kernels compiled with `GGX_ENERGY_COMPENSATION`).
+    pub energy_compensation: bool,
 }
 
 pub const MIN_GGX_ALPHA: f32 = 1.0e-3;
@@ -228,6 +237,7 @@ impl BsdfParams {
             alpha: ggx_alpha(roughness),
             specular: 1.0,
             dielectric: None,
+            energy_compensation: false,
         }
     }
 
@@ -247,6 +257,7 @@ impl BsdfParams {
             alpha: 1.0,
             specular: 0.0,
             dielectric: None,
+            energy_compensation: false,
         }
     }
 }
@@ -345,6 +356,13 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let w = schlick_weight(voh);
         let fd = p.specular * fresnel_dielectric(d.f0, d.eta, voh);
         let fm = p.base + (Vec3::ONE - p.base) * w;
+        if p.energy_compensation {
+            let ms = 1.0 / ggx_albedo(p.alpha, wo.z) - 1.0;
+            let dielectric = p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI)
+                + Vec3::splat(fd * s) * (1.0 + d.f0 * ms);
+            let metal = fm * s * (Vec3::ONE + p.base * ms);
+            return dielectric * (1.0 - p.metallic) + metal * p.metallic;
+        }
         let dielectric =
             p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI) + Vec3::splat(fd * s);
         let metal = fm * s;
@@ -507,6 +525,12 @@ pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     let w = schlick_weight(voh);
     let fd = p.specular * (0.04 + 0.96 * w);
     let fm = p.base + (Vec3::ONE - p.base) * w;
+    if p.energy_compensation {
+        let dielectric = p.base * ((1.0 - fd) * INV_PI)
+            + Vec3::splat(fd * s) * (1.0 + 0.04 * (1.0 / ggx_albedo(p.alpha, wo.z) - 1.0));
+        let metal = fm * s * (Vec3::ONE + p.base * (1.0 / ggx_albedo(p.alpha, wo.z) - 1.0));
+        return dielectric * (1.0 - p.metallic) + metal * p.metallic;
+    }
     let dielectric = p.base * ((1.0 - fd) * INV_PI) + Vec3::splat(fd * s);
     let metal = fm * s;
     dielectric * (1.0 - p.metallic) + metal * p.metallic

@@ -20,6 +20,7 @@ pub mod camera;
 pub mod device;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod energy;
 pub mod escape;
 pub mod intersect;
 pub mod lights;

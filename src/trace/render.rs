@@ -113,6 +113,9 @@ pub struct RenderSettings {
     pub time_limit: Option<std::time::Duration>,
     pub environment: Environment,
     pub aovs: Aovs,
+    /// `--energy-compensation`: Turquin's multiple-scattering compensation
+    /// of the GGX reflection lobes (`GGX_ENERGY_COMPENSATION`).
+    pub energy_compensation: bool,
 }
 
 impl Default for RenderSettings {
@@ -131,6 +134,7 @@ impl Default for RenderSettings {
             time_limit: None,
             environment: Environment::Default,
             aovs: Aovs::NONE,
+            energy_compensation: false,
         }
     }
 }
@@ -346,6 +350,8 @@ pub fn pathtrace_defines(
     textures: bool,
     sampler: Sampler,
     transmission: bool,
+    energy_compensation: bool,
+    unlit: bool,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -361,6 +367,12 @@ pub fn pathtrace_defines(
     }
     if transmission {
         defines.push(("HAS_TRANSMISSION", "1".to_owned()));
+    }
+    if energy_compensation {
+        defines.push(("GGX_ENERGY_COMPENSATION", "1".to_owned()));
+    }
+    if unlit {
+        defines.push(("HAS_UNLIT", "1".to_owned()));
     }
     defines
 }
@@ -392,13 +404,23 @@ pub struct MotionFrame<'a> {
 
 /// The material features a table compiles into the path tracer, by define
 /// name (for the frame log): only what some material uses.
-pub fn material_features(table: &MaterialTable, textures: bool) -> Vec<&'static str> {
+pub fn material_features(
+    table: &MaterialTable,
+    textures: bool,
+    energy_compensation: bool,
+) -> Vec<&'static str> {
     let mut v = vec!["metallic_roughness"];
+    if energy_compensation {
+        v.push("energy_compensation");
+    }
     if textures {
         v.push("textures");
     }
     if table.materials.iter().any(|m| m.needs_transmission()) {
         v.push("transmission");
+    }
+    if table.materials.iter().any(|m| m.unlit) {
+        v.push("unlit");
     }
     v
 }
@@ -563,12 +585,14 @@ impl<'d> PathTracer<'d> {
         }
 
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
-        let features = material_features(table, textures.is_some());
+        let features = material_features(table, textures.is_some(), settings.energy_compensation);
         let defines = pathtrace_defines(
             settings.traversal,
             textures.is_some(),
             settings.sampler,
             transmission,
+            settings.energy_compensation,
+            table.materials.iter().any(|m| m.unlit),
         );
         let kernels = Kernels::build(device, &defines)?;
 

@@ -171,6 +171,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         time_limit: None,
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
+        energy_compensation: false,
     }
 }
 

@@ -1,0 +1,150 @@
+//! Energy compensation for the single-scattering GGX lobes (Turquin,
+//! "Practical multiple scattering compensation for microfacet models",
+//! 2019): a lobe of normal reflectance F0 is scaled by
+//! `1 + F0 (1 / E(mu_o) - 1)`, where E is the directional albedo of the
+//! white (F = 1) single-scattering lobe. A white rough metal then returns
+//! all it receives, as multiple bounces between microfacets would.
+//!
+//! E is tabulated over roughness and cosine (`ENERGY_SIZE` squared
+//! entries) in `kernels/ggx_energy.h`, made by `generate` here and held to
+//! it by a test (`SOUPRAY_REGENERATE=1` rewrites it). The table is read by
+//! both the kernels (`ggx_albedo` in `kernels/bsdf.h`, under
+//! `GGX_ENERGY_COMPENSATION`) and `ggx_albedo` below, from the same text.
+
+use std::sync::OnceLock;
+
+/// Entries per side: roughness `i / (N - 1)` by cosine `j / (N - 1)`.
+pub const ENERGY_SIZE: usize = 32;
+
+/// The header the kernels include, as committed.
+const HEADER: &str = include_str!("../../kernels/ggx_energy.h");
+
+/// The albedo table parsed from the header (row = roughness).
+pub fn table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(HEADER))
+}
+
+/// The numbers between the header's braces.
+pub fn parse_header(text: &str) -> Vec<f32> {
+    let body = text
+        .split_once('{')
+        .and_then(|(_, rest)| rest.split_once('}'))
+        .map_or("", |(body, _)| body);
+    body.split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .filter_map(|s| s.trim_end_matches('f').parse::<f32>().ok())
+        .collect()
+}
+
+/// The directional albedo E of the white single-scattering GGX lobe at
+/// GGX `alpha` and outgoing cosine `mu`, interpolated bilinearly in
+/// (roughness, cosine). Mirrors `ggx_albedo` in `kernels/bsdf.h`.
+pub fn ggx_albedo(alpha: f32, mu: f32) -> f32 {
+    let t = table();
+    let last = (ENERGY_SIZE - 1) as f32;
+    let x = alpha.sqrt().clamp(0.0, 1.0) * last;
+    let y = mu.clamp(0.0, 1.0) * last;
+    let i0 = (x as usize).min(ENERGY_SIZE - 2);
+    let j0 = (y as usize).min(ENERGY_SIZE - 2);
+    let fx = x - i0 as f32;
+    let fy = y - j0 as f32;
+    let e00 = t[i0 * ENERGY_SIZE + j0];
+    let e10 = t[(i0 + 1) * ENERGY_SIZE + j0];
+    let e01 = t[i0 * ENERGY_SIZE + j0 + 1];
+    let e11 = t[(i0 + 1) * ENERGY_SIZE + j0 + 1];
+    (e00 * (1.0 - fx) + e10 * fx) * (1.0 - fy) + (e01 * (1.0 - fx) + e11 * fx) * fy
+}
+
+/// Computes the table: per entry, the albedo by stratified sampling of the
+/// visible normals (weight G2 / G1), in f64.
+pub fn generate() -> Vec<f32> {
+    let n = ENERGY_SIZE;
+    let m = 96;
+    let mut out = Vec::with_capacity(n * n);
+    for i in 0..n {
+        let r = i as f64 / (n - 1) as f64;
+        let a = (r * r).max(super::material::MIN_GGX_ALPHA as f64);
+        for j in 0..n {
+            let mu = (j as f64 / (n - 1) as f64).max(1.0e-3);
+            let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+            let lambda = |c: f64| {
+                let c2 = c * c;
+                let t2 = (1.0 - c2).max(0.0) / c2;
+                ((1.0 + a * a * t2).sqrt() - 1.0) * 0.5
+            };
+            let lo = lambda(mu);
+            let mut sum = 0.0;
+            for k in 0..m {
+                for l in 0..m {
+                    let u1 = (k as f64 + 0.5) / m as f64;
+                    let u2 = (l as f64 + 0.5) / m as f64;
+                    let h = sample_vndf(a, wo, u1, u2);
+                    let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+                    let iz = 2.0 * oh * h[2] - wo[2];
+                    if iz > 0.0 {
+                        sum += (1.0 + lo) / (1.0 + lo + lambda(iz));
+                    }
+                }
+            }
+            out.push((sum / (m * m) as f64) as f32);
+        }
+    }
+    out
+}
+
+fn sample_vndf(a: f64, wo: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+    let v = [a * wo[0], a * wo[1], wo[2]];
+    let vl = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let vh = [v[0] / vl, v[1] / vl, v[2] / vl];
+    let lensq = vh[0] * vh[0] + vh[1] * vh[1];
+    let t1 = if lensq > 0.0 {
+        [-vh[1] / lensq.sqrt(), vh[0] / lensq.sqrt(), 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let t2 = [
+        vh[1] * t1[2] - vh[2] * t1[1],
+        vh[2] * t1[0] - vh[0] * t1[2],
+        vh[0] * t1[1] - vh[1] * t1[0],
+    ];
+    let r = u1.sqrt();
+    let phi = std::f64::consts::TAU * u2;
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + vh[2]);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+    let p3 = (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+    let nh = [
+        t1[0] * p1 + t2[0] * p2 + vh[0] * p3,
+        t1[1] * p1 + t2[1] * p2 + vh[1] * p3,
+        t1[2] * p1 + t2[2] * p2 + vh[2] * p3,
+    ];
+    let h = [a * nh[0], a * nh[1], nh[2].max(0.0)];
+    let hl = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    [h[0] / hl, h[1] / hl, h[2] / hl]
+}
+
+/// The header text for `table` (each value printed so it reads back to
+/// the same f32).
+pub fn header_text(table: &[f32]) -> String {
+    let mut s = String::from(
+        "// Generated by soupray::trace::energy::generate (SOUPRAY_REGENERATE=1\n\
+         // cargo test --test render_materials energy_table): the directional\n\
+         // albedo of the white single-scattering GGX lobe, row i = roughness\n\
+         // i / 31, column j = cosine j / 31. Do not edit.\n\
+         #ifndef SOUPRAY_GGX_ENERGY_H\n#define SOUPRAY_GGX_ENERGY_H\n\n\
+         #pragma OPENCL FP_CONTRACT OFF\n\n\
+         #define GGX_ENERGY_SIZE 32u\n\n\
+         __constant float GGX_ALBEDO[1024] = {\n",
+    );
+    for row in table.chunks(ENERGY_SIZE) {
+        s.push_str("   ");
+        for v in row {
+            s.push_str(&format!(" {v:?}f,"));
+        }
+        s.push('\n');
+    }
+    s.push_str("};\n\n#endif\n");
+    s
+}
