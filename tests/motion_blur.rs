@@ -698,3 +698,36 @@ fn a_moving_point_light_lights_the_floor_from_where_it_is_at_each_time() {
         "the still light differs by only {rel_still}"
     );
 }
+
+/// A frame where nothing moves within the shutter (the walk's frame 0: its
+/// shutter ends before the clip's first key moves anything) does no motion
+/// work and renders the unblurred image bit for bit.
+#[test]
+fn a_frame_still_within_its_shutter_renders_as_without_blur() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::repo().join("animations/CesiumMan/CesiumMan.glb");
+    let scene = scene.to_str().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "render", scene, "--frame", "0", "--width", "48", "--height", "27", "--spp", "2",
+            "--quiet", "--out",
+        ];
+        let out_s = out.to_str().unwrap().to_owned();
+        args.push(&out_s);
+        args.extend_from_slice(extra);
+        let o = soupray(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let img = common::read_exr(&out.join("CesiumMan.0000.exr"));
+        let log: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("CesiumMan.0000.json")).unwrap())
+                .unwrap();
+        (img, log)
+    };
+    let (plain, _) = run("plain", &[]);
+    let (blur, log) = run("blur", &["--motion-blur"]);
+    assert_eq!(log["motion"]["steps"], 1, "{log}");
+    assert_eq!(log["motion"]["extra_evaluate_ms"], 0.0);
+    assert!(log["motion"]["open"].as_f64() < log["motion"]["close"].as_f64());
+    assert_eq!(bits(&plain), bits(&blur));
+}
