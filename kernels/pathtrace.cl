@@ -15,8 +15,10 @@
 // materials are crossed with probability 1 - alpha (stochastic coverage),
 // for camera, bounce and shadow rays alike. Compiled with STACK_SIZE,
 // TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
-// the stack traversal of the 4-wide layout, and HAS_TEXTURES when some
-// material is textured.
+// the stack traversal of the 4-wide layout, HAS_TEXTURES when some
+// material is textured, and MOTION_BLUR for frames that move within the
+// shutter (each camera sample's path sees the soup, camera and lights at
+// its own time: trace_common.h, motion.h).
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
