@@ -8,9 +8,12 @@
 //                        own prim-ref pass turns it into exactly that box.
 //   motion_trace_closest closest hit of rays with their own times through
 //                        the binary tree (the reference tests' kernel).
+//   motion_camera_probe, motion_light_probe: motion.h's camera and light
+//                        interpolation on host-made inputs (tests).
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
+#include "motion.h"
 
 __kernel void motion_bounds(__global const float4* steps_positions, uint triangles, uint steps,
                             __global float4* bounds) {
@@ -41,4 +44,20 @@ __kernel void motion_trace_closest(__global const BvhNode* nodes, __global const
     if (i >= count) return;
     MotionTime mt = motion_time(times[i], steps, triangles);
     hits[i] = trace_closest_bvh(nodes, prim_ids, GEOM_ARGS(positions, mt), rays[i]);
+}
+
+__kernel void motion_camera_probe(__global const PtCamera* cams, uint steps,
+                                  __global const float* times, __global PtCamera* out,
+                                  uint count) {
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    out[i] = motion_camera(cams, motion_time(times[i], steps, 0u));
+}
+
+__kernel void motion_light_probe(__global const PtLight* a, __global const PtLight* b,
+                                 __global const float* fracs, __global PtLight* out,
+                                 uint count) {
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    out[i] = motion_light(a[i], b[i], fracs[i]);
 }

@@ -16,7 +16,9 @@
 // for camera, bounce and shadow rays alike. Compiled with STACK_SIZE,
 // TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
 // the stack traversal of the 4-wide layout, HAS_TEXTURES when some
-// material is textured, and HAS_TRANSMISSION when some material uses
+// material is textured, MOTION_BLUR for frames that move within the
+// shutter (each camera sample's path sees the soup, camera and lights at
+// its own time: trace_common.h, motion.h), HAS_TRANSMISSION when some material uses
 // KHR_materials_transmission, _ior or _volume, and HAS_UNLIT when some
 // material is KHR_materials_unlit: such a surface returns its base colour
 // (factor times texture) to any ray that reaches it, camera or bounce, and
@@ -41,6 +43,9 @@
 #include "lights.h"
 #ifdef HAS_TEXTURES
 #include "texture.h"
+#endif
+#ifdef MOTION_BLUR
+#include "motion.h"
 #endif
 
 // The first bounce after which Russian roulette may end a path.
@@ -425,24 +430,12 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
 // Punctual light `i` at the path's time: with MOTION_BLUR the lights buffer
 // holds every light at each motion step (step after step), and position and
 // direction are interpolated between the two steps around the time (the
-// direction renormalised). Rust twin: trace::motion::light_at.
+// direction renormalised: motion_light in motion.h).
 inline PtLight pt_light(const PtScene* s, uint i) {
 #ifdef MOTION_BLUR
     uint count = s->frame.light_count;
-    PtLight a = s->lights[s->mt.step * count + i];
-    PtLight b = s->lights[(s->mt.step + 1u) * count + i];
-    float f = s->mt.frac;
-    float3 d;
-    for (uint k = 0u; k < 3u; ++k) a.position[k] = a.position[k] + f * (b.position[k] - a.position[k]);
-    d = (float3)(a.direction[0] + f * (b.direction[0] - a.direction[0]),
-                 a.direction[1] + f * (b.direction[1] - a.direction[1]),
-                 a.direction[2] + f * (b.direction[2] - a.direction[2]));
-    float l = length(d);
-    if (l > 0.0f) d = d / l;
-    a.direction[0] = d.x;
-    a.direction[1] = d.y;
-    a.direction[2] = d.z;
-    return a;
+    return motion_light(s->lights[s->mt.step * count + i],
+                        s->lights[(s->mt.step + 1u) * count + i], s->mt.frac);
 #else
     return s->lights[i];
 #endif
@@ -511,23 +504,6 @@ inline float3 pt_env_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfPa
                           rng, bounce TEX_PASS);
 }
 
-#ifdef MOTION_BLUR
-// The camera at time `m`: `cam` holds it at every motion step, and each
-// vector is interpolated linearly between the two steps around the time
-// (the steps are close enough that the frame's basis stays near orthogonal).
-inline PtCamera pt_camera_at(__global const PtCamera* cam, MotionTime m) {
-    PtCamera a = cam[m.step];
-    PtCamera b = cam[m.step + 1u];
-    PtCamera c = a;
-    for (uint i = 0u; i < 4u; ++i) {
-        c.origin[i] = a.origin[i] + m.frac * (b.origin[i] - a.origin[i]);
-        c.right[i] = a.right[i] + m.frac * (b.right[i] - a.right[i]);
-        c.up[i] = a.up[i] + m.frac * (b.up[i] - a.up[i]);
-        c.forward[i] = a.forward[i] + m.frac * (b.forward[i] - a.forward[i]);
-    }
-    return c;
-}
-#endif
 
 // Results of one camera sample.
 typedef struct {
@@ -567,7 +543,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     // The path's time in the shutter: the camera set's third dimension, so
     // time is stratified over the samples jointly with the pixel filter.
     s->mt = motion_time(uc.z, s->motion_steps, s->motion_triangles);
-    PtCamera cv = pt_camera_at(cam, s->mt);
+    PtCamera cv = motion_camera(cam, s->mt);
 #else
     PtCamera cv = cam[0];
 #endif

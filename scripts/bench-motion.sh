@@ -28,9 +28,12 @@ python3 - "$tmp" <<'PY'
 import glob, json, statistics, sys
 tmp = sys.argv[1]
 rows = {"A": [], "B": []}
+pairs = {}
 for v in "AB":
     for f in sorted(glob.glob(f"{tmp}/{v}*/r.*.json")):
         d = json.load(open(f))
+        run = f.split("/")[-2][1:]
+        pairs.setdefault((run, d["frame"]), {})[v] = d["timings_ms"]["total"]
         t = d["timings_ms"]
         m = d.get("motion") or {}
         rows[v].append({
@@ -50,6 +53,8 @@ for k, name, fmt in [("evaluate", "evaluate ms", "%.2f"), ("build", "build ms", 
                      ("sah", "SAH cost", "%.2f"), ("rays", "rays", "%.0f")]:
     a, b = med("A", k), med("B", k)
     print(f"| {name} | {fmt % a} | {fmt % b} | {b / a:.2f}x |")
+ratios = [p["B"] / p["A"] for p in pairs.values() if "A" in p and "B" in p]
+print("median of per-frame total ratios (same frame, same run): %.2fx" % statistics.median(ratios))
 steps = [r["steps"] for r in rows["B"]]
 print("blur: motion steps min %d / median %d / max %d; extra evaluate median %.2f ms, extra build (bounds) median %.2f ms"
       % (min(steps), statistics.median(steps), max(steps), med("B", "extra_evaluate"), med("B", "extra_build")))

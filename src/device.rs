@@ -57,6 +57,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     ("lights.h", include_str!("../kernels/lights.h")),
     ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
     ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
+    ("motion.h", include_str!("../kernels/motion.h")),
     ("motion.cl", include_str!("../kernels/motion.cl")),
 ];
 

@@ -698,3 +698,138 @@ fn a_moving_point_light_lights_the_floor_from_where_it_is_at_each_time() {
         "the still light differs by only {rel_still}"
     );
 }
+
+/// A frame where nothing moves within the shutter (the walk's frame 0: its
+/// shutter ends before the clip's first key moves anything) does no motion
+/// work and renders the unblurred image bit for bit.
+#[test]
+fn a_frame_still_within_its_shutter_renders_as_without_blur() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::repo().join("animations/CesiumMan/CesiumMan.glb");
+    let scene = scene.to_str().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "render", scene, "--frame", "0", "--width", "48", "--height", "27", "--spp", "2",
+            "--quiet", "--out",
+        ];
+        let out_s = out.to_str().unwrap().to_owned();
+        args.push(&out_s);
+        args.extend_from_slice(extra);
+        let o = soupray(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let img = common::read_exr(&out.join("CesiumMan.0000.exr"));
+        let log: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("CesiumMan.0000.json")).unwrap())
+                .unwrap();
+        (img, log)
+    };
+    let (plain, _) = run("plain", &[]);
+    let (blur, log) = run("blur", &["--motion-blur"]);
+    assert_eq!(log["motion"]["steps"], 1, "{log}");
+    assert_eq!(log["motion"]["extra_evaluate_ms"], 0.0);
+    assert!(log["motion"]["open"].as_f64() < log["motion"]["close"].as_f64());
+    assert_eq!(bits(&plain), bits(&blur));
+}
+
+/// The camera and light interpolation of `kernels/motion.h` against their
+/// Rust twins, bit for bit, on random cameras, lights and times.
+#[test]
+fn camera_and_light_at_a_time_match_the_rust_twins() {
+    use soupray::trace::lights::DeviceLight;
+    use soupray::trace::motion::{camera_at, light_at};
+    use soupray::trace::render::{device_camera, DeviceCamera};
+    let d = common::device();
+    let program = d
+        .build_program("motion.cl", &motion_program_defines())
+        .unwrap();
+    let mut rng = common::Rng::new(9);
+    let steps = 5u32;
+    let cams: Vec<DeviceCamera> = (0..steps)
+        .map(|_| {
+            let eye = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 4.0 + Vec3::Z * 3.0;
+            device_camera(&perspective(eye, Vec3::ZERO, Vec3::Y, 40.0), 64, 36)
+        })
+        .collect();
+    let n = 256;
+    let times: Vec<f32> = (0..n).map(|_| rng.f32()).collect();
+    let mut cam_buf = d.buffer::<DeviceCamera>(cams.len()).unwrap();
+    d.write(&mut cam_buf, &cams).unwrap();
+    let mut time_buf = d.buffer::<f32>(n).unwrap();
+    d.write(&mut time_buf, &times).unwrap();
+    let out_buf = d.buffer::<DeviceCamera>(n).unwrap();
+    let k = d.kernel(&program, "motion_camera_probe").unwrap();
+    d.launch(
+        "probe",
+        &k,
+        n.div_ceil(64),
+        64,
+        &[
+            Arg::Buf(&cam_buf),
+            Arg::U32(steps),
+            Arg::Buf(&time_buf),
+            Arg::Buf(&out_buf),
+            Arg::U32(n as u32),
+        ],
+    )
+    .unwrap();
+    let mut out = vec![DeviceCamera::default(); n];
+    d.read(&out_buf, &mut out).unwrap();
+    for i in 0..n {
+        let host = camera_at(&cams, motion_time(times[i], steps));
+        assert_eq!(
+            bytemuck::bytes_of(&out[i]),
+            bytemuck::bytes_of(&host),
+            "time {}",
+            times[i]
+        );
+    }
+
+    let light = |rng: &mut common::Rng| DeviceLight {
+        position: [rng.f32(), rng.f32(), rng.f32()],
+        kind: 1,
+        direction: {
+            let v = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5).normalize();
+            [v.x, v.y, v.z]
+        },
+        range: 0.0,
+        intensity: [1.0, 2.0, 3.0],
+        angle_scale: 1.5,
+        angle_offset: -0.5,
+        pad: [0.0; 3],
+    };
+    let a: Vec<DeviceLight> = (0..n).map(|_| light(&mut rng)).collect();
+    let b: Vec<DeviceLight> = (0..n).map(|_| light(&mut rng)).collect();
+    let mut a_buf = d.buffer::<DeviceLight>(n).unwrap();
+    d.write(&mut a_buf, &a).unwrap();
+    let mut b_buf = d.buffer::<DeviceLight>(n).unwrap();
+    d.write(&mut b_buf, &b).unwrap();
+    let out_buf = d.buffer::<DeviceLight>(n).unwrap();
+    let k = d.kernel(&program, "motion_light_probe").unwrap();
+    d.launch(
+        "probe",
+        &k,
+        n.div_ceil(64),
+        64,
+        &[
+            Arg::Buf(&a_buf),
+            Arg::Buf(&b_buf),
+            Arg::Buf(&time_buf),
+            Arg::Buf(&out_buf),
+            Arg::U32(n as u32),
+        ],
+    )
+    .unwrap();
+    let mut out = vec![a[0]; n];
+    d.read(&out_buf, &mut out).unwrap();
+    d.finish().unwrap();
+    for i in 0..n {
+        let host = light_at(&a[i], &b[i], times[i]);
+        assert_eq!(
+            bytemuck::bytes_of(&out[i]),
+            bytemuck::bytes_of(&host),
+            "light {i} at {}",
+            times[i]
+        );
+    }
+}

@@ -209,7 +209,7 @@ pub struct RenderArgs {
 
     /// Motion blur: each camera sample sees the scene at its own time within
     /// the shutter, so whatever moves (skins, morphs, animated nodes, the
-    /// camera) is blurred along its path. Frames where nothing moves within
+    /// camera, lights and emissive surfaces) is blurred along its path. Frames where nothing moves within
     /// the shutter render exactly as without blur, at the same cost.
     #[arg(long, help_heading = "Motion blur")]
     pub motion_blur: bool,
@@ -236,11 +236,13 @@ pub struct RenderArgs {
         help_heading = "Motion blur"
     )]
     pub shutter_position: String,
-    /// Times within the shutter at which the scene is evaluated; between
-    /// them every vertex moves in a straight line. Default: chosen per frame
-    /// from the motion, 2 (open and close) plus one per 15° that the
-    /// fastest-turning node or joint rotates, at most 16. Raise it for
-    /// fast spins whose blur should follow an arc, not a chord.
+    /// Times within the shutter at which the scene is evaluated (2 to 64);
+    /// between them every vertex moves in a straight line. Default: chosen
+    /// per frame from the motion: 1 + ceil(turn / 15°), at least 2 (open and
+    /// close) and at most 16, where `turn` is the largest rotation of any
+    /// node or joint over the shutter; 1 (no motion work) when nothing
+    /// moves. Raise it for fast spins whose blur should follow an arc, not
+    /// a chord.
     #[arg(
         long,
         value_name = "N",

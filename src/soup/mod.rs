@@ -5,6 +5,8 @@
 //!
 //! `device` evaluates the soup of a frame on the OpenCL device, straight
 //! into the buffers the BVH builder and the tracer read.
+//! `motion` keeps the soup at each motion step of a frame that moves within
+//! the shutter (`--motion-blur`) and chooses how many steps it needs.
 
 pub mod device;
 pub mod motion;

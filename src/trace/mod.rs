@@ -9,6 +9,9 @@
 //!   after every build.
 //! * `device`: `DeviceTracer`, which runs `kernels/trace.cl` over ray buffers.
 //! * `camera`: a pinhole camera for primary rays (tests and benchmarks).
+//! * `motion`: motion blur's shutter, time interpolation and step bounds,
+//!   the twins of `kernels/motion.h`, `motion.cl` and the motion reads of
+//!   `trace_common.h`.
 //!
 //! The kernels share `kernels/trace_common.h`, whose functions mirror the
 //! Rust ones operation for operation, so device and CPU results are bit for

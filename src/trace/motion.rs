@@ -4,8 +4,8 @@
 //!
 //! Every function here is the twin of the one of the same name in
 //! `kernels/trace_common.h` (`motion_time`, `motion_triangle`) and
-//! `kernels/motion.cl` (`motion_bounds`) and `kernels/pathtrace.cl`
-//! (`pt_camera_at`, `pt_light`), the same float operations in the
+//! `kernels/motion.cl` (`motion_bounds`) and `kernels/motion.h`
+//! (`motion_camera`, `motion_light`), the same float operations in the
 //! same order, so the device agrees with them bit for bit; and
 //! `trace_closest_motion` is the CPU reference of the device's traversal at
 //! a ray's time. `tests/motion_blur.rs` holds the two together.
@@ -150,7 +150,7 @@ pub fn trace_closest_motion(
     trace_closest(bvh, &positions_at(data, triangles, steps, time), ray)
 }
 
-/// `pt_camera_at` of `kernels/pathtrace.cl`: the camera's vectors
+/// `motion_camera` of `kernels/motion.h`: the camera's vectors
 /// interpolated between the steps around the time.
 pub fn camera_at(cameras: &[DeviceCamera], (step, frac): (u32, f32)) -> DeviceCamera {
     let a = cameras[step as usize];
@@ -171,13 +171,13 @@ pub fn camera_at(cameras: &[DeviceCamera], (step, frac): (u32, f32)) -> DeviceCa
     }
 }
 
-/// `pt_light` of `kernels/pathtrace.cl`: a light's position and direction
-/// interpolated between the steps around the time, the direction
-/// renormalised (to rounding: the kernel's `length` may round differently).
+/// `motion_light` of `kernels/motion.h`: a light's position and direction
+/// interpolated between two steps at fraction `frac`, the direction
+/// renormalised.
 pub fn light_at(
     a: &crate::trace::lights::DeviceLight,
     b: &crate::trace::lights::DeviceLight,
-    (_, frac): (u32, f32),
+    frac: f32,
 ) -> crate::trace::lights::DeviceLight {
     let mut l = *a;
     for k in 0..3 {

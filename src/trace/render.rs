@@ -425,6 +425,10 @@ pub fn material_features(
     v
 }
 
+/// A motion frame's steps as `render_buffers` takes them: the count, the
+/// camera at each step and the lights at each step (or none: the frame's).
+type MotionSteps<'a> = (u32, &'a [FrameCamera], &'a [Vec<FrameLight>]);
+
 /// The path tracer of one scene on one device.
 pub struct PathTracer<'d> {
     device: &'d Device,
@@ -974,7 +978,7 @@ impl<'d> PathTracer<'d> {
         camera: &FrameCamera,
         lights: &[FrameLight],
         frame_index: i64,
-        motion: Option<(u32, &[FrameCamera], &[Vec<FrameLight>])>,
+        motion: Option<MotionSteps>,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
         let d = self.device;
