@@ -190,7 +190,8 @@ pub struct RenderArgs {
     #[arg(long, help_heading = "Image")]
     pub clay: bool,
     /// Compensate the energy that single-scattering GGX loses at high
-    /// roughness (up to a third for a rough metal), as multiple bounces
+    /// roughness (a fifth at roughness 0.6, 69% at roughness 1 seen
+    /// head-on, for a white metal), as multiple bounces
     /// between microfacets would return it (Turquin 2019, a precomputed
     /// albedo table): rough metals render brighter and more saturated, a
     /// white rough metal under a white sky returns all it receives. Off by
