@@ -508,7 +508,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                                                   "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}},
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
                                                 "KHR_materials_ior": {"ior": 0.5}}},
-                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}}
+                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
+                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}]
         }),
@@ -529,6 +530,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert_eq!(m[1].attenuation_distance, f32::INFINITY);
     assert!(!m[1].needs_transmission());
     assert!(m[3].unlit && !m[0].unlit);
+    assert_eq!(
+        (m[4].specular_factor, m[4].specular_color),
+        (0.5, [2.0, 1.0, 0.5])
+    );
+    assert!(m[4].needs_transmission() && !m[4].has_volume());
     // Out of range: clamped with a warning.
     assert_eq!((m[2].transmission_factor, m[2].ior), (1.0, 1.0));
     let w = scene.warnings();
