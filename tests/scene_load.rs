@@ -573,3 +573,56 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     };
     assert!(err.to_string().contains("KHR_materials_clearcoat"), "{err}");
 }
+
+#[test]
+fn material_variants_replace_the_mapped_materials() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
+    let path = b.write(
+        json!({
+            "extensionsUsed": ["KHR_materials_variants"],
+            "extensionsRequired": ["KHR_materials_variants"],
+            "extensions": {"KHR_materials_variants": {"variants": [{"name": "red"}, {"name": "blue"}, {}]}},
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "materials": [{"name": "white"}, {"name": "red"}, {"name": "blue"}],
+            "meshes": [{"primitives": [
+                {"attributes": {"POSITION": pos}, "material": 0,
+                 "extensions": {"KHR_materials_variants": {"mappings": [
+                     {"material": 1, "variants": [0]}, {"material": 2, "variants": [1, 2]}]}}},
+                {"attributes": {"POSITION": pos}, "material": 0}
+            ]}]
+        }),
+        dir.path(),
+        "variants",
+        true,
+    );
+    let with = |variant: Option<&str>| {
+        Scene::load(
+            &path,
+            &LoadOptions {
+                variant: variant.map(str::to_owned),
+                ..LoadOptions::default()
+            },
+        )
+    };
+    let ids = |s: &Scene| s.evaluate(0.0).unwrap().soup.material_ids;
+    let default = with(None).unwrap();
+    assert_eq!(default.variants(), ["red", "blue", "2"]);
+    assert!(!default.warnings().iter().any(|w| w.contains("variants")));
+    assert_eq!(ids(&default), vec![0, 0]);
+    // By name or index; unmapped primitives keep their own material.
+    assert_eq!(ids(&with(Some("red")).unwrap()), vec![1, 0]);
+    assert_eq!(ids(&with(Some("blue")).unwrap()), vec![2, 0]);
+    assert_eq!(ids(&with(Some("2")).unwrap()), vec![2, 0]);
+    let Err(err) = with(Some("green")) else {
+        panic!("an unknown variant is refused");
+    };
+    let msg = err.to_string();
+    assert!(
+        msg.contains("--variant green")
+            && msg.contains("red, blue, 2")
+            && msg.contains("variants.gltf"),
+        "{msg}"
+    );
+}

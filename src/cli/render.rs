@@ -186,6 +186,12 @@ pub struct RenderArgs {
     /// that frames the whole animation).
     #[arg(long, value_name = "NAME|INDEX", help_heading = "Image")]
     pub camera: Option<String>,
+    /// Material variant (KHR_materials_variants), by name or index: its
+    /// materials replace the primitives' own where the file maps them
+    /// (e.g. a shoe's colourways). `soupray info SCENE` lists the variants;
+    /// without the flag the default materials are used.
+    #[arg(long, value_name = "NAME|INDEX", help_heading = "Image")]
+    pub variant: Option<String>,
     /// Replace every material with white clay (albedo 0.8), for lookdev.
     #[arg(long, help_heading = "Image")]
     pub clay: bool,
@@ -1010,6 +1016,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         camera: args.camera.clone(),
         fps: args.fps,
         sanitize: args.sanitize,
+        variant: args.variant.clone(),
     };
     let scene = Scene::load(&scene_path, &opts)?;
     let job = resolve_job(args, &scene, &scene_path)?;

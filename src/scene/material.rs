@@ -160,6 +160,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_unlit",
     "KHR_materials_specular",
+    "KHR_materials_variants",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -227,6 +228,57 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
         ));
     }
     warnings
+}
+
+/// The names of the file's KHR_materials_variants (an unnamed one is
+/// listed by its index).
+pub(crate) fn variant_names(json: &serde_json::Value) -> Vec<String> {
+    json.get("extensions")
+        .and_then(|e| e.get("KHR_materials_variants"))
+        .and_then(|v| v.get("variants"))
+        .and_then(|v| v.as_array())
+        .map(|a| {
+            a.iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    v.get("name")
+                        .and_then(|n| n.as_str())
+                        .map_or_else(|| i.to_string(), str::to_owned)
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The material that primitive `primitive` of mesh `mesh` takes in variant
+/// `variant` (KHR_materials_variants mappings), if one is mapped.
+pub(crate) fn variant_material(
+    json: &serde_json::Value,
+    mesh: usize,
+    primitive: usize,
+    variant: usize,
+) -> Option<usize> {
+    let mappings = json
+        .get("meshes")?
+        .get(mesh)?
+        .get("primitives")?
+        .get(primitive)?
+        .get("extensions")?
+        .get("KHR_materials_variants")?
+        .get("mappings")?
+        .as_array()?;
+    mappings.iter().find_map(|m| {
+        let listed = m
+            .get("variants")?
+            .as_array()?
+            .iter()
+            .any(|v| v.as_u64() == Some(variant as u64));
+        if listed {
+            m.get("material")?.as_u64().map(|x| x as usize)
+        } else {
+            None
+        }
+    })
 }
 
 /// The material's `extensions.NAME` object in the raw JSON.
