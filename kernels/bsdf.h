@@ -65,8 +65,9 @@ typedef struct {
     float transmission;
     float ior;
     float volume; // 1: refracting volume with attenuation; 0: thin-walled
-    float pad;
+    float specular; // KHR_materials_specular specularFactor
     float sigma[4]; // attenuation per unit length, rgb
+    float specular_color[4]; // KHR_materials_specular specularColorFactor, rgb
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
@@ -78,7 +79,8 @@ typedef struct {
     // 0 for the pure Lambertian of --clay.
     float specular;
 #ifdef HAS_TRANSMISSION
-    float f0;           // normal-incidence reflectance of the dielectric
+    float f0;           // normal-incidence reflectance of the dielectric (from the ior)
+    float3 f0_color;    // min(f0 * specularColorFactor, 1): the coloured F0
     float transmission; // share of the diffuse lobe that transmits
     float eta;          // relative index, far side over wo's side (1: thin)
     float thin;         // 1: thin-walled, transmission unbent
@@ -158,10 +160,23 @@ inline float fresnel_dielectric(float f0, float eta, float c) {
     return f0 + (1.0f - f0) * schlick_weight(c);
 }
 
+// The coloured Fresnel (KHR_materials_specular's fresnel_mix layer) with
+// the cosine on the thinner side; 1 under total internal reflection.
+inline float3 fresnel_dielectric3(float3 f0, float eta, float c) {
+    if (eta < 1.0f) {
+        float s2t = fmax(1.0f - c * c, 0.0f) / (eta * eta);
+        if (s2t >= 1.0f) return (float3)(1.0f);
+        c = sqrt(1.0f - s2t);
+    }
+    return f0 + ((float3)(1.0f) - f0) * schlick_weight(c);
+}
+
+inline float max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
+
 // The probabilities of the specular reflection (x) and transmission (y)
 // lobes; the diffuse lobe has the rest.
 inline float2 lobe_probabilities(BsdfParams p, float cos_o) {
-    float fo = p.specular * fresnel_dielectric(p.f0, p.eta, cos_o);
+    float fo = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, cos_o));
     float ws = p.metallic + (1.0f - p.metallic) * fo;
     float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
     float wt = wb * p.transmission;
@@ -200,16 +215,17 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
         float s = (d * g2) / ((4.0f * wo.z) * wi.z);
         float w = schlick_weight(voh);
-        float fd = p.specular * fresnel_dielectric(p.f0, p.eta, voh);
+        float3 layer = p.specular * fresnel_dielectric3(p.f0_color, p.eta, voh);
+        float fd = max3(layer);
         float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f;
         float3 dielectric = p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) +
-                            (float3)(fd * s) * (1.0f + p.f0 * ms);
+                            (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
 #else
         float3 dielectric =
-            p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) + (float3)(fd * s);
+            p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) + layer * s;
         float3 metal = fm * s;
 #endif
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
@@ -226,13 +242,13 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float d = ggx_d(p.alpha, h.z);
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
-        float fd = p.specular * fresnel_dielectric(p.f0, 1.0f, voh);
+        float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, voh));
         return p.base * ((weight * (1.0f - fd)) * s);
     }
     float3 h;
     float oh, ih;
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return (float3)(0.0f);
-    float fd = p.specular * fresnel_dielectric(p.f0, p.eta, oh);
+    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, oh));
     float denom = ih + oh / p.eta;
     float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
     float ft = fabs(((ggx_d(p.alpha, h.z) * (1.0f - fd)) * g2) *

@@ -638,11 +638,16 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         bool volume = mx.volume != 0.0f;
         if ((s->frame.flags & FRAME_CLAY) != 0u) {
             bp.f0 = 0.04f;
+            bp.f0_color = (float3)(0.04f);
             bp.transmission = 0.0f;
             bp.eta = 1.0f;
             bp.thin = 1.0f;
         } else {
             bp.f0 = f0_of_ior(mx.ior);
+            bp.f0_color = fmin((float3)(bp.f0) * (float3)(mx.specular_color[0], mx.specular_color[1],
+                                                          mx.specular_color[2]),
+                               (float3)(1.0f));
+            bp.specular = mx.specular;
             bp.transmission = clamp(mx.transmission, 0.0f, 1.0f);
             bp.eta = volume ? (sf.front ? mx.ior : 1.0f / mx.ior) : 1.0f;
             bp.thin = volume ? 0.0f : 1.0f;

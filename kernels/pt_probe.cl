@@ -86,10 +86,12 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[0] = (uint)sizeof(PtMaterialExt);
     out[1] = (uint)offsetof(PtMaterialExt, volume);
     out[2] = (uint)offsetof(PtMaterialExt, sigma);
+    out[3] = (uint)offsetof(PtMaterialExt, specular_color);
 }
 
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,
-// metallic, alpha, specular, f0, transmission), (eta, thin, 0, 0), wo,
+// metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
+// f0 blue: the coloured F0 is (f0, green, blue)), wo,
 // wi, u: 24 floats. Out as bsdf_probe: 12 floats.
 __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
@@ -104,6 +106,7 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     p.transmission = c[7];
     p.eta = c[8];
     p.thin = c[9];
+    p.f0_color = (float3)(c[6], c[10], c[11]);
     float3 wo = (float3)(c[12], c[13], c[14]);
     float3 wi = (float3)(c[16], c[17], c[18]);
     __global float* o = out + (size_t)i * 12u;

@@ -63,10 +63,10 @@ fn material_ext_layout_matches() {
         .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
         .unwrap();
     let k = d.kernel(&program, "pt_ext_layout_probe").unwrap();
-    let out = upload(&d, &[0u32; 3]);
+    let out = upload(&d, &[0u32; 4]);
     d.launch("probe", &k, 1, 1, &[Arg::Buf(&out)]).unwrap();
     d.finish().unwrap();
-    let mut got = [0u32; 3];
+    let mut got = [0u32; 4];
     d.read(&out, &mut got).unwrap();
     use std::mem::{offset_of, size_of};
     assert_eq!(
@@ -75,6 +75,7 @@ fn material_ext_layout_matches() {
             size_of::<DeviceMaterialExt>() as u32,
             offset_of!(DeviceMaterialExt, volume) as u32,
             offset_of!(DeviceMaterialExt, sigma) as u32,
+            offset_of!(DeviceMaterialExt, specular_color) as u32,
         ]
     );
 }
@@ -94,13 +95,15 @@ fn dielectric_bsdf_matches_the_reference() {
         let rough = if i % 5 == 0 { 0.0 } else { rng.f32().max(0.05) };
         let base = [rng.f32(), rng.f32(), rng.f32()];
         let metallic = if i % 3 == 0 { 0.0 } else { rng.f32() };
-        let p = BsdfParams::new(base, metallic, rough).with_dielectric(Dielectric::new(
-            ior,
-            transmission,
-            volume,
-            front,
-        ));
-        let dl = p.dielectric.unwrap();
+        let mut dl = Dielectric::new(ior, transmission, volume, front);
+        if i % 7 == 1 {
+            // KHR_materials_specular: a coloured, weighted layer.
+            dl = dl.with_specular_color([3.0 * rng.f32(), 3.0 * rng.f32(), 3.0 * rng.f32()]);
+        }
+        let mut p = BsdfParams::new(base, metallic, rough).with_dielectric(dl);
+        if i % 7 == 1 {
+            p.specular = rng.f32();
+        }
         let mut wo = random_dir(&mut rng);
         wo.z = wo.z.abs().max(0.02);
         let wo = wo.normalize();
@@ -113,10 +116,15 @@ fn dielectric_bsdf_matches_the_reference() {
             p.metallic,
             p.alpha,
             p.specular,
-            dl.f0,
+            dl.f0_color.x,
             dl.transmission,
         ]);
-        input.extend_from_slice(&[dl.eta, if dl.thin { 1.0 } else { 0.0 }, 0.0, 0.0]);
+        input.extend_from_slice(&[
+            dl.eta,
+            if dl.thin { 1.0 } else { 0.0 },
+            dl.f0_color.y,
+            dl.f0_color.z,
+        ]);
         input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
         input.extend_from_slice(&[u[0], u[1], u[2], 0.0]);
         cases.push((p, wo, wi, u));
@@ -532,12 +540,12 @@ fn energy_compensated_bsdf_matches_the_reference() {
             if with_ext {
                 input.extend_from_slice(&head);
                 input.extend_from_slice(&[
-                    dl.f0,
+                    dl.f0_color.x,
                     dl.transmission,
                     dl.eta,
                     if dl.thin { 1.0 } else { 0.0 },
-                    0.0,
-                    0.0,
+                    dl.f0_color.y,
+                    dl.f0_color.z,
                 ]);
             } else {
                 input.extend_from_slice(&head);
@@ -652,4 +660,40 @@ fn unlit_surfaces_show_their_base_colour_whatever_the_light() {
         assert!((left[k] - want).abs() < 1e-6, "unlit pixel {left:?}");
     }
     assert!(right[0] > 1.0, "lit pixel {right:?}");
+}
+
+#[test]
+fn specular_extension_weights_and_colours_the_dielectric_layer() {
+    // specularFactor 0: no layer at all, a white dielectric is exactly
+    // Lambertian (albedo 1 at every angle).
+    let mut p =
+        BsdfParams::new([1.0; 3], 0.0, 0.5).with_dielectric(Dielectric::new(1.5, 0.0, false, true));
+    p.specular = 0.0;
+    for &mu in &[1.0f32, 0.5, 0.2] {
+        let a = albedo(&p, mu, 1.0);
+        assert!((a - 1.0).abs() < 2e-3, "mu {mu}: {a}");
+    }
+    // A coloured layer on a black base reflects its colour: head-on the
+    // smooth layer returns F0 = min(f0 * colour, 1) per channel.
+    let q = BsdfParams::new([0.0; 3], 0.0, 0.0).with_dielectric(
+        Dielectric::new(1.5, 0.0, false, true).with_specular_color([2.0, 1.0, 0.0]),
+    );
+    let wo = Vec3::Z;
+    let mut sum = Vec3::ZERO;
+    let n = 64;
+    for i in 0..n {
+        for j in 0..n {
+            let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            if let Some(s) = bsdf_sample(&q, wo, 0.0, u1, u2) {
+                sum += s.f * s.wi.z / s.pdf;
+            }
+        }
+    }
+    let r = sum / (n * n) as f32;
+    let f0 = f0_of_ior(1.5);
+    eprintln!("coloured layer head-on: {r} (f0 {f0})");
+    assert!(
+        (r.x - 2.0 * f0).abs() < 2e-3 && (r.y - f0).abs() < 2e-3 && r.z < 1e-4,
+        "{r}"
+    );
 }

@@ -508,7 +508,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                                                   "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}},
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
                                                 "KHR_materials_ior": {"ior": 0.5}}},
-                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}}
+                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
+                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}]
         }),
@@ -529,6 +530,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert_eq!(m[1].attenuation_distance, f32::INFINITY);
     assert!(!m[1].needs_transmission());
     assert!(m[3].unlit && !m[0].unlit);
+    assert_eq!(
+        (m[4].specular_factor, m[4].specular_color),
+        (0.5, [2.0, 1.0, 0.5])
+    );
+    assert!(m[4].needs_transmission() && !m[4].has_volume());
     // Out of range: clamped with a warning.
     assert_eq!((m[2].transmission_factor, m[2].ior), (1.0, 1.0));
     let w = scene.warnings();
@@ -566,4 +572,57 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         panic!("a required KHR_materials_clearcoat is refused");
     };
     assert!(err.to_string().contains("KHR_materials_clearcoat"), "{err}");
+}
+
+#[test]
+fn material_variants_replace_the_mapped_materials() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
+    let path = b.write(
+        json!({
+            "extensionsUsed": ["KHR_materials_variants"],
+            "extensionsRequired": ["KHR_materials_variants"],
+            "extensions": {"KHR_materials_variants": {"variants": [{"name": "red"}, {"name": "blue"}, {}]}},
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "materials": [{"name": "white"}, {"name": "red"}, {"name": "blue"}],
+            "meshes": [{"primitives": [
+                {"attributes": {"POSITION": pos}, "material": 0,
+                 "extensions": {"KHR_materials_variants": {"mappings": [
+                     {"material": 1, "variants": [0]}, {"material": 2, "variants": [1, 2]}]}}},
+                {"attributes": {"POSITION": pos}, "material": 0}
+            ]}]
+        }),
+        dir.path(),
+        "variants",
+        true,
+    );
+    let with = |variant: Option<&str>| {
+        Scene::load(
+            &path,
+            &LoadOptions {
+                variant: variant.map(str::to_owned),
+                ..LoadOptions::default()
+            },
+        )
+    };
+    let ids = |s: &Scene| s.evaluate(0.0).unwrap().soup.material_ids;
+    let default = with(None).unwrap();
+    assert_eq!(default.variants(), ["red", "blue", "2"]);
+    assert!(!default.warnings().iter().any(|w| w.contains("variants")));
+    assert_eq!(ids(&default), vec![0, 0]);
+    // By name or index; unmapped primitives keep their own material.
+    assert_eq!(ids(&with(Some("red")).unwrap()), vec![1, 0]);
+    assert_eq!(ids(&with(Some("blue")).unwrap()), vec![2, 0]);
+    assert_eq!(ids(&with(Some("2")).unwrap()), vec![2, 0]);
+    let Err(err) = with(Some("green")) else {
+        panic!("an unknown variant is refused");
+    };
+    let msg = err.to_string();
+    assert!(
+        msg.contains("--variant green")
+            && msg.contains("red, blue, 2")
+            && msg.contains("variants.gltf"),
+        "{msg}"
+    );
 }

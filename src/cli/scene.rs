@@ -109,6 +109,15 @@ pub fn describe(scene: &Scene) -> String {
         }
     };
     let _ = writeln!(o, "extensions used: {}", list(scene.extensions_used()));
+    if !scene.variants().is_empty() {
+        let named: Vec<String> = scene
+            .variants()
+            .iter()
+            .enumerate()
+            .map(|(i, n)| format!("{i}: {n}"))
+            .collect();
+        let _ = writeln!(o, "material variants (--variant): {}", named.join(", "));
+    }
     let _ = writeln!(
         o,
         "extensions required: {}",
@@ -369,6 +378,7 @@ pub fn run_soup(args: &SoupArgs) -> anyhow::Result<()> {
         camera: None,
         fps: args.fps,
         sanitize: args.sanitize,
+        variant: None,
     };
     let scene = Scene::load(&args.path, &opts)?;
     for w in scene.warnings() {

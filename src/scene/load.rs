@@ -298,6 +298,50 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         .filter(|&(_, l)| l < lights.len())
         .collect();
 
+    // KHR_materials_variants: the chosen variant's materials replace the
+    // primitives' own.
+    let variants = super::material::variant_names(&src.json);
+    if let Some(want) = &opts.variant {
+        let chosen = variants
+            .iter()
+            .position(|n| n == want)
+            .or_else(|| want.parse::<usize>().ok().filter(|&i| i < variants.len()))
+            .ok_or_else(|| {
+                SceneError::invalid(
+                    &file,
+                    format!(
+                        "--variant {want}: the file has no such material variant (its variants: {}). \
+                         Fix: pass one of these names or indices; `soupray info` lists them.",
+                        if variants.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            variants.join(", ")
+                        }
+                    ),
+                )
+            })?;
+        let material_count = doc.materials().len();
+        for (m, mesh) in meshes.iter_mut().enumerate() {
+            for p in &mut mesh.primitives {
+                if let Some(material) =
+                    super::material::variant_material(&src.json, m, p.index_in_mesh, chosen)
+                {
+                    if material >= material_count {
+                        return Err(SceneError::invalid(
+                            &file,
+                            format!(
+                                "mesh {m} primitive {}: KHR_materials_variants maps variant {chosen} to material {material}, \
+                                 but the file has {material_count} materials. Fix: re-export the asset.",
+                                p.index_in_mesh
+                            ),
+                        ));
+                    }
+                    p.material = Some(material);
+                }
+            }
+        }
+    }
+
     // Materials, with the glTF default material appended for primitives
     // that name none, so every triangle's id indexes the table.
     let mut materials = load_materials(&src)?;
@@ -336,6 +380,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         materials,
         warnings,
         extensions_used: doc.extensions_used().map(str::to_owned).collect(),
+        variants,
         extensions_required: doc.extensions_required().map(str::to_owned).collect(),
         soup_has_normals,
         soup_has_uvs,

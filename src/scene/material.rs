@@ -3,7 +3,7 @@
 //! KHR_materials_emissive_strength), alpha mode, double-sidedness,
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
-//! (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! and KHR_materials_specular (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -78,6 +78,10 @@ pub struct Material {
     pub attenuation_distance: f32,
     /// KHR_materials_unlit: the surface shows its base colour, unlit.
     pub unlit: bool,
+    /// KHR_materials_specular `specularFactor` (1 without it).
+    pub specular_factor: f32,
+    /// KHR_materials_specular `specularColorFactor` (white without it).
+    pub specular_color: [f32; 3],
 }
 
 impl Default for Material {
@@ -107,6 +111,8 @@ impl Default for Material {
             attenuation_color: [1.0; 3],
             attenuation_distance: f32::INFINITY,
             unlit: false,
+            specular_factor: 1.0,
+            specular_color: [1.0; 3],
         }
     }
 }
@@ -132,7 +138,10 @@ impl Material {
     /// (`HAS_TRANSMISSION`): some transmission, or an ior other than the
     /// default 1.5 (the default's 4 % Fresnel is the base model's).
     pub fn needs_transmission(&self) -> bool {
-        self.transmission_factor > 0.0 || self.ior != 1.5
+        self.transmission_factor > 0.0
+            || self.ior != 1.5
+            || self.specular_factor != 1.0
+            || self.specular_color != [1.0; 3]
     }
 
     /// Transmissive with a volume: refraction and Beer-Lambert attenuation
@@ -150,6 +159,8 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_unlit",
+    "KHR_materials_specular",
+    "KHR_materials_variants",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -172,7 +183,12 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
                 continue;
             }
             if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
-                for key in ["transmissionTexture", "thicknessTexture"] {
+                for key in [
+                    "transmissionTexture",
+                    "thicknessTexture",
+                    "specularTexture",
+                    "specularColorTexture",
+                ] {
                     if body.get(key).is_some() {
                         warnings.push(format!(
                             "material {i}{}: {ext} {key} is not supported; the factor alone is used",
@@ -212,6 +228,57 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
         ));
     }
     warnings
+}
+
+/// The names of the file's KHR_materials_variants (an unnamed one is
+/// listed by its index).
+pub(crate) fn variant_names(json: &serde_json::Value) -> Vec<String> {
+    json.get("extensions")
+        .and_then(|e| e.get("KHR_materials_variants"))
+        .and_then(|v| v.get("variants"))
+        .and_then(|v| v.as_array())
+        .map(|a| {
+            a.iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    v.get("name")
+                        .and_then(|n| n.as_str())
+                        .map_or_else(|| i.to_string(), str::to_owned)
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The material that primitive `primitive` of mesh `mesh` takes in variant
+/// `variant` (KHR_materials_variants mappings), if one is mapped.
+pub(crate) fn variant_material(
+    json: &serde_json::Value,
+    mesh: usize,
+    primitive: usize,
+    variant: usize,
+) -> Option<usize> {
+    let mappings = json
+        .get("meshes")?
+        .get(mesh)?
+        .get("primitives")?
+        .get(primitive)?
+        .get("extensions")?
+        .get("KHR_materials_variants")?
+        .get("mappings")?
+        .as_array()?;
+    mappings.iter().find_map(|m| {
+        let listed = m
+            .get("variants")?
+            .as_array()?
+            .iter()
+            .any(|v| v.as_u64() == Some(variant as u64));
+        if listed {
+            m.get("material")?.as_u64().map(|x| x as usize)
+        } else {
+            None
+        }
+    })
 }
 
 /// The material's `extensions.NAME` object in the raw JSON.
@@ -490,6 +557,22 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 f32::INFINITY,
             ),
             unlit: material_extension(src, i, "KHR_materials_unlit").is_some(),
+            specular_factor: number(
+                material_extension(src, i, "KHR_materials_specular"),
+                "specularFactor",
+                1.0,
+            ),
+            specular_color: {
+                let v = material_extension(src, i, "KHR_materials_specular")
+                    .and_then(|v| v.get("specularColorFactor"))
+                    .and_then(|a| a.as_array());
+                let c = |k: usize| {
+                    v.and_then(|a| a.get(k))
+                        .and_then(|x| x.as_f64())
+                        .map_or(1.0, |x| x as f32)
+                };
+                [c(0), c(1), c(2)]
+            },
         });
     }
 

@@ -56,6 +56,9 @@ pub struct LoadOptions {
     /// Drop triangles with NaN/infinite vertices (counted as warnings)
     /// instead of failing.
     pub sanitize: bool,
+    /// KHR_materials_variants: the variant (name or index) whose materials
+    /// replace the primitives' own; `None` keeps the default materials.
+    pub variant: Option<String>,
 }
 
 impl Default for LoadOptions {
@@ -66,6 +69,7 @@ impl Default for LoadOptions {
             camera: None,
             fps: 24.0,
             sanitize: false,
+            variant: None,
         }
     }
 }
@@ -144,6 +148,8 @@ pub struct Scene {
     materials: MaterialTable,
     warnings: Vec<String>,
     extensions_used: Vec<String>,
+    /// KHR_materials_variants: the file's variant names.
+    variants: Vec<String>,
     extensions_required: Vec<String>,
     soup_has_normals: bool,
     soup_has_uvs: bool,
@@ -254,6 +260,11 @@ impl Scene {
 
     pub fn scene_count(&self) -> usize {
         self.scene_count
+    }
+
+    /// The file's KHR_materials_variants names, in order.
+    pub fn variants(&self) -> &[String] {
+        &self.variants
     }
 
     pub fn extensions_used(&self) -> &[String] {

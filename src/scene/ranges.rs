@@ -285,6 +285,22 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     ]) {
         clamp(w, &what, name, c, 0.0, 1.0, 1.0);
     }
+    clamp(
+        w,
+        &what,
+        "KHR_materials_specular specularFactor",
+        &mut m.specular_factor,
+        0.0,
+        1.0,
+        1.0,
+    );
+    for (c, name) in m.specular_color.iter_mut().zip([
+        "KHR_materials_specular specularColorFactor.r",
+        "KHR_materials_specular specularColorFactor.g",
+        "KHR_materials_specular specularColorFactor.b",
+    ]) {
+        clamp(w, &what, name, c, 0.0, f32::MAX, 1.0);
+    }
     if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
         w.push(format!(
             "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",

@@ -16,8 +16,10 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
+    "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_texture_transform",
 ];
@@ -26,8 +28,10 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// crate (`scene::material`).
 const READ_FROM_RAW_JSON: &[&str] = &[
     "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
+    "KHR_materials_variants",
     "KHR_materials_volume",
 ];
 

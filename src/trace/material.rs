@@ -129,13 +129,16 @@ pub struct DeviceMaterialExt {
     /// 1 when transmissive with a volume (refraction, attenuation), 0
     /// thin-walled.
     pub volume: f32,
-    pub pad: f32,
+    /// KHR_materials_specular `specularFactor`.
+    pub specular: f32,
     /// The volume's attenuation coefficient per unit length,
     /// `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
     pub sigma: [f32; 4],
+    /// KHR_materials_specular `specularColorFactor` (rgb, 0).
+    pub specular_color: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 32);
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 48);
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -154,8 +157,14 @@ impl DeviceMaterialExt {
             transmission: m.transmission_factor,
             ior: m.ior,
             volume: if m.has_volume() { 1.0 } else { 0.0 },
-            pad: 0.0,
+            specular: m.specular_factor,
             sigma: [sigma(a[0]), sigma(a[1]), sigma(a[2]), 0.0],
+            specular_color: [
+                m.specular_color[0],
+                m.specular_color[1],
+                m.specular_color[2],
+                0.0,
+            ],
         }
     }
 }
@@ -177,6 +186,8 @@ pub fn device_material_exts(table: &MaterialTable) -> Vec<DeviceMaterialExt> {
 pub struct Dielectric {
     /// Normal-incidence reflectance, `((ior - 1) / (ior + 1))^2`.
     pub f0: f32,
+    /// The coloured F0 of KHR_materials_specular, `min(f0 * color, 1)`.
+    pub f0_color: Vec3,
     /// Share of the diffuse lobe that transmits.
     pub transmission: f32,
     /// Relative index: the far side's over wo's side (1 thin-walled).
@@ -198,9 +209,21 @@ impl Dielectric {
         };
         Dielectric {
             f0: f0_of_ior(ior),
+            f0_color: Vec3::splat(f0_of_ior(ior)),
             transmission: transmission.clamp(0.0, 1.0),
             eta,
             thin: !volume,
+        }
+    }
+}
+
+impl Dielectric {
+    /// With KHR_materials_specular's `specularColorFactor` (the factor is
+    /// `BsdfParams::specular`).
+    pub fn with_specular_color(self, color: [f32; 3]) -> Dielectric {
+        Dielectric {
+            f0_color: (Vec3::splat(self.f0) * Vec3::from(color)).min(Vec3::ONE),
+            ..self
         }
     }
 }
@@ -301,10 +324,27 @@ pub fn fresnel_dielectric(f0: f32, eta: f32, c: f32) -> f32 {
     f0 + (1.0 - f0) * schlick_weight(c)
 }
 
+/// `fresnel_dielectric` per channel of a coloured F0.
+pub fn fresnel_dielectric3(f0: Vec3, eta: f32, c: f32) -> Vec3 {
+    let mut c = c;
+    if eta < 1.0 {
+        let s2t = (1.0 - c * c).max(0.0) / (eta * eta);
+        if s2t >= 1.0 {
+            return Vec3::ONE;
+        }
+        c = (1.0 - s2t).sqrt();
+    }
+    f0 + (Vec3::ONE - f0) * schlick_weight(c)
+}
+
+fn max3(v: Vec3) -> f32 {
+    v.x.max(v.y).max(v.z)
+}
+
 /// The probabilities of the specular reflection and the transmission
 /// lobes (the diffuse lobe has the rest), with the dielectric extensions.
 pub fn lobe_probabilities(p: &BsdfParams, d: &Dielectric, cos_o: f32) -> (f32, f32) {
-    let fo = p.specular * fresnel_dielectric(d.f0, d.eta, cos_o);
+    let fo = p.specular * max3(fresnel_dielectric3(d.f0_color, d.eta, cos_o));
     let ws = p.metallic + (1.0 - p.metallic) * fo;
     let wb = ((1.0 - p.metallic) * luminance(p.base)) * (1.0 - fo);
     let wt = wb * d.transmission;
@@ -354,17 +394,17 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
         let s = (dd * g2) / ((4.0 * wo.z) * wi.z);
         let w = schlick_weight(voh);
-        let fd = p.specular * fresnel_dielectric(d.f0, d.eta, voh);
+        let layer = p.specular * fresnel_dielectric3(d.f0_color, d.eta, voh);
+        let fd = max3(layer);
         let fm = p.base + (Vec3::ONE - p.base) * w;
         if p.energy_compensation {
             let ms = 1.0 / ggx_albedo(p.alpha, wo.z) - 1.0;
             let dielectric = p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI)
-                + Vec3::splat(fd * s) * (1.0 + d.f0 * ms);
+                + (layer * s) * (Vec3::ONE + d.f0_color * ms);
             let metal = fm * s * (Vec3::ONE + p.base * ms);
             return dielectric * (1.0 - p.metallic) + metal * p.metallic;
         }
-        let dielectric =
-            p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI) + Vec3::splat(fd * s);
+        let dielectric = p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI) + layer * s;
         let metal = fm * s;
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
@@ -385,13 +425,13 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let dd = ggx_d(p.alpha, h.z);
         let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
         let s = (dd * g2) / ((4.0 * wo.z) * r.z);
-        let fd = p.specular * fresnel_dielectric(d.f0, 1.0, voh);
+        let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, voh));
         return p.base * ((weight * (1.0 - fd)) * s);
     }
     let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
         return Vec3::ZERO;
     };
-    let fd = p.specular * fresnel_dielectric(d.f0, d.eta, oh);
+    let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, d.eta, oh));
     let denom = ih + oh / d.eta;
     let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
     let ft = (((ggx_d(p.alpha, h.z) * (1.0 - fd)) * g2)
