@@ -244,7 +244,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
             albedo: c.denoise,
             ..Aovs::default()
         },
-        energy_compensation: false,
+        energy_compensation: true,
     }
 }
 

@@ -198,15 +198,16 @@ pub struct RenderArgs {
     /// Replace every material with white clay (albedo 0.8), for lookdev.
     #[arg(long, help_heading = "Image")]
     pub clay: bool,
-    /// Compensate the energy that single-scattering GGX loses at high
-    /// roughness (a fifth at roughness 0.6, 69% at roughness 1 seen
-    /// head-on, for a white metal), as multiple bounces
-    /// between microfacets would return it (Turquin 2019, a precomputed
-    /// albedo table): rough metals render brighter and more saturated, a
-    /// white rough metal under a white sky returns all it receives. Off by
-    /// default, so existing renders stay bit for bit the same.
+    /// Turn off the compensation of the energy that single-scattering GGX
+    /// loses at high roughness (a fifth at roughness 0.6, 69% at roughness 1
+    /// seen head-on, for a white metal). By default the GGX reflection lobes
+    /// return it as multiple bounces between microfacets would (Turquin
+    /// 2019, a precomputed albedo table), so a white rough metal under a
+    /// white sky returns all it receives, as in Cycles' multiscatter GGX;
+    /// this flag gives the single-scattering model of the glTF
+    /// specification's Appendix B (darker rough metals).
     #[arg(long, help_heading = "Image")]
-    pub energy_compensation: bool,
+    pub no_energy_compensation: bool,
     /// Constant environment radiance, linear RGB (e.g. 0.5,0.6,1.0).
     #[arg(long, value_name = "R,G,B", help_heading = "Image")]
     pub env_color: Option<String>,
@@ -567,7 +568,7 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             time_limit,
             environment,
             aovs,
-            energy_compensation: args.energy_compensation,
+            energy_compensation: !args.no_energy_compensation,
         },
         params,
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),

@@ -113,8 +113,10 @@ pub struct RenderSettings {
     pub time_limit: Option<std::time::Duration>,
     pub environment: Environment,
     pub aovs: Aovs,
-    /// `--energy-compensation`: Turquin's multiple-scattering compensation
-    /// of the GGX reflection lobes (`GGX_ENERGY_COMPENSATION`).
+    /// Turquin's multiple-scattering compensation of the GGX reflection
+    /// lobes (`GGX_ENERGY_COMPENSATION`; on by default, off with
+    /// `--no-energy-compensation`; never compiled for `--clay`, whose
+    /// materials have no GGX lobe).
     pub energy_compensation: bool,
 }
 
@@ -134,7 +136,7 @@ impl Default for RenderSettings {
             time_limit: None,
             environment: Environment::Default,
             aovs: Aovs::NONE,
-            energy_compensation: false,
+            energy_compensation: true,
         }
     }
 }
@@ -589,13 +591,15 @@ impl<'d> PathTracer<'d> {
         }
 
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
-        let features = material_features(table, textures.is_some(), settings.energy_compensation);
+        // Clay is a pure Lambertian: no GGX lobe to compensate.
+        let compensation = settings.energy_compensation && !settings.clay;
+        let features = material_features(table, textures.is_some(), compensation);
         let defines = pathtrace_defines(
             settings.traversal,
             textures.is_some(),
             settings.sampler,
             transmission,
-            settings.energy_compensation,
+            compensation,
             table.materials.iter().any(|m| m.unlit),
         );
         let kernels = Kernels::build(device, &defines)?;
