@@ -332,20 +332,79 @@ pub fn write_exr_denoised(
         blue: Vec2(0.15, 0.06),
         white: Vec2(0.3127, 0.3290),
     });
+    // Encoded in memory first: the exr crate writes the custom attributes
+    // (frame, time, spp, seed) in its hash map's order, which changes from
+    // run to run; `canonical_attribute_order` sorts them, so the same frame
+    // is the same file byte for byte (for checksums and `cmp`).
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    exr_image
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|e| OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "EXR",
+            message: e.to_string(),
+        })?;
+    let mut bytes = bytes.into_inner();
+    canonical_attribute_order(&mut bytes);
     write_atomic(path, |out| {
-        exr_image.write().to_buffered(out).map_err(|e| match e {
-            exr::error::Error::Io(source) => OutputError::Io {
-                path: path.to_path_buf(),
-                action: "write",
-                source,
-            },
-            other => OutputError::Encode {
-                path: path.to_path_buf(),
-                format: "EXR",
-                message: other.to_string(),
-            },
+        out.write_all(&bytes).map_err(|source| OutputError::Io {
+            path: path.to_path_buf(),
+            action: "write",
+            source,
         })
     })
+}
+
+/// Sorts the header attributes of a single-part EXR by name, in place. The
+/// header keeps its length, so the offset table after it stays valid; the
+/// specification leaves attribute order free. Anything but a single-part
+/// file with a well-formed header is left as it is.
+fn canonical_attribute_order(exr: &mut [u8]) {
+    const MULTIPART: u32 = 0x1000;
+    const NON_IMAGE: u32 = 0x800;
+    if exr.len() < 8 || exr[..4] != [0x76, 0x2f, 0x31, 0x01] {
+        return;
+    }
+    let flags = u32::from_le_bytes([exr[4], exr[5], exr[6], exr[7]]);
+    if flags & (MULTIPART | NON_IMAGE) != 0 {
+        return;
+    }
+    // Each attribute: name NUL, type NUL, i32 size, value; a NUL ends the header.
+    let nul_after = |at: usize| exr.get(at..)?.iter().position(|&b| b == 0).map(|i| at + i);
+    let mut spans: Vec<(usize, usize, usize)> = Vec::new(); // start, name end, end
+    let mut at = 8;
+    loop {
+        let Some(name_end) = nul_after(at) else {
+            return;
+        };
+        if name_end == at {
+            break; // the header's terminating NUL
+        }
+        let Some(type_end) = nul_after(name_end + 1) else {
+            return;
+        };
+        let Some(size) = exr.get(type_end + 1..type_end + 5) else {
+            return;
+        };
+        let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
+        let Ok(size) = usize::try_from(size) else {
+            return;
+        };
+        let end = type_end + 5 + size;
+        if end > exr.len() {
+            return;
+        }
+        spans.push((at, name_end, end));
+        at = end;
+    }
+    let header = exr[8..at].to_vec();
+    spans.sort_by(|a, b| header[a.0 - 8..a.1 - 8].cmp(&header[b.0 - 8..b.1 - 8]));
+    let mut sorted = Vec::with_capacity(header.len());
+    for (start, _, end) in spans {
+        sorted.extend_from_slice(&header[start - 8..end - 8]);
+    }
+    exr[8..at].copy_from_slice(&sorted);
 }
 
 /// Whether `path` is a complete, readable EXR: every block present and
@@ -689,6 +748,47 @@ pub fn read_log(path: &Path) -> Result<FrameLog, OutputError> {
 mod tests {
     use super::*;
     use crate::film::{Aovs, Image};
+
+    #[test]
+    fn the_same_frame_is_the_same_file_byte_for_byte() {
+        // The custom attributes live in a hash map whose order changes with
+        // every map: without sorting, two writes differed.
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = Image::new(3, 2, Aovs::NONE);
+        img.rgba[4] = [0.5, 0.25, 1.0, 1.0];
+        let meta = FrameMetadata {
+            frame: 12,
+            time: 0.5,
+            spp: 16,
+            seed: 3,
+        };
+        let files: Vec<Vec<u8>> = (0..6)
+            .map(|i| {
+                let p = dir.path().join(format!("f{i}.exr"));
+                write_exr(&p, &img, &meta, false).unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        assert!(files.windows(2).all(|w| w[0] == w[1]), "the writes differ");
+        // And the sorted file still reads back whole, attributes included.
+        let p = dir.path().join("f0.exr");
+        assert!(is_complete_exr(&p));
+        assert_eq!(read_exr_rgba(&p).unwrap().rgba, img.rgba);
+        let names: Vec<usize> = ["frame", "seed", "spp", "time"]
+            .iter()
+            .map(|n| {
+                let key = format!("{n}\0");
+                files[0]
+                    .windows(key.len())
+                    .position(|w| w == key.as_bytes())
+                    .unwrap_or_else(|| panic!("no {n} attribute"))
+            })
+            .collect();
+        assert!(
+            names.windows(2).all(|w| w[0] < w[1]),
+            "not sorted: {names:?}"
+        );
+    }
 
     #[test]
     fn srgb_oetf_and_exposure() {
