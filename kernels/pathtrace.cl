@@ -34,6 +34,11 @@
 // BSDF samples of the transmitting vertex (and that vertex's own light
 // samples for rough transmission), which MIS weighs against its light
 // sampling, so no light is counted twice or lost.
+//
+// Smooth lobes (alpha <= SMOOTH_GGX_ALPHA, bsdf.h) are delta lobes: light
+// sampling cannot reach their direction, so an emitter or the environment
+// found after a delta bounce counts with MIS weight 1, and a vertex whose
+// lobes are all delta samples no light at all (its sample would be 0).
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
