@@ -524,7 +524,8 @@ fn energy_compensated_bsdf_matches_the_reference() {
         let mut p = BsdfParams::new(
             [rng.f32(), rng.f32(), rng.f32()],
             rng.f32(),
-            rng.f32().max(0.05),
+            // Every third smooth: the compensated delta reflection.
+            if i % 3 == 1 { 0.0 } else { rng.f32().max(0.05) },
         );
         p.energy_compensation = true;
         if i % 2 == 0 {
@@ -577,10 +578,11 @@ fn energy_compensated_bsdf_matches_the_reference() {
                 input.extend_from_slice(&[0.0, 0.0]);
             }
             input.extend_from_slice(&[
-                wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0, 0.5, 0.5, 0.5, 0.0,
+                wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0, 0.0, 0.5, 0.5, 0.0,
             ]);
         }
         let m = subset.len();
+        let mut deltas = 0;
         let k = d
             .kernel(
                 &program,
@@ -614,7 +616,19 @@ fn energy_compensated_bsdf_matches_the_reference() {
                     &format!("eval {p:?} {wo} {wi}"),
                 );
             }
+            // Lobe 0 picks the reflection: a delta lobe when smooth, its
+            // compensated reflectance the same on both sides.
+            if let Some(s) = bsdf_sample(p, *wo, 0.0, 0.5, 0.5).filter(|s| s.delta) {
+                let o = &got[12 * i..12 * i + 12];
+                assert_eq!(o[4], 2.0, "delta sample {p:?} {wo}");
+                for c in 0..3 {
+                    close(o[8 + c], s.f[c], 5e-4, &format!("delta f {p:?} {wo}"));
+                }
+                close(o[11], s.pdf, 5e-4, &format!("delta pdf {p:?} {wo}"));
+                deltas += 1;
+            }
         }
+        assert!(deltas > m / 5, "{deltas} of {m} from delta lobes");
     }
 }
 
