@@ -814,3 +814,32 @@ fn smooth_glass_ball_under_a_sun_shows_no_fireflies() {
     // estimates are correlated, so their difference is far below se).
     assert!((smean - nmean).abs() < 0.02, "mean {smean} vs {nmean}");
 }
+
+#[test]
+fn smooth_mirror_under_a_sun_shows_the_sky_not_the_sun() {
+    // A smooth white metal floor seen straight down under a sun straight
+    // down: the mirror direction of every pixel is the sun's. A delta sun in
+    // a delta mirror is no image (both have no extent); what each pixel
+    // shows is the sky, 0.2, reflected with F = 1. As GGX at alpha 1e-3 the
+    // sun's light sample landed in the lobe at every pixel: ~1e5.
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(&mut s, Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 2.0, Vec3::Y, 0);
+    let t = table(vec![material([1.0; 4], 1.0, 0.0)]);
+    let sun = light(
+        soupray::scene::LightKind::Directional,
+        Vec3::ZERO,
+        Vec3::NEG_Y,
+        [1.0; 3],
+        3.0,
+    );
+    let mut st = settings(8, 4);
+    st.environment = Environment::Color([0.2, 0.2, 0.2]);
+    st.energy_compensation = true;
+    let out = render_soup(&d, &s, &t, &top_down(1.0), &[sun], &st, 0).unwrap();
+    for p in &out.image.rgba {
+        for k in 0..3 {
+            assert!((p[k] - 0.2).abs() < 2e-3, "pixel {p:?}");
+        }
+    }
+}
