@@ -19,6 +19,14 @@
 // E the white single-scattering albedo tabulated in ggx_energy.h
 // (src/trace/energy.rs), so a white rough metal loses no energy.
 //
+// Effectively smooth lobes (alpha at or below SMOOTH_GGX_ALPHA, as pbrt-v4's
+// EffectivelySmooth) are delta lobes: bsdf_eval and bsdf_pdf leave them out
+// (light sampling cannot hit them; evaluated as GGX at alpha 1e-3 they gave
+// rare ~1/(pi alpha^2) fireflies), and bsdf_sample picks the exact mirror,
+// straight-through or refracted direction and says so (`delta`), with f =
+// the lobe's reflectance over |wi.z| and pdf = the lobe's selection
+// probability, so f |wi.z| / pdf is the lobe's weight over its probability.
+//
 // Directions are in the local shading frame (z = normal), wo pointing
 // away from the surface. Every function mirrors src/trace/material.rs
 // (`bsdf_eval`, `bsdf_sample`, `bsdf_pdf`); kernels/bsdf_probe.cl holds the
@@ -88,6 +96,10 @@ typedef struct {
 } BsdfParams;
 
 #define MIN_GGX_ALPHA 1.0e-3f
+// At or below this alpha the GGX lobes are delta lobes (see above).
+#define SMOOTH_GGX_ALPHA 1.0e-3f
+
+inline bool ggx_smooth(float a) { return a <= SMOOTH_GGX_ALPHA; }
 
 inline float ggx_alpha(float roughness) {
     float r = clamp(roughness, 0.0f, 1.0f);
@@ -213,7 +225,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float voh = fmax(dot(wo, h), 0.0f);
         float d = ggx_d(p.alpha, h.z);
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-        float s = (d * g2) / ((4.0f * wo.z) * wi.z);
+        float s = ggx_smooth(p.alpha) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
         float w = schlick_weight(voh);
         float3 layer = p.specular * fresnel_dielectric3(p.f0_color, p.eta, voh);
         float fd = max3(layer);
@@ -231,7 +243,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
     }
     float weight = (1.0f - p.metallic) * p.transmission;
-    if (!(weight > 0.0f)) return (float3)(0.0f);
+    if (!(weight > 0.0f) || ggx_smooth(p.alpha)) return (float3)(0.0f);
     if (p.thin != 0.0f) {
         float3 r = (float3)(wi.x, wi.y, -wi.z);
         float3 hv = wo + r;
@@ -273,7 +285,7 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float voh = fmax(dot(wo, h), 0.0f);
     float d = ggx_d(p.alpha, h.z);
     float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-    float s = (d * g2) / ((4.0f * wo.z) * wi.z);
+    float s = ggx_smooth(p.alpha) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
@@ -304,10 +316,10 @@ inline float dielectric_pdf(BsdfParams p, float3 wo, float3 wi) {
     float2 pr = lobe_probabilities(p, wo.z);
     float ps = pr.x, pt = pr.y;
     if (wi.z > 0.0f) {
-        float spec = ps > 0.0f ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+        float spec = ps > 0.0f && !ggx_smooth(p.alpha) ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
         return ps * spec + ((1.0f - ps) - pt) * (wi.z * PT_INV_PI);
     }
-    if (!(pt > 0.0f)) return 0.0f;
+    if (!(pt > 0.0f) || ggx_smooth(p.alpha)) return 0.0f;
     if (p.thin != 0.0f) return pt * ggx_vndf_pdf(p.alpha, wo, (float3)(wi.x, wi.y, -wi.z));
     float3 h;
     float oh, ih;
@@ -326,7 +338,7 @@ inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
     if (p.specular == 0.0f && p.metallic == 0.0f) return wi.z * PT_INV_PI;
     float ps = bsdf_spec_probability(p, wo.z);
-    float spec = ps > 0.0f ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+    float spec = ps > 0.0f && !ggx_smooth(p.alpha) ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
     return ps * spec + (1.0f - ps) * (wi.z * PT_INV_PI);
 }
 
@@ -347,16 +359,88 @@ inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
     return normalize((float3)(a * nh.x, a * nh.y, fmax(0.0f, nh.z)));
 }
 
+// The reflectance of the smooth (delta) reflection lobe for outgoing
+// cosine c: the GGX reflection terms of bsdf_eval with the microfacet
+// lobe integrated to 1 (h = n, so v.h = c).
+inline float3 smooth_reflectance(BsdfParams p, float c) {
+    float w = schlick_weight(c);
+    float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+#ifdef HAS_TRANSMISSION
+    float3 layer = p.specular * fresnel_dielectric3(p.f0_color, p.eta, c);
+#ifdef GGX_ENERGY_COMPENSATION
+    float ms = 1.0f / ggx_albedo(p.alpha, c) - 1.0f;
+    float3 dielectric = layer * ((float3)(1.0f) + p.f0_color * ms);
+    float3 metal = fm * ((float3)(1.0f) + p.base * ms);
+#else
+    float3 dielectric = layer;
+    float3 metal = fm;
+#endif
+#else
+    float fd = p.specular * (0.04f + 0.96f * w);
+#ifdef GGX_ENERGY_COMPENSATION
+    float3 dielectric = (float3)(fd) * (1.0f + 0.04f * (1.0f / ggx_albedo(p.alpha, c) - 1.0f));
+    float3 metal = fm * ((float3)(1.0f) + p.base * (1.0f / ggx_albedo(p.alpha, c) - 1.0f));
+#else
+    float3 dielectric = (float3)(fd);
+    float3 metal = fm;
+#endif
+#endif
+    return dielectric * (1.0f - p.metallic) + metal * p.metallic;
+}
+
+// True when every lobe of the material is a delta lobe, so bsdf_eval is 0
+// for every pair of directions and light sampling can be skipped.
+inline bool bsdf_only_delta(BsdfParams p) {
+    if (!ggx_smooth(p.alpha)) return false;
+    if (p.metallic >= 1.0f) return true;
+#ifdef HAS_TRANSMISSION
+    if (p.transmission >= 1.0f) return true;
+#endif
+    return !(p.base.x > 0.0f || p.base.y > 0.0f || p.base.z > 0.0f);
+}
+
 // Samples wi for wo: returns false when no direction is produced (it
-// would lie below the surface). `lobe_u` picks the lobe.
+// would lie below the surface). `lobe_u` picks the lobe; `delta_out` says
+// whether wi came from a delta lobe (f and pdf as described at the top).
 inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                        float3* wi_out, float3* f_out, float* pdf_out) {
+                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+    *delta_out = false;
     if (wo.z <= 0.0f) return false;
 #ifdef HAS_TRANSMISSION
     {
         float2 pr = lobe_probabilities(p, wo.z);
         float ps = pr.x, pt = pr.y;
         float3 wi;
+        if (ggx_smooth(p.alpha) && lobe_u < ps + pt) {
+            float3 value;
+            if (lobe_u < ps) {
+                wi = (float3)(-wo.x, -wo.y, wo.z);
+                value = smooth_reflectance(p, wo.z);
+                *pdf_out = ps;
+            } else {
+                float weight = (1.0f - p.metallic) * p.transmission;
+                if (p.thin != 0.0f) {
+                    wi = -wo;
+                    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, wo.z));
+                    value = p.base * (weight * (1.0f - fd));
+                } else {
+                    float c = wo.z;
+                    float s2t = fmax(1.0f - c * c, 0.0f) / (p.eta * p.eta);
+                    if (s2t >= 1.0f) return false;
+                    float ct = sqrt(1.0f - s2t);
+                    wi = -wo / p.eta + (float3)(0.0f, 0.0f, 1.0f) * (c / p.eta - ct);
+                    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, c));
+                    value = p.base * (weight * ((1.0f - fd) / (p.eta * p.eta)));
+                }
+                if (wi.z >= 0.0f) return false;
+                *pdf_out = pt;
+            }
+            if (!(*pdf_out > 0.0f)) return false;
+            *wi_out = wi;
+            *f_out = value / fabs(wi.z);
+            *delta_out = true;
+            return true;
+        }
         if (lobe_u < ps) {
             float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
             wi = h * (2.0f * dot(wo, h)) - wo;
@@ -389,6 +473,14 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
 #endif
     float ps = bsdf_spec_probability(p, wo.z);
     float3 wi;
+    // Pure Lambert (--clay) has no specular lobe: ps is 0.
+    if (lobe_u < ps && ggx_smooth(p.alpha)) {
+        *wi_out = (float3)(-wo.x, -wo.y, wo.z);
+        *f_out = smooth_reflectance(p, wo.z) / wo.z;
+        *pdf_out = ps;
+        *delta_out = true;
+        return true;
+    }
     if (lobe_u < ps) {
         float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
         wi = h * (2.0f * dot(wo, h)) - wo;

@@ -34,6 +34,11 @@
 // BSDF samples of the transmitting vertex (and that vertex's own light
 // samples for rough transmission), which MIS weighs against its light
 // sampling, so no light is counted twice or lost.
+//
+// Smooth lobes (alpha <= SMOOTH_GGX_ALPHA, bsdf.h) are delta lobes: light
+// sampling cannot reach their direction, so an emitter or the environment
+// found after a delta bounce counts with MIS weight 1, and a vertex whose
+// lobes are all delta samples no light at all (its sample would be 0).
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
@@ -574,6 +579,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 
     float3 beta = (float3)(1.0f);
     float prev_pdf = 0.0f;
+    // The last bounce took a delta lobe: light sampling cannot reach its
+    // direction, so an emitter found along it counts in full (MIS weight 1).
+    bool prev_delta = false;
     uint max_depth = s->frame.max_depth;
 #ifdef HAS_TRANSMISSION
     // The attenuation coefficient of the volume the path is in (0: none).
@@ -591,7 +599,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             if (!blocked && s->env.kind != ENV_NONE) {
                 float3 le = env_radiance(s->env, s->env_texels, dir);
                 float w = 1.0f;
-                if (bounce > 0u && s->frame.env_select_pmf > 0.0f) {
+                if (bounce > 0u && !prev_delta && s->frame.env_select_pmf > 0.0f) {
                     float pl = s->frame.env_select_pmf *
                                env_pdf(s->env, s->env_marginal, s->env_conditional, dir);
                     w = power_heuristic(prev_pdf, pl);
@@ -613,7 +621,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         if ((m.flags & MAT_EMISSIVE) != 0u) {
             float3 le = pt_emission(m, sf.uv TEX_PASS);
             float w = 1.0f;
-            if (bounce > 0u) {
+            if (bounce > 0u && !prev_delta) {
                 float cos_l = dot(-dir, sf.ng);
                 w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, travelled, cos_l));
             }
@@ -655,13 +663,17 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
 
         // Next-event estimation: every punctual light when the frame loops
-        // over them, then one light from the selection distribution.
-        if (s->frame.light_loop != 0u) {
+        // over them, then one light from the selection distribution; none
+        // where every lobe is a delta lobe (bsdf_eval is 0 there). Skipping
+        // draws no sample, and the sampler's dimensions are fixed per set,
+        // so the other sets are unchanged.
+        bool only_delta = bsdf_only_delta(bp);
+        if (!only_delta && s->frame.light_loop != 0u) {
             for (uint i = 0u; i < s->frame.light_count; ++i)
                 out.radiance += pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
                                                    bounce TEX_PASS);
         }
-        if (s->frame.select_count > 0u) {
+        if (!only_delta && s->frame.select_count > 0u) {
             float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
             uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
             uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
@@ -681,8 +693,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // Continue the path by sampling the BSDF.
         float3 wi, f;
         float pdf;
+        bool delta;
         float4 ub = rng_4d(rng, set_bounce(bounce, SET_BSDF));
-        if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf))
+        if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf, &delta))
             break;
         float3 wi_w = to_world(wi, t, b, sf.ns);
         float wl = length(wi_w);
@@ -701,6 +714,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         beta = beta * f * (wi.z / pdf);
 #endif
         prev_pdf = pdf;
+        prev_delta = delta;
         // Russian roulette from the sixth vertex on (after the fifth
         // bounce's sample), keeping throughput near 1 where it survives.
         // Started at the fourth vertex it was the largest source of noise

@@ -55,7 +55,7 @@ __kernel void pt_layout_probe(__global uint* out) {
 
 // Per case: params (base rgb, metallic, alpha, specular, 0, 0), wo (xyz,
 // 0), wi (xyz, 0), u (lobe, u1, u2, 0): 20 floats. Out per case: eval rgb,
-// pdf, sampled (ok, wi xyz), sampled f rgb, sampled pdf: 12 floats.
+// pdf, sampled (ok: 1, or 2 from a delta lobe; wi xyz), sampled f rgb, sampled pdf: 12 floats.
 __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -73,8 +73,9 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
     o[3] = bsdf_pdf(p, wo, wi);
     float3 swi, sf;
     float spdf;
-    bool ok = bsdf_sample(p, wo, c[16], c[17], c[18], &swi, &sf, &spdf);
-    o[4] = ok ? 1.0f : 0.0f;
+    bool delta;
+    bool ok = bsdf_sample(p, wo, c[16], c[17], c[18], &swi, &sf, &spdf, &delta);
+    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
     o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
     o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
     o[11] = ok ? spdf : 0.0f;
@@ -115,8 +116,9 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     o[3] = bsdf_pdf(p, wo, wi);
     float3 swi, sf;
     float spdf;
-    bool ok = bsdf_sample(p, wo, c[20], c[21], c[22], &swi, &sf, &spdf);
-    o[4] = ok ? 1.0f : 0.0f;
+    bool delta;
+    bool ok = bsdf_sample(p, wo, c[20], c[21], c[22], &swi, &sf, &spdf, &delta);
+    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
     o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
     o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
     o[11] = ok ? spdf : 0.0f;

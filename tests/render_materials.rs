@@ -15,7 +15,8 @@ use soupray::device::Arg;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::material::{
-    bsdf_eval, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, DeviceMaterialExt, Dielectric,
+    bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, DeviceMaterialExt,
+    Dielectric,
 };
 use soupray::trace::render::{render_soup, Environment};
 
@@ -146,7 +147,7 @@ fn dielectric_bsdf_matches_the_reference() {
     d.finish().unwrap();
     let mut got = vec![0.0f32; 12 * n];
     d.read(&out, &mut got).unwrap();
-    let (mut sampled, mut transmitted) = (0, 0);
+    let (mut sampled, mut transmitted, mut deltas, mut only_delta) = (0, 0, 0, 0);
     for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
         let o = &got[12 * i..12 * i + 12];
         let what = format!("case {i} {p:?} wo {wo} wi {wi}");
@@ -156,6 +157,28 @@ fn dielectric_bsdf_matches_the_reference() {
         }
         close(o[3], bsdf_pdf(p, *wo, *wi), 5e-4, &format!("pdf {what}"));
         match bsdf_sample(p, *wo, u[0], u[1], u[2]) {
+            Some(s) if s.delta => {
+                // A delta lobe: the exact direction, its reflectance over
+                // |wi.z| and the lobe's probability (bsdf_pdf is 0 there).
+                assert_eq!(o[4], 2.0, "sample {what}: the device's was no delta lobe");
+                for k in 0..3 {
+                    close(o[5 + k], s.wi[k], 5e-4, &format!("delta wi {what}"));
+                    close(o[8 + k], s.f[k], 5e-4, &format!("delta f {what}"));
+                }
+                close(o[11], s.pdf, 5e-4, &format!("delta pdf {what}"));
+                // Only the non-delta lobes count in eval and pdf: none at all
+                // when every lobe is a delta lobe.
+                if bsdf_only_delta(p) {
+                    // (The diffuse lobe's probability 1 - ps - pt rounds to
+                    // ~1e-10 rather than 0.)
+                    assert!(bsdf_pdf(p, *wo, s.wi) < 1e-6, "delta pdf {what}");
+                    assert_eq!(bsdf_eval(p, *wo, s.wi), Vec3::ZERO, "delta eval {what}");
+                    only_delta += 1;
+                }
+                deltas += 1;
+                sampled += 1;
+                transmitted += (s.wi.z < 0.0) as usize;
+            }
             Some(s) => {
                 assert_eq!(o[4], 1.0, "sample {what}: the device produced none");
                 for k in 0..3 {
@@ -180,6 +203,8 @@ fn dielectric_bsdf_matches_the_reference() {
     }
     assert!(sampled > n / 2, "{sampled} of {n} sampled");
     assert!(transmitted > n / 5, "{transmitted} of {n} transmitted");
+    assert!(deltas > n / 20, "{deltas} of {n} from delta lobes");
+    assert!(only_delta > 0, "no material with only delta lobes");
 }
 
 /// The directional albedo of the reference by stratified sampling of its
@@ -499,7 +524,8 @@ fn energy_compensated_bsdf_matches_the_reference() {
         let mut p = BsdfParams::new(
             [rng.f32(), rng.f32(), rng.f32()],
             rng.f32(),
-            rng.f32().max(0.05),
+            // Every third smooth: the compensated delta reflection.
+            if i % 3 == 1 { 0.0 } else { rng.f32().max(0.05) },
         );
         p.energy_compensation = true;
         if i % 2 == 0 {
@@ -552,10 +578,11 @@ fn energy_compensated_bsdf_matches_the_reference() {
                 input.extend_from_slice(&[0.0, 0.0]);
             }
             input.extend_from_slice(&[
-                wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0, 0.5, 0.5, 0.5, 0.0,
+                wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0, 0.0, 0.5, 0.5, 0.0,
             ]);
         }
         let m = subset.len();
+        let mut deltas = 0;
         let k = d
             .kernel(
                 &program,
@@ -589,7 +616,19 @@ fn energy_compensated_bsdf_matches_the_reference() {
                     &format!("eval {p:?} {wo} {wi}"),
                 );
             }
+            // Lobe 0 picks the reflection: a delta lobe when smooth, its
+            // compensated reflectance the same on both sides.
+            if let Some(s) = bsdf_sample(p, *wo, 0.0, 0.5, 0.5).filter(|s| s.delta) {
+                let o = &got[12 * i..12 * i + 12];
+                assert_eq!(o[4], 2.0, "delta sample {p:?} {wo}");
+                for c in 0..3 {
+                    close(o[8 + c], s.f[c], 5e-4, &format!("delta f {p:?} {wo}"));
+                }
+                close(o[11], s.pdf, 5e-4, &format!("delta pdf {p:?} {wo}"));
+                deltas += 1;
+            }
         }
+        assert!(deltas > m / 5, "{deltas} of {m} from delta lobes");
     }
 }
 
@@ -696,4 +735,111 @@ fn specular_extension_weights_and_colours_the_dielectric_layer() {
         (r.x - 2.0 * f0).abs() < 2e-3 && (r.y - f0).abs() < 2e-3 && r.z < 1e-4,
         "{r}"
     );
+}
+
+#[test]
+fn smooth_white_metal_in_a_white_furnace_returns_what_it_receives() {
+    // A smooth metal is a delta lobe: the mirror direction with weight F
+    // (1 for white), and the environment seen along it counts in full.
+    let d = common::device();
+    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
+    let mut s = Soup::default();
+    sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
+    let t = table(vec![material([1.0; 4], 1.0, 0.0)]);
+    let mut st = settings(24, 16);
+    st.environment = Environment::Color([1.0, 1.0, 1.0]);
+    st.energy_compensation = true;
+    let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
+    let v: Vec<f64> = out
+        .image
+        .rgba
+        .iter()
+        .filter(|p| p[3] == 1.0)
+        .map(|p| grey(*p))
+        .collect();
+    assert!(v.len() > 150, "sphere covers {} pixels", v.len());
+    let (m, se) = mean_se(&v);
+    eprintln!("smooth white metal furnace: {m} ± {se}");
+    assert!((m - 1.0).abs() < 0.01, "mean {m} ± {se}");
+}
+
+/// A glass ball (roughness `roughness`) on a white floor under a sun and a
+/// dim sky, seen from above at an angle: the grey of every pixel.
+fn glass_ball_under_a_sun(roughness: f32, spp: u32) -> Vec<f64> {
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(&mut s, Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 2.0, Vec3::Y, 0);
+    sphere(&mut s, Vec3::new(0.0, 0.5, 0.0), 0.5, 16, 32, 1);
+    let ball = Material {
+        roughness_factor: roughness,
+        ..glass(1.0, 1.5, true)
+    };
+    let t = table(vec![material([0.8, 0.8, 0.8, 1.0], 0.0, 1.0), ball]);
+    let sun = light(
+        soupray::scene::LightKind::Directional,
+        Vec3::ZERO,
+        Vec3::new(0.3, -1.0, 0.2).normalize(),
+        [1.0; 3],
+        3.0,
+    );
+    let cam = perspective(Vec3::new(0.0, 2.5, 2.5), Vec3::ZERO, Vec3::Y, 50.0);
+    let mut st = settings(32, spp);
+    st.max_depth = 8;
+    st.environment = Environment::Color([0.2, 0.2, 0.2]);
+    let out = render_soup(&d, &s, &t, &cam, &[sun], &st, 0).unwrap();
+    out.image.rgba.iter().map(|p| grey(*p)).collect()
+}
+
+#[test]
+fn smooth_glass_ball_under_a_sun_shows_no_fireflies() {
+    // Smooth glass as GGX at alpha 1e-3 let the sun's sample land in its
+    // tiny lobe now and then, worth ~1/(pi alpha^2): white specks. As delta
+    // lobes, light sampling leaves them out.
+    let smooth = glass_ball_under_a_sun(0.0, 128);
+    // Just above the smooth threshold: the near-delta GGX lobe still there.
+    let near = glass_ball_under_a_sun(0.04, 128);
+    let stats = |v: &[f64]| {
+        let max = v.iter().cloned().fold(0.0, f64::max);
+        let (m, se) = mean_se(v);
+        (max, m, se)
+    };
+    let (smax, smean, sse) = stats(&smooth);
+    let (nmax, nmean, nse) = stats(&near);
+    eprintln!(
+        "smooth: max {smax} mean {smean} ± {sse}; alpha 1.6e-3: max {nmax} mean {nmean} ± {nse}"
+    );
+    // The true scale: the floor under sun and sky is about 0.9 at most.
+    assert!(smax < 2.0, "brightest pixel {smax}");
+    // Same light as the near-delta lobe brings (same seed: the two
+    // estimates are correlated, so their difference is far below se).
+    assert!((smean - nmean).abs() < 0.02, "mean {smean} vs {nmean}");
+}
+
+#[test]
+fn smooth_mirror_under_a_sun_shows_the_sky_not_the_sun() {
+    // A smooth white metal floor seen straight down under a sun straight
+    // down: the mirror direction of every pixel is the sun's. A delta sun in
+    // a delta mirror is no image (both have no extent); what each pixel
+    // shows is the sky, 0.2, reflected with F = 1. As GGX at alpha 1e-3 the
+    // sun's light sample landed in the lobe at every pixel: ~1e5.
+    let d = common::device();
+    let mut s = Soup::default();
+    quad(&mut s, Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 2.0, Vec3::Y, 0);
+    let t = table(vec![material([1.0; 4], 1.0, 0.0)]);
+    let sun = light(
+        soupray::scene::LightKind::Directional,
+        Vec3::ZERO,
+        Vec3::NEG_Y,
+        [1.0; 3],
+        3.0,
+    );
+    let mut st = settings(8, 4);
+    st.environment = Environment::Color([0.2, 0.2, 0.2]);
+    st.energy_compensation = true;
+    let out = render_soup(&d, &s, &t, &top_down(1.0), &[sun], &st, 0).unwrap();
+    for p in &out.image.rgba {
+        for k in 0..3 {
+            assert!((p[k] - 0.2).abs() < 2e-3, "pixel {p:?}");
+        }
+    }
 }

@@ -11,7 +11,7 @@ use glam::Vec3;
 use soupray::device::{Arg, Device};
 use soupray::scene::{FrameLight, LightKind};
 use soupray::trace::lights::{punctual_incident, DeviceEnv, DeviceLight, EnvMap, ENV_MAP};
-use soupray::trace::material::{bsdf_eval, bsdf_pdf, bsdf_sample, BsdfParams};
+use soupray::trace::material::{bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, BsdfParams};
 use soupray::trace::sampling::{SampleRng, Sampler};
 
 fn run(d: &Device, kernel: &str, args: &[Arg], n: usize) {
@@ -186,8 +186,10 @@ fn bsdf_matches_the_reference() {
         } else {
             BsdfParams::new(
                 [rng.f32(), rng.f32(), rng.f32()],
-                rng.f32(),
-                rng.f32().max(0.05),
+                // Every twelfth a smooth metal: only a delta lobe.
+                if i % 12 == 1 { 1.0 } else { rng.f32() },
+                // Every sixth: smooth, so the reflection is a delta lobe.
+                if i % 6 == 1 { 0.0 } else { rng.f32().max(0.05) },
             )
         };
         let wo = random_dir(&mut rng, true);
@@ -210,7 +212,7 @@ fn bsdf_matches_the_reference() {
     );
     let mut got = vec![0.0f32; 12 * n];
     d.read(&out, &mut got).unwrap();
-    let mut sampled = 0;
+    let (mut sampled, mut deltas, mut only_delta) = (0, 0, 0);
     for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
         let o = &got[12 * i..12 * i + 12];
         let what = format!("case {i} {p:?} wo {wo} wi {wi}");
@@ -220,6 +222,27 @@ fn bsdf_matches_the_reference() {
         }
         close(o[3], bsdf_pdf(p, *wo, *wi), 2e-4, &format!("pdf {what}"));
         match bsdf_sample(p, *wo, u[0], u[1], u[2]) {
+            Some(s) if s.delta => {
+                // A delta lobe: the exact direction, its reflectance over
+                // |wi.z| and the lobe's probability (bsdf_pdf is 0 there).
+                assert_eq!(o[4], 2.0, "sample {what}: the device's was no delta lobe");
+                for k in 0..3 {
+                    close(o[5 + k], s.wi[k], 2e-4, &format!("delta wi {what}"));
+                    close(o[8 + k], s.f[k], 2e-4, &format!("delta f {what}"));
+                }
+                close(o[11], s.pdf, 2e-4, &format!("delta pdf {what}"));
+                // Only the non-delta lobes count in eval and pdf: none at all
+                // when every lobe is a delta lobe.
+                if bsdf_only_delta(p) {
+                    // (The diffuse lobe's probability 1 - ps - pt rounds to
+                    // ~1e-10 rather than 0.)
+                    assert!(bsdf_pdf(p, *wo, s.wi) < 1e-6, "delta pdf {what}");
+                    assert_eq!(bsdf_eval(p, *wo, s.wi), Vec3::ZERO, "delta eval {what}");
+                    only_delta += 1;
+                }
+                deltas += 1;
+                sampled += 1;
+            }
             Some(s) => {
                 assert_eq!(o[4], 1.0, "sample {what}: the device produced none");
                 for k in 0..3 {
@@ -244,6 +267,8 @@ fn bsdf_matches_the_reference() {
         }
     }
     assert!(sampled > n / 2, "{sampled} of {n} sampled");
+    assert!(deltas > n / 40, "{deltas} of {n} from delta lobes");
+    assert!(only_delta > 0, "no material with only delta lobes");
 }
 
 #[test]

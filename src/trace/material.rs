@@ -252,6 +252,17 @@ pub struct BsdfParams {
 
 pub const MIN_GGX_ALPHA: f32 = 1.0e-3;
 
+/// At or below this alpha the GGX lobes are delta lobes (pbrt-v4's
+/// `EffectivelySmooth`): `bsdf_eval` and `bsdf_pdf` leave them out and
+/// `bsdf_sample` picks their exact direction. Evaluated as GGX at alpha 1e-3
+/// they gave light sampling rare ~1/(pi alpha^2) fireflies.
+pub const SMOOTH_GGX_ALPHA: f32 = 1.0e-3;
+
+/// Whether a GGX lobe of this alpha is a delta lobe.
+pub fn ggx_smooth(alpha: f32) -> bool {
+    alpha <= SMOOTH_GGX_ALPHA
+}
+
 impl BsdfParams {
     pub fn new(base: [f32; 3], metallic: f32, roughness: f32) -> BsdfParams {
         BsdfParams {
@@ -392,7 +403,11 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let voh = wo.dot(h).max(0.0);
         let dd = ggx_d(p.alpha, h.z);
         let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-        let s = (dd * g2) / ((4.0 * wo.z) * wi.z);
+        let s = if ggx_smooth(p.alpha) {
+            0.0
+        } else {
+            (dd * g2) / ((4.0 * wo.z) * wi.z)
+        };
         let w = schlick_weight(voh);
         let layer = p.specular * fresnel_dielectric3(d.f0_color, d.eta, voh);
         let fd = max3(layer);
@@ -409,7 +424,7 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
     let weight = (1.0 - p.metallic) * d.transmission;
-    if !(weight > 0.0) {
+    if !(weight > 0.0) || ggx_smooth(p.alpha) {
         return Vec3::ZERO;
     }
     if d.thin {
@@ -447,14 +462,14 @@ fn dielectric_pdf(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> f32 {
     }
     let (ps, pt) = lobe_probabilities(p, d, wo.z);
     if wi.z > 0.0 {
-        let spec = if ps > 0.0 {
+        let spec = if ps > 0.0 && !ggx_smooth(p.alpha) {
             ggx_vndf_pdf(p.alpha, wo, wi)
         } else {
             0.0
         };
         return ps * spec + ((1.0 - ps) - pt) * (wi.z * INV_PI);
     }
-    if !(pt > 0.0) {
+    if !(pt > 0.0) || ggx_smooth(p.alpha) {
         return 0.0;
     }
     if d.thin {
@@ -481,6 +496,44 @@ fn dielectric_sample(
         return None;
     }
     let (ps, pt) = lobe_probabilities(p, d, wo.z);
+    if ggx_smooth(p.alpha) && lobe_u < ps + pt {
+        let (wi, value, pdf) = if lobe_u < ps {
+            (
+                Vec3::new(-wo.x, -wo.y, wo.z),
+                smooth_reflectance(p, wo.z),
+                ps,
+            )
+        } else {
+            let weight = (1.0 - p.metallic) * d.transmission;
+            let (wi, value) = if d.thin {
+                let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, wo.z));
+                (-wo, p.base * (weight * (1.0 - fd)))
+            } else {
+                let c = wo.z;
+                let s2t = (1.0 - c * c).max(0.0) / (d.eta * d.eta);
+                if s2t >= 1.0 {
+                    return None;
+                }
+                let ct = (1.0 - s2t).sqrt();
+                let wi = -wo / d.eta + Vec3::Z * (c / d.eta - ct);
+                let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, d.eta, c));
+                (wi, p.base * (weight * ((1.0 - fd) / (d.eta * d.eta))))
+            };
+            if wi.z >= 0.0 {
+                return None;
+            }
+            (wi, value, pt)
+        };
+        if !(pdf > 0.0) {
+            return None;
+        }
+        return Some(BsdfSample {
+            wi,
+            f: value / wi.z.abs(),
+            pdf,
+            delta: true,
+        });
+    }
     let wi = if lobe_u < ps {
         let h = ggx_sample_vndf(p.alpha, wo, u1, u2);
         let wi = h * (2.0 * wo.dot(h)) - wo;
@@ -524,6 +577,7 @@ fn dielectric_sample(
         wi,
         f: dielectric_eval(p, d, wo, wi),
         pdf,
+        delta: false,
     })
 }
 
@@ -561,7 +615,11 @@ pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     let voh = wo.dot(h).max(0.0);
     let d = ggx_d(p.alpha, h.z);
     let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-    let s = (d * g2) / ((4.0 * wo.z) * wi.z);
+    let s = if ggx_smooth(p.alpha) {
+        0.0
+    } else {
+        (d * g2) / ((4.0 * wo.z) * wi.z)
+    };
     let w = schlick_weight(voh);
     let fd = p.specular * (0.04 + 0.96 * w);
     let fm = p.base + (Vec3::ONE - p.base) * w;
@@ -599,7 +657,7 @@ pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
         return wi.z * INV_PI;
     }
     let ps = spec_probability(p, wo.z);
-    let spec = if ps > 0.0 {
+    let spec = if ps > 0.0 && !ggx_smooth(p.alpha) {
         ggx_vndf_pdf(p.alpha, wo, wi)
     } else {
         0.0
@@ -626,12 +684,63 @@ fn ggx_sample_vndf(a: f32, wo: Vec3, u1: f32, u2: f32) -> Vec3 {
     Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).normalize()
 }
 
-/// A sampled direction: wi, the BSDF value and the mixture pdf.
+/// A sampled direction: wi, the BSDF value and the mixture pdf; from a
+/// delta lobe (`delta`), f is the lobe's reflectance over |wi.z| and pdf the
+/// lobe's selection probability, so f |wi.z| / pdf is the weight either way.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfSample {
     pub wi: Vec3,
     pub f: Vec3,
     pub pdf: f32,
+    pub delta: bool,
+}
+
+/// The reflectance of the smooth (delta) reflection lobe for outgoing
+/// cosine c: the GGX reflection terms of `bsdf_eval` with the microfacet
+/// lobe integrated to 1 (h = n, so v.h = c).
+pub fn smooth_reflectance(p: &BsdfParams, c: f32) -> Vec3 {
+    let w = schlick_weight(c);
+    let fm = p.base + (Vec3::ONE - p.base) * w;
+    if let Some(d) = &p.dielectric {
+        let layer = p.specular * fresnel_dielectric3(d.f0_color, d.eta, c);
+        let (dielectric, metal) = if p.energy_compensation {
+            let ms = 1.0 / ggx_albedo(p.alpha, c) - 1.0;
+            (
+                layer * (Vec3::ONE + d.f0_color * ms),
+                fm * (Vec3::ONE + p.base * ms),
+            )
+        } else {
+            (layer, fm)
+        };
+        return dielectric * (1.0 - p.metallic) + metal * p.metallic;
+    }
+    let fd = p.specular * (0.04 + 0.96 * w);
+    let (dielectric, metal) = if p.energy_compensation {
+        (
+            Vec3::splat(fd) * (1.0 + 0.04 * (1.0 / ggx_albedo(p.alpha, c) - 1.0)),
+            fm * (Vec3::ONE + p.base * (1.0 / ggx_albedo(p.alpha, c) - 1.0)),
+        )
+    } else {
+        (Vec3::splat(fd), fm)
+    };
+    dielectric * (1.0 - p.metallic) + metal * p.metallic
+}
+
+/// True when every lobe is a delta lobe: `bsdf_eval` is 0 for every pair
+/// of directions, and the path tracer skips light sampling there.
+pub fn bsdf_only_delta(p: &BsdfParams) -> bool {
+    if !ggx_smooth(p.alpha) {
+        return false;
+    }
+    if p.metallic >= 1.0 {
+        return true;
+    }
+    if let Some(d) = &p.dielectric {
+        if d.transmission >= 1.0 {
+            return true;
+        }
+    }
+    !(p.base.x > 0.0 || p.base.y > 0.0 || p.base.z > 0.0)
 }
 
 /// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.
@@ -643,6 +752,15 @@ pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> O
         return None;
     }
     let ps = spec_probability(p, wo.z);
+    // Pure Lambert (--clay) has no specular lobe: ps is 0.
+    if lobe_u < ps && ggx_smooth(p.alpha) {
+        return Some(BsdfSample {
+            wi: Vec3::new(-wo.x, -wo.y, wo.z),
+            f: smooth_reflectance(p, wo.z) / wo.z,
+            pdf: ps,
+            delta: true,
+        });
+    }
     let wi = if lobe_u < ps {
         let h = ggx_sample_vndf(p.alpha, wo, u1, u2);
         h * (2.0 * wo.dot(h)) - wo
@@ -660,5 +778,6 @@ pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> O
         wi,
         f: bsdf_eval(p, wo, wi),
         pdf,
+        delta: false,
     })
 }
