@@ -840,73 +840,32 @@ impl<'d> PathTracer<'d> {
                 "render_motion_soup: every step must have the same triangles".into(),
             ));
         }
-        let d = self.device;
-        let mut data: Vec<[f32; 4]> = Vec::with_capacity(3 * n * count);
+        let mut positions: Vec<[f32; 4]> = Vec::with_capacity(3 * n * count);
         for s in steps {
-            data.extend_from_slice(&s.positions);
+            positions.extend_from_slice(&s.positions);
         }
-        let has_normals = n > 0 && steps.iter().all(|s| s.normals.len() == 3 * n);
-        let mut normals: Vec<[f32; 4]> = Vec::new();
-        if has_normals {
-            for s in steps {
-                normals.extend_from_slice(&s.normals);
-            }
-        }
+        let normals: Option<Vec<[f32; 4]>> =
+            (n > 0 && steps.iter().all(|s| s.normals.len() == 3 * n)).then(|| {
+                steps
+                    .iter()
+                    .flat_map(|s| s.normals.iter().copied())
+                    .collect()
+            });
         let bounds = Soup {
-            positions: super::motion::motion_bounds(&data, n, count as u32),
+            positions: super::motion::motion_bounds(&positions, n, count as u32),
             ..Soup::default()
         };
-        let mut builder = DeviceBuilder::new(d, BuildParams::default())
-            .map_err(|e| usage(format!("BVH build: {e}")))?;
-        let (bvh, _) = builder
-            .build(&bounds)
-            .map_err(|e| usage(format!("BVH build: {e}")))?;
         self.prepare_motion()?;
-        let first = &steps[0];
-        let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
-            positions: GrowBuffer::new(),
-            normals: GrowBuffer::new(),
-            uvs: GrowBuffer::new(),
-            material_ids: GrowBuffer::new(),
-        });
-        let result = (|| {
-            d.write(hs.positions.ensure(d, data.len().max(1))?, &data)?;
-            if has_normals {
-                d.write(hs.normals.ensure(d, normals.len())?, &normals)?;
-            }
-            let has_uvs = first.uvs.len() == 3 * n && n > 0;
-            if has_uvs {
-                d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
-            }
-            let ids = if first.material_ids.len() == n {
-                first.material_ids.clone()
-            } else {
-                vec![0; n]
-            };
-            d.write(hs.material_ids.ensure(d, n.max(1))?, &ids)?;
-            let buffers = SoupBuffers {
-                positions: hs.positions.get(),
-                normals: has_normals.then(|| hs.normals.get()),
-                uvs: has_uvs.then(|| hs.uvs.get()),
-                material_ids: hs.material_ids.get(),
-                triangles: n,
-            };
-            let prim_ids = builder
-                .device_prim_ids()
-                .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
-            self.render_buffers(
-                &buffers,
-                &bvh,
-                prim_ids,
-                &cameras[count / 2],
-                lights.get(count / 2).map_or(&[], |l| l.as_slice()),
-                frame,
-                Some((count as u32, cameras, lights)),
-                &mut |_| {},
-            )
-        })();
-        self.host_soup = Some(hs);
-        result
+        self.render_host(
+            &bounds,
+            &positions,
+            normals.as_deref(),
+            &steps[0],
+            &cameras[count / 2],
+            lights.get(count / 2).map_or(&[], |l| l.as_slice()),
+            frame,
+            Some((count as u32, cameras, lights)),
+        )
     }
 
     /// Renders a host soup (uploaded into buffers kept for the next call)
@@ -920,11 +879,42 @@ impl<'d> PathTracer<'d> {
         frame: i64,
     ) -> Result<RenderOutput, TraceError> {
         let n = soup.triangle_count();
+        let normals = (soup.normals.len() == 3 * n && n > 0).then_some(soup.normals.as_slice());
+        self.render_host(
+            soup,
+            &soup.positions,
+            normals,
+            soup,
+            camera,
+            lights,
+            frame,
+            None,
+        )
+    }
+
+    /// The host-soup path of `render_soup` and `render_motion_soup`: builds
+    /// the tree over `tree`'s triangles, uploads `positions` and `normals`
+    /// (one soup's, or every motion step's side by side) with `first`'s
+    /// texture coordinates and material ids into the buffers kept for the
+    /// next call, and renders.
+    #[allow(clippy::too_many_arguments)]
+    fn render_host(
+        &mut self,
+        tree: &Soup,
+        positions: &[[f32; 4]],
+        normals: Option<&[[f32; 4]]>,
+        first: &Soup,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame: i64,
+        motion: Option<MotionSteps>,
+    ) -> Result<RenderOutput, TraceError> {
+        let n = first.triangle_count();
         let d = self.device;
         let mut builder = DeviceBuilder::new(d, BuildParams::default())
             .map_err(|e| usage(format!("BVH build: {e}")))?;
         let (bvh, _) = builder
-            .build(soup)
+            .build(tree)
             .map_err(|e| usage(format!("BVH build: {e}")))?;
         let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
             positions: GrowBuffer::new(),
@@ -933,24 +923,23 @@ impl<'d> PathTracer<'d> {
             material_ids: GrowBuffer::new(),
         });
         let result = (|| {
-            d.write(hs.positions.ensure(d, 3 * n)?, &soup.positions)?;
-            let has_normals = soup.normals.len() == 3 * n && n > 0;
-            let has_uvs = soup.uvs.len() == 3 * n && n > 0;
-            if has_normals {
-                d.write(hs.normals.ensure(d, 3 * n)?, &soup.normals)?;
+            d.write(hs.positions.ensure(d, positions.len().max(1))?, positions)?;
+            if let Some(normals) = normals {
+                d.write(hs.normals.ensure(d, normals.len())?, normals)?;
             }
+            let has_uvs = first.uvs.len() == 3 * n && n > 0;
             if has_uvs {
-                d.write(hs.uvs.ensure(d, 3 * n)?, &soup.uvs)?;
+                d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
             }
-            let ids = if soup.material_ids.len() == n {
-                soup.material_ids.clone()
+            let ids = if first.material_ids.len() == n {
+                first.material_ids.clone()
             } else {
                 vec![0; n]
             };
-            d.write(hs.material_ids.ensure(d, n)?, &ids)?;
+            d.write(hs.material_ids.ensure(d, n.max(1))?, &ids)?;
             let buffers = SoupBuffers {
                 positions: hs.positions.get(),
-                normals: has_normals.then(|| hs.normals.get()),
+                normals: normals.is_some().then(|| hs.normals.get()),
                 uvs: has_uvs.then(|| hs.uvs.get()),
                 material_ids: hs.material_ids.get(),
                 triangles: n,
@@ -965,7 +954,7 @@ impl<'d> PathTracer<'d> {
                 camera,
                 lights,
                 frame,
-                None,
+                motion,
                 &mut |_| {},
             )
         })();
