@@ -8,30 +8,16 @@
 mod common;
 mod render_support;
 
-use common::Rng;
+use common::{check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
 use render_support::*;
 use soupray::device::Arg;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::material::{
-    bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, DeviceMaterialExt,
-    Dielectric,
+    bsdf_eval, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, DeviceMaterialExt, Dielectric,
 };
 use soupray::trace::render::{render_soup, Environment};
-
-fn upload<T: Copy>(d: &soupray::device::Device, v: &[T]) -> opencl3::memory::Buffer<T> {
-    let mut b = d.buffer::<T>(v.len()).unwrap();
-    d.write(&mut b, v).unwrap();
-    b
-}
-
-fn close(a: f32, b: f32, rel: f32, what: &str) {
-    assert!(
-        (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-6,
-        "{what}: device {a} vs reference {b}"
-    );
-}
 
 fn random_dir(rng: &mut Rng) -> Vec3 {
     loop {
@@ -147,60 +133,18 @@ fn dielectric_bsdf_matches_the_reference() {
     d.finish().unwrap();
     let mut got = vec![0.0f32; 12 * n];
     d.read(&out, &mut got).unwrap();
-    let (mut sampled, mut transmitted, mut deltas, mut only_delta) = (0, 0, 0, 0);
+    let mut tally = BsdfProbeTally::default();
     for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
-        let o = &got[12 * i..12 * i + 12];
         let what = format!("case {i} {p:?} wo {wo} wi {wi}");
-        let f = bsdf_eval(p, *wo, *wi);
-        for k in 0..3 {
-            close(o[k], f[k], 5e-4, &format!("eval {what}"));
-        }
-        close(o[3], bsdf_pdf(p, *wo, *wi), 5e-4, &format!("pdf {what}"));
-        match bsdf_sample(p, *wo, u[0], u[1], u[2]) {
-            Some(s) if s.delta => {
-                // A delta lobe: the exact direction, its reflectance over
-                // |wi.z| and the lobe's probability (bsdf_pdf is 0 there).
-                assert_eq!(o[4], 2.0, "sample {what}: the device's was no delta lobe");
-                for k in 0..3 {
-                    close(o[5 + k], s.wi[k], 5e-4, &format!("delta wi {what}"));
-                    close(o[8 + k], s.f[k], 5e-4, &format!("delta f {what}"));
-                }
-                close(o[11], s.pdf, 5e-4, &format!("delta pdf {what}"));
-                // Only the non-delta lobes count in eval and pdf: none at all
-                // when every lobe is a delta lobe.
-                if bsdf_only_delta(p) {
-                    // (The diffuse lobe's probability 1 - ps - pt rounds to
-                    // ~1e-10 rather than 0.)
-                    assert!(bsdf_pdf(p, *wo, s.wi) < 1e-6, "delta pdf {what}");
-                    assert_eq!(bsdf_eval(p, *wo, s.wi), Vec3::ZERO, "delta eval {what}");
-                    only_delta += 1;
-                }
-                deltas += 1;
-                sampled += 1;
-                transmitted += (s.wi.z < 0.0) as usize;
-            }
-            Some(s) => {
-                assert_eq!(o[4], 1.0, "sample {what}: the device produced none");
-                for k in 0..3 {
-                    close(o[5 + k], s.wi[k], 5e-4, &format!("sampled wi {what}"));
-                }
-                let dwi = Vec3::new(o[5], o[6], o[7]);
-                close(
-                    o[11],
-                    bsdf_pdf(p, *wo, dwi),
-                    5e-4,
-                    &format!("sampled pdf {what}"),
-                );
-                let f = bsdf_eval(p, *wo, dwi);
-                for k in 0..3 {
-                    close(o[8 + k], f[k], 5e-4, &format!("sampled f {what}"));
-                }
-                sampled += 1;
-                transmitted += (s.wi.z < 0.0) as usize;
-            }
-            None => assert_eq!(o[4], 0.0, "sample {what}: only the device produced one"),
-        }
+        let o = &got[12 * i..12 * i + 12];
+        check_bsdf_probe(o, p, *wo, *wi, *u, 5e-4, &what, &mut tally);
     }
+    let BsdfProbeTally {
+        sampled,
+        transmitted,
+        deltas,
+        only_delta,
+    } = tally;
     assert!(sampled > n / 2, "{sampled} of {n} sampled");
     assert!(transmitted > n / 5, "{transmitted} of {n} transmitted");
     assert!(deltas > n / 20, "{deltas} of {n} from delta lobes");

@@ -6,12 +6,12 @@
 
 mod common;
 
-use common::Rng;
+use common::{check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
 use soupray::device::{Arg, Device};
 use soupray::scene::{FrameLight, LightKind};
 use soupray::trace::lights::{punctual_incident, DeviceEnv, DeviceLight, EnvMap, ENV_MAP};
-use soupray::trace::material::{bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, BsdfParams};
+use soupray::trace::material::BsdfParams;
 use soupray::trace::sampling::{SampleRng, Sampler};
 
 fn run(d: &Device, kernel: &str, args: &[Arg], n: usize) {
@@ -19,19 +19,6 @@ fn run(d: &Device, kernel: &str, args: &[Arg], n: usize) {
     let k = d.kernel(&program, kernel).unwrap();
     d.launch("probe", &k, n.div_ceil(64), 64, args).unwrap();
     d.finish().unwrap();
-}
-
-fn upload<T: Copy>(d: &Device, v: &[T]) -> opencl3::memory::Buffer<T> {
-    let mut b = d.buffer::<T>(v.len()).unwrap();
-    d.write(&mut b, v).unwrap();
-    b
-}
-
-fn close(a: f32, b: f32, rel: f32, what: &str) {
-    assert!(
-        (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-6,
-        "{what}: device {a} vs reference {b}"
-    );
 }
 
 #[test]
@@ -212,60 +199,18 @@ fn bsdf_matches_the_reference() {
     );
     let mut got = vec![0.0f32; 12 * n];
     d.read(&out, &mut got).unwrap();
-    let (mut sampled, mut deltas, mut only_delta) = (0, 0, 0);
+    let mut tally = BsdfProbeTally::default();
     for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
-        let o = &got[12 * i..12 * i + 12];
         let what = format!("case {i} {p:?} wo {wo} wi {wi}");
-        let f = bsdf_eval(p, *wo, *wi);
-        for k in 0..3 {
-            close(o[k], f[k], 2e-4, &format!("eval {what}"));
-        }
-        close(o[3], bsdf_pdf(p, *wo, *wi), 2e-4, &format!("pdf {what}"));
-        match bsdf_sample(p, *wo, u[0], u[1], u[2]) {
-            Some(s) if s.delta => {
-                // A delta lobe: the exact direction, its reflectance over
-                // |wi.z| and the lobe's probability (bsdf_pdf is 0 there).
-                assert_eq!(o[4], 2.0, "sample {what}: the device's was no delta lobe");
-                for k in 0..3 {
-                    close(o[5 + k], s.wi[k], 2e-4, &format!("delta wi {what}"));
-                    close(o[8 + k], s.f[k], 2e-4, &format!("delta f {what}"));
-                }
-                close(o[11], s.pdf, 2e-4, &format!("delta pdf {what}"));
-                // Only the non-delta lobes count in eval and pdf: none at all
-                // when every lobe is a delta lobe.
-                if bsdf_only_delta(p) {
-                    // (The diffuse lobe's probability 1 - ps - pt rounds to
-                    // ~1e-10 rather than 0.)
-                    assert!(bsdf_pdf(p, *wo, s.wi) < 1e-6, "delta pdf {what}");
-                    assert_eq!(bsdf_eval(p, *wo, s.wi), Vec3::ZERO, "delta eval {what}");
-                    only_delta += 1;
-                }
-                deltas += 1;
-                sampled += 1;
-            }
-            Some(s) => {
-                assert_eq!(o[4], 1.0, "sample {what}: the device produced none");
-                for k in 0..3 {
-                    close(o[5 + k], s.wi[k], 2e-4, &format!("sampled wi {what}"));
-                }
-                // Sharp lobes amplify ulp differences of wi into the pdf,
-                // so pdf and f are compared at the device's direction.
-                let dwi = Vec3::new(o[5], o[6], o[7]);
-                close(
-                    o[11],
-                    bsdf_pdf(p, *wo, dwi),
-                    2e-4,
-                    &format!("sampled pdf {what}"),
-                );
-                let f = bsdf_eval(p, *wo, dwi);
-                for k in 0..3 {
-                    close(o[8 + k], f[k], 2e-4, &format!("sampled f {what}"));
-                }
-                sampled += 1;
-            }
-            None => assert_eq!(o[4], 0.0, "sample {what}: only the device produced one"),
-        }
+        let o = &got[12 * i..12 * i + 12];
+        check_bsdf_probe(o, p, *wo, *wi, *u, 2e-4, &what, &mut tally);
     }
+    let BsdfProbeTally {
+        sampled,
+        deltas,
+        only_delta,
+        ..
+    } = tally;
     assert!(sampled > n / 2, "{sampled} of {n} sampled");
     assert!(deltas > n / 40, "{deltas} of {n} from delta lobes");
     assert!(only_delta > 0, "no material with only delta lobes");

@@ -76,3 +76,96 @@ pub fn exists(p: &Path) -> bool {
 pub fn read_exr(path: &Path) -> Image {
     soupray::output::read_exr_rgba(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
+
+/// `v` in a new device buffer.
+pub fn upload<T: Copy>(d: &Device, v: &[T]) -> opencl3::memory::Buffer<T> {
+    let mut b = d.buffer::<T>(v.len()).unwrap();
+    d.write(&mut b, v).unwrap();
+    b
+}
+
+/// A device value against its Rust twin's, within `rel` (relative) + 1e-6.
+pub fn close(a: f32, b: f32, rel: f32, what: &str) {
+    assert!(
+        (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-6,
+        "{what}: device {a} vs reference {b}"
+    );
+}
+
+/// What the BSDF probe cases held, for the tests' coverage asserts.
+#[derive(Default)]
+pub struct BsdfProbeTally {
+    pub sampled: usize,
+    pub transmitted: usize,
+    pub deltas: usize,
+    pub only_delta: usize,
+}
+
+/// One case of `pt_probe.cl`'s BSDF probes (`o`: eval rgb, pdf, sample
+/// flag, wi, f, pdf) against the Rust twin `trace::material` at `p`, `wo`,
+/// `wi` and the sample's random numbers `u`, within `rel`.
+#[allow(clippy::too_many_arguments)]
+pub fn check_bsdf_probe(
+    o: &[f32],
+    p: &soupray::trace::material::BsdfParams,
+    wo: glam::Vec3,
+    wi: glam::Vec3,
+    u: [f32; 3],
+    rel: f32,
+    what: &str,
+    tally: &mut BsdfProbeTally,
+) {
+    use glam::Vec3;
+    use soupray::trace::material::{bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample};
+    let f = bsdf_eval(p, wo, wi);
+    for k in 0..3 {
+        close(o[k], f[k], rel, &format!("eval {what}"));
+    }
+    close(o[3], bsdf_pdf(p, wo, wi), rel, &format!("pdf {what}"));
+    match bsdf_sample(p, wo, u[0], u[1], u[2]) {
+        Some(s) if s.delta => {
+            // A delta lobe: the exact direction, its reflectance over
+            // |wi.z| and the lobe's probability (bsdf_pdf is 0 there).
+            assert_eq!(o[4], 2.0, "sample {what}: the device's was no delta lobe");
+            for k in 0..3 {
+                close(o[5 + k], s.wi[k], rel, &format!("delta wi {what}"));
+                close(o[8 + k], s.f[k], rel, &format!("delta f {what}"));
+            }
+            close(o[11], s.pdf, rel, &format!("delta pdf {what}"));
+            // Only the non-delta lobes count in eval and pdf: none at all
+            // when every lobe is a delta lobe.
+            if bsdf_only_delta(p) {
+                // (The diffuse lobe's probability 1 - ps - pt rounds to
+                // ~1e-10 rather than 0.)
+                assert!(bsdf_pdf(p, wo, s.wi) < 1e-6, "delta pdf {what}");
+                assert_eq!(bsdf_eval(p, wo, s.wi), Vec3::ZERO, "delta eval {what}");
+                tally.only_delta += 1;
+            }
+            tally.deltas += 1;
+            tally.sampled += 1;
+            tally.transmitted += (s.wi.z < 0.0) as usize;
+        }
+        Some(s) => {
+            assert_eq!(o[4], 1.0, "sample {what}: the device produced none");
+            for k in 0..3 {
+                close(o[5 + k], s.wi[k], rel, &format!("sampled wi {what}"));
+            }
+            // Sharp lobes amplify ulp differences of wi into the pdf, so pdf
+            // and f are compared at the device's direction.
+            let dwi = Vec3::new(o[5], o[6], o[7]);
+            close(
+                o[11],
+                bsdf_pdf(p, wo, dwi),
+                rel,
+                &format!("sampled pdf {what}"),
+            );
+            let f = bsdf_eval(p, wo, dwi);
+            for k in 0..3 {
+                close(o[8 + k], f[k], rel, &format!("sampled f {what}"));
+            }
+            tally.sampled += 1;
+            tally.transmitted += (s.wi.z < 0.0) as usize;
+        }
+        None => assert_eq!(o[4], 0.0, "sample {what}: only the device produced one"),
+    }
+}
