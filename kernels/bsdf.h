@@ -76,6 +76,12 @@ typedef struct {
     float specular; // KHR_materials_specular specularFactor
     float sigma[4]; // attenuation per unit length, rgb
     float specular_color[4]; // KHR_materials_specular specularColorFactor, rgb
+    // Texture bindings (-1: none): transmission (R), specular (A),
+    // specular colour (RGB, sRGB), read by HAS_TEXTURES kernels.
+    int transmission_tex;
+    int specular_tex;
+    int specular_color_tex;
+    uint pad;
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.

@@ -651,12 +651,23 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             bp.eta = 1.0f;
             bp.thin = 1.0f;
         } else {
+            float3 specular_color =
+                (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
+            float specular = mx.specular;
+            float transmission = mx.transmission;
+#ifdef HAS_TEXTURES
+            // The extensions' textures scale their factors: transmission by
+            // R, specular by A, the specular colour by RGB (sRGB-decoded).
+            if (mx.transmission_tex >= 0)
+                transmission *= pt_texture(mx.transmission_tex, sf.uv TEX_PASS).x;
+            if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, sf.uv TEX_PASS).w;
+            if (mx.specular_color_tex >= 0)
+                specular_color *= pt_texture(mx.specular_color_tex, sf.uv TEX_PASS).xyz;
+#endif
             bp.f0 = f0_of_ior(mx.ior);
-            bp.f0_color = fmin((float3)(bp.f0) * (float3)(mx.specular_color[0], mx.specular_color[1],
-                                                          mx.specular_color[2]),
-                               (float3)(1.0f));
-            bp.specular = mx.specular;
-            bp.transmission = clamp(mx.transmission, 0.0f, 1.0f);
+            bp.f0_color = fmin((float3)(bp.f0) * specular_color, (float3)(1.0f));
+            bp.specular = specular;
+            bp.transmission = clamp(transmission, 0.0f, 1.0f);
             bp.eta = volume ? (sf.front ? mx.ior : 1.0f / mx.ior) : 1.0f;
             bp.thin = volume ? 0.0f : 1.0f;
         }

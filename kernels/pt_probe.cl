@@ -82,12 +82,16 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
 }
 
 #ifdef HAS_TRANSMISSION
-// Layout of PtMaterialExt: size, offsets of volume and sigma.
+// Layout of PtMaterialExt: size, offsets of volume, sigma, the specular
+// colour and the texture bindings.
 __kernel void pt_ext_layout_probe(__global uint* out) {
     out[0] = (uint)sizeof(PtMaterialExt);
     out[1] = (uint)offsetof(PtMaterialExt, volume);
     out[2] = (uint)offsetof(PtMaterialExt, sigma);
     out[3] = (uint)offsetof(PtMaterialExt, specular_color);
+    out[4] = (uint)offsetof(PtMaterialExt, transmission_tex);
+    out[5] = (uint)offsetof(PtMaterialExt, specular_tex);
+    out[6] = (uint)offsetof(PtMaterialExt, specular_color_tex);
 }
 
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,

@@ -7,6 +7,7 @@
 
 mod common;
 mod render_support;
+mod scene_support;
 
 use common::{check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
@@ -50,10 +51,10 @@ fn material_ext_layout_matches() {
         .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
         .unwrap();
     let k = d.kernel(&program, "pt_ext_layout_probe").unwrap();
-    let out = upload(&d, &[0u32; 4]);
+    let out = upload(&d, &[0u32; 7]);
     d.launch("probe", &k, 1, 1, &[Arg::Buf(&out)]).unwrap();
     d.finish().unwrap();
-    let mut got = [0u32; 4];
+    let mut got = [0u32; 7];
     d.read(&out, &mut got).unwrap();
     use std::mem::{offset_of, size_of};
     assert_eq!(
@@ -63,6 +64,9 @@ fn material_ext_layout_matches() {
             offset_of!(DeviceMaterialExt, volume) as u32,
             offset_of!(DeviceMaterialExt, sigma) as u32,
             offset_of!(DeviceMaterialExt, specular_color) as u32,
+            offset_of!(DeviceMaterialExt, transmission_tex) as u32,
+            offset_of!(DeviceMaterialExt, specular_tex) as u32,
+            offset_of!(DeviceMaterialExt, specular_color_tex) as u32,
         ]
     );
 }
@@ -786,4 +790,174 @@ fn smooth_mirror_under_a_sun_shows_the_sky_not_the_sun() {
             assert!((p[k] - 0.2).abs() < 2e-3, "pixel {p:?}");
         }
     }
+}
+
+/// A 2x1 RGBA PNG (left texel, right texel) as a data URI.
+fn png_uri(left: [u8; 4], right: [u8; 4]) -> String {
+    let img = image::RgbaImage::from_raw(2, 1, [left, right].concat()).unwrap();
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png).unwrap();
+    format!(
+        "data:image/png;base64,{}",
+        scene_support::base64(png.get_ref())
+    )
+}
+
+/// Renders, at 64x32 and 16 spp under a blue-grey sky, a square facing an
+/// orthographic camera that fills the frame, its UVs running 0-1 left to
+/// right, with `material` (whose textures, if any, are image 0: `uri`,
+/// nearest-filtered).
+fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::film::Image {
+    use serde_json::json;
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = scene_support::Builder::default();
+    let p = b.floats(
+        &[
+            -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
+        ],
+        3,
+    );
+    let n = b.floats(&[0.0, 0.0, 1.0].repeat(4), 3);
+    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], 2);
+    let ix = b.u32s(&[0, 1, 2, 0, 2, 3]);
+    let root = json!({
+        "extensionsUsed": ["KHR_texture_transform", "KHR_materials_transmission", "KHR_materials_specular"],
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 0.0, 3.0]}],
+        "cameras": [{"type": "orthographic", "orthographic": {"xmag": 0.9, "ymag": 0.45, "znear": 0.01, "zfar": 100.0}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p, "NORMAL": n, "TEXCOORD_0": uv}, "indices": ix, "material": 0}]}],
+        "materials": [material],
+        "images": [{"uri": uri}],
+        "samplers": [{"magFilter": 9728, "minFilter": 9728, "wrapS": 33071, "wrapT": 33071}],
+        "textures": [{"source": 0, "sampler": 0}],
+    });
+    let scene = b.write(root, dir.path(), "square", true);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .arg("render")
+        .arg(&scene)
+        .args([
+            "--frame", "0", "--width", "64", "--height", "32", "--spp", "16",
+        ])
+        .args(["--seed", "5", "--env-color", "0.5,0.6,0.8", "--quiet"])
+        .args([
+            "--out",
+            dir.path().to_str().unwrap(),
+            "--name",
+            "sq.####.exr",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = std::fs::read_to_string(dir.path().join("sq.0000.json")).unwrap();
+    assert!(
+        !log.contains("is not supported"),
+        "an extension texture was reported as ignored: {log}"
+    );
+    common::read_exr(&dir.path().join("sq.0000.exr"))
+}
+
+/// The largest relative difference between `a` and `b` over the pixels of
+/// columns `cols` (RGB).
+fn max_rel_diff(
+    a: &soupray::film::Image,
+    b: &soupray::film::Image,
+    cols: std::ops::Range<usize>,
+) -> f32 {
+    let mut worst = 0.0f32;
+    for y in 0..a.height as usize {
+        for x in cols.clone() {
+            let (p, q) = (
+                a.rgba[y * a.width as usize + x],
+                b.rgba[y * b.width as usize + x],
+            );
+            for c in 0..3 {
+                worst = worst.max((p[c] - q[c]).abs() / q[c].abs().max(1e-3));
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn extension_textures_scale_their_factors() {
+    use serde_json::json;
+    // Each half of the square samples one texel (nearest filtering), so a
+    // textured material must render each half as the untextured material
+    // whose factor is the factor times that texel. Columns within 4 pixels
+    // of the seam (the pixel filter reaches across it) are left out.
+    let (left, right) = (0..28, 36..64);
+    let byte = |b: u8| b as f32 / 255.0;
+    let srgb = |b: u8| soupray::trace::texture::srgb_to_linear(byte(b));
+    let blank = png_uri([255; 4], [255; 4]);
+
+    // transmissionTexture (R), through a KHR_texture_transform that mirrors
+    // u (offset 1, scale -1): the left half reads the right texel.
+    let glass = |factor: f32, texture: Option<serde_json::Value>| {
+        let mut t = json!({"transmissionFactor": factor});
+        if let Some(tex) = texture {
+            t["transmissionTexture"] = tex;
+        }
+        json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.3, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4},
+            "doubleSided": true,
+            "extensions": {"KHR_materials_transmission": t}
+        })
+    };
+    let textured = render_textured_square(
+        glass(
+            0.9,
+            Some(
+                json!({"index": 0, "extensions": {"KHR_texture_transform": {"offset": [1.0, 0.0], "scale": [-1.0, 1.0]}}}),
+            ),
+        ),
+        &png_uri([64, 0, 0, 255], [255, 0, 0, 255]),
+    );
+    let full = render_textured_square(glass(0.9 * byte(255), None), &blank);
+    let quarter = render_textured_square(glass(0.9 * byte(64), None), &blank);
+    let (l, r) = (
+        max_rel_diff(&textured, &full, left.clone()),
+        max_rel_diff(&textured, &quarter, right.clone()),
+    );
+    eprintln!(
+        "transmission texture: left vs factor 0.9: {l:.2e}, right vs factor 0.9*64/255: {r:.2e}"
+    );
+    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
+    // The two factors give visibly different images, so the check above
+    // would catch a texture that is ignored.
+    assert!(max_rel_diff(&full, &quarter, left.clone()) > 0.05);
+
+    // specularTexture (A) and specularColorTexture (RGB, sRGB) from one
+    // image, on a black dielectric: only the specular layer shows.
+    let coat = |factor: f32, color: [f32; 3], textured: bool| {
+        let mut sp = json!({"specularFactor": factor, "specularColorFactor": color});
+        if textured {
+            sp["specularTexture"] = json!({"index": 0});
+            sp["specularColorTexture"] = json!({"index": 0});
+        }
+        json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.3},
+            "extensions": {"KHR_materials_specular": sp}
+        })
+    };
+    let textured = render_textured_square(
+        coat(0.8, [1.0, 0.9, 0.7], true),
+        &png_uri([255, 40, 0, 255], [0, 255, 128, 100]),
+    );
+    let lf = render_textured_square(coat(0.8, [srgb(255), 0.9 * srgb(40), 0.0], false), &blank);
+    let rf = render_textured_square(
+        coat(0.8 * byte(100), [0.0, 0.9, 0.7 * srgb(128)], false),
+        &blank,
+    );
+    let (l, r) = (
+        max_rel_diff(&textured, &lf, left.clone()),
+        max_rel_diff(&textured, &rf, right.clone()),
+    );
+    eprintln!("specular textures: left {l:.2e}, right {r:.2e}");
+    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
+    assert!(max_rel_diff(&lf, &rf, left) > 0.05);
 }

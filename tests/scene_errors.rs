@@ -263,3 +263,32 @@ fn no_truncation_or_corruption_panics() {
         }
     }
 }
+
+#[test]
+fn bad_extension_texture_index_is_named() {
+    // A material extension's texture is checked like the core ones: an
+    // index past the texture table is an error naming the file, the
+    // material, the extension's property and the table's size.
+    let dir = tempfile::tempdir().unwrap();
+    let path = triangle_file(
+        dir.path(),
+        "spec",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        &[0, 1, 2],
+        json!({
+            "extensionsUsed": ["KHR_materials_specular"],
+            "materials": [{"extensions": {"KHR_materials_specular": {"specularColorTexture": {"index": 3}}}}]
+        }),
+    );
+    let msg = load_err(&path, &LoadOptions::default());
+    assert_mentions(
+        &msg,
+        &[
+            "spec.gltf",
+            "material 0",
+            "KHR_materials_specular.specularColorTexture",
+            "texture 3",
+            "no textures",
+        ],
+    );
+}

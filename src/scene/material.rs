@@ -3,7 +3,7 @@
 //! KHR_materials_emissive_strength), alpha mode, double-sidedness,
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
-//! and KHR_materials_specular (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! and KHR_materials_specular, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -82,6 +82,12 @@ pub struct Material {
     pub specular_factor: f32,
     /// KHR_materials_specular `specularColorFactor` (white without it).
     pub specular_color: [f32; 3],
+    /// KHR_materials_transmission `transmissionTexture` (R scales the factor).
+    pub transmission_texture: Option<TextureRef>,
+    /// KHR_materials_specular `specularTexture` (A scales the factor).
+    pub specular_texture: Option<TextureRef>,
+    /// KHR_materials_specular `specularColorTexture` (sRGB RGB scales the colour).
+    pub specular_color_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -113,6 +119,9 @@ impl Default for Material {
             unlit: false,
             specular_factor: 1.0,
             specular_color: [1.0; 3],
+            transmission_texture: None,
+            specular_texture: None,
+            specular_color_texture: None,
         }
     }
 }
@@ -125,6 +134,9 @@ impl Material {
             &self.normal_texture,
             &self.occlusion_texture,
             &self.emissive_texture,
+            &self.transmission_texture,
+            &self.specular_texture,
+            &self.specular_color_texture,
         ]
         .into_iter()
         .flatten()
@@ -136,12 +148,17 @@ impl Material {
 
     /// Whether the material needs the dielectric extensions' code
     /// (`HAS_TRANSMISSION`): some transmission, or an ior other than the
-    /// default 1.5 (the default's 4 % Fresnel is the base model's).
+    /// default 1.5 (the default's 4 % Fresnel is the base model's), or a
+    /// specular layer other than the default (a factor, a colour or one of
+    /// their textures). A transmission texture alone changes nothing: it
+    /// scales a factor of 0.
     pub fn needs_transmission(&self) -> bool {
         self.transmission_factor > 0.0
             || self.ior != 1.5
             || self.specular_factor != 1.0
             || self.specular_color != [1.0; 3]
+            || self.specular_texture.is_some()
+            || self.specular_color_texture.is_some()
     }
 
     /// Transmissive with a volume: refraction and Beer-Lambert attenuation
@@ -165,8 +182,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
 /// material, or in `extensionsUsed`) that soupray does not render, naming
-/// it and the first material using it; and one per texture of a supported
-/// extension that is read as its factor alone.
+/// it and the first material using it.
 pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<String> {
     // extension -> (first material index, name, count)
     let mut users: std::collections::BTreeMap<String, (Option<usize>, Option<String>, usize)> =
@@ -178,24 +194,14 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
             continue;
         };
         let name = m.get("name").and_then(|n| n.as_str()).map(str::to_owned);
-        for (ext, body) in exts {
+        for ext in exts.keys() {
             if !ext.starts_with("KHR_materials_") {
                 continue;
             }
+            // Supported ones are rendered with their textures, except
+            // KHR_materials_volume's thicknessTexture, which a path tracer
+            // does not need: it measures the distance through the mesh.
             if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
-                for key in [
-                    "transmissionTexture",
-                    "thicknessTexture",
-                    "specularTexture",
-                    "specularColorTexture",
-                ] {
-                    if body.get(key).is_some() {
-                        warnings.push(format!(
-                            "material {i}{}: {ext} {key} is not supported; the factor alone is used",
-                            name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
-                        ));
-                    }
-                }
                 continue;
             }
             let e = users
@@ -292,6 +298,21 @@ fn material_extension<'j>(
         .get(material)?
         .get("extensions")?
         .get(name)
+}
+
+/// A material extension's texture (`extensions.EXT.KEY`), read from the
+/// raw JSON, which `validate` has checked (index in range, texCoord a set
+/// index).
+fn extension_texture(src: &Source, material: usize, ext: &str, key: &str) -> Option<TextureRef> {
+    let info = material_extension(src, material, ext)?.get(key)?;
+    let texture = info.get("index")?.as_u64()? as usize;
+    let tex_coord = info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32;
+    Some(texture_ref(
+        texture,
+        tex_coord,
+        info.get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform")),
+    ))
 }
 
 fn number(v: Option<&serde_json::Value>, key: &str, default: f32) -> f32 {
@@ -573,6 +594,24 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 };
                 [c(0), c(1), c(2)]
             },
+            transmission_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_transmission",
+                "transmissionTexture",
+            ),
+            specular_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_specular",
+                "specularTexture",
+            ),
+            specular_color_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_specular",
+                "specularColorTexture",
+            ),
         });
     }
 

@@ -688,6 +688,18 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
             ("normalTexture", m.get("normalTexture")),
             ("occlusionTexture", m.get("occlusionTexture")),
             ("emissiveTexture", m.get("emissiveTexture")),
+            (
+                "extensions.KHR_materials_transmission.transmissionTexture",
+                extension_texture_info(m, "KHR_materials_transmission", "transmissionTexture"),
+            ),
+            (
+                "extensions.KHR_materials_specular.specularTexture",
+                extension_texture_info(m, "KHR_materials_specular", "specularTexture"),
+            ),
+            (
+                "extensions.KHR_materials_specular.specularColorTexture",
+                extension_texture_info(m, "KHR_materials_specular", "specularColorTexture"),
+            ),
         ];
         for (slot, info) in slots {
             let Some(info) = info else { continue };
@@ -921,6 +933,15 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
         }
     }
     Ok(warnings)
+}
+
+/// A material extension's texture info object (`materials[i].extensions.EXT.KEY`).
+fn extension_texture_info<'j>(
+    material: &'j serde_json::Map<String, Value>,
+    ext: &str,
+    key: &str,
+) -> Option<&'j Value> {
+    material.get("extensions")?.get(ext)?.get(key)
 }
 
 #[cfg(test)]

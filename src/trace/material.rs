@@ -136,9 +136,15 @@ pub struct DeviceMaterialExt {
     pub sigma: [f32; 4],
     /// KHR_materials_specular `specularColorFactor` (rgb, 0).
     pub specular_color: [f32; 4],
+    /// Texture binding indices (-1: none) of `transmissionTexture` (R),
+    /// `specularTexture` (A) and `specularColorTexture` (RGB, sRGB).
+    pub transmission_tex: i32,
+    pub specular_tex: i32,
+    pub specular_color_tex: i32,
+    pub pad: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 48);
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 64);
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -165,6 +171,10 @@ impl DeviceMaterialExt {
                 m.specular_color[2],
                 0.0,
             ],
+            transmission_tex: -1,
+            specular_tex: -1,
+            specular_color_tex: -1,
+            pad: 0,
         }
     }
 }

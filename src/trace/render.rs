@@ -543,33 +543,57 @@ impl<'d> PathTracer<'d> {
         let mut warnings = Vec::new();
         let mut host_materials = device_materials(table);
 
+        let transmission = table.materials.iter().any(|m| m.needs_transmission());
+        // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
+        // its texture slots filled below.
+        let mut host_exts = transmission.then(|| device_material_exts(table));
+        // The slots the kernels read: the dielectric ones only where they
+        // are compiled in.
+        let slots: &[Slot] = if transmission {
+            &Slot::SHADED
+        } else {
+            &Slot::BASE
+        };
+
         // Textures: only when some material samples one (and not in clay
         // mode, where only alpha cut-outs would need them: those are kept).
         let mut textures = None;
-        if table.has_textured_materials() {
-            match TextureSet::new(device, table) {
+        let textured = table
+            .materials
+            .iter()
+            .any(|m| slots.iter().any(|s| s.of(m).is_some()));
+        if textured {
+            match TextureSet::with_slots(device, table, slots) {
                 Ok(set) if !set.is_empty() => {
-                    let mut bindings = Vec::with_capacity(4 * table.materials.len());
+                    // Four bindings per material (`PtMaterial`), then three
+                    // per material for `PtMaterialExt` when compiled in.
+                    let n = table.materials.len();
+                    let mut bindings = Vec::with_capacity(slots.len() * n);
                     let mut set1 = false;
+                    let mut bind = |m: &crate::scene::Material, slot: Slot, index: usize| {
+                        let b = set.slot_binding(m, slot);
+                        set1 |= !b.is_none() && b.tex_coord == 1;
+                        bindings.push(b);
+                        if b.is_none() {
+                            -1
+                        } else {
+                            index as i32
+                        }
+                    };
                     for (i, m) in table.materials.iter().enumerate() {
-                        let slots = [
-                            Slot::BaseColor,
-                            Slot::MetallicRoughness,
-                            Slot::Normal,
-                            Slot::Emissive,
-                        ];
                         let dm = &mut host_materials[i];
-                        for (k, slot) in slots.iter().enumerate() {
-                            let b = set.slot_binding(m, *slot);
-                            let index = if b.is_none() { -1 } else { (4 * i + k) as i32 };
-                            set1 |= !b.is_none() && b.tex_coord == 1;
-                            match slot {
-                                Slot::BaseColor => dm.base_color_tex = index,
-                                Slot::MetallicRoughness => dm.metallic_roughness_tex = index,
-                                Slot::Normal => dm.normal_tex = index,
-                                _ => dm.emissive_tex = index,
-                            }
-                            bindings.push(b);
+                        dm.base_color_tex = bind(m, Slot::BaseColor, 4 * i);
+                        dm.metallic_roughness_tex = bind(m, Slot::MetallicRoughness, 4 * i + 1);
+                        dm.normal_tex = bind(m, Slot::Normal, 4 * i + 2);
+                        dm.emissive_tex = bind(m, Slot::Emissive, 4 * i + 3);
+                    }
+                    if let Some(exts) = host_exts.as_mut() {
+                        for (i, m) in table.materials.iter().enumerate() {
+                            let x = &mut exts[i];
+                            let at = 4 * n + 3 * i;
+                            x.transmission_tex = bind(m, Slot::Transmission, at);
+                            x.specular_tex = bind(m, Slot::Specular, at + 1);
+                            x.specular_color_tex = bind(m, Slot::SpecularColor, at + 2);
                         }
                     }
                     if set1 {
@@ -590,7 +614,6 @@ impl<'d> PathTracer<'d> {
             }
         }
 
-        let transmission = table.materials.iter().any(|m| m.needs_transmission());
         // Clay is a pure Lambertian: no GGX lobe to compensate.
         let compensation = settings.energy_compensation && !settings.clay;
         let features = material_features(table, textures.is_some(), compensation);
@@ -606,13 +629,13 @@ impl<'d> PathTracer<'d> {
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
         device.write(&mut materials, &host_materials)?;
-        let material_exts = if transmission {
-            let exts = device_material_exts(table);
-            let mut buf = device.buffer::<DeviceMaterialExt>(exts.len())?;
-            device.write(&mut buf, &exts)?;
-            Some(buf)
-        } else {
-            None
+        let material_exts = match host_exts {
+            Some(exts) => {
+                let mut buf = device.buffer::<DeviceMaterialExt>(exts.len())?;
+                device.write(&mut buf, &exts)?;
+                Some(buf)
+            }
+            None => None,
         };
         let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
 

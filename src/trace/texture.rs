@@ -131,23 +131,45 @@ pub enum Slot {
     Normal,
     Occlusion,
     Emissive,
+    /// KHR_materials_transmission `transmissionTexture`.
+    Transmission,
+    /// KHR_materials_specular `specularTexture`.
+    Specular,
+    /// KHR_materials_specular `specularColorTexture`.
+    SpecularColor,
 }
 
 impl Slot {
-    pub const ALL: [Slot; 5] = [
+    pub const ALL: [Slot; 8] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
         Slot::Occlusion,
         Slot::Emissive,
+        Slot::Transmission,
+        Slot::Specular,
+        Slot::SpecularColor,
     ];
     /// The slots a path tracer shades with (issue 4): all but occlusion.
-    pub const SHADED: [Slot; 4] = [
+    pub const SHADED: [Slot; 7] = [
+        Slot::BaseColor,
+        Slot::MetallicRoughness,
+        Slot::Normal,
+        Slot::Emissive,
+        Slot::Transmission,
+        Slot::Specular,
+        Slot::SpecularColor,
+    ];
+    /// The slots of `PtMaterial` (four bindings per material).
+    pub const BASE: [Slot; 4] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
         Slot::Emissive,
     ];
+    /// The slots of `PtMaterialExt`, read by `HAS_TRANSMISSION` kernels
+    /// (three bindings per material, after every material's four).
+    pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
 
     /// The glTF property name, for messages.
     pub fn name(self) -> &'static str {
@@ -157,12 +179,15 @@ impl Slot {
             Slot::Normal => "normalTexture",
             Slot::Occlusion => "occlusionTexture",
             Slot::Emissive => "emissiveTexture",
+            Slot::Transmission => "KHR_materials_transmission transmissionTexture",
+            Slot::Specular => "KHR_materials_specular specularTexture",
+            Slot::SpecularColor => "KHR_materials_specular specularColorTexture",
         }
     }
 
     /// Whether the glTF specification says the slot's RGB is sRGB-encoded.
     pub fn is_srgb(self) -> bool {
-        matches!(self, Slot::BaseColor | Slot::Emissive)
+        matches!(self, Slot::BaseColor | Slot::Emissive | Slot::SpecularColor)
     }
 
     pub fn of(self, m: &Material) -> Option<&TextureRef> {
@@ -172,6 +197,9 @@ impl Slot {
             Slot::Normal => m.normal_texture.as_ref(),
             Slot::Occlusion => m.occlusion_texture.as_ref(),
             Slot::Emissive => m.emissive_texture.as_ref(),
+            Slot::Transmission => m.transmission_texture.as_ref(),
+            Slot::Specular => m.specular_texture.as_ref(),
+            Slot::SpecularColor => m.specular_color_texture.as_ref(),
         }
     }
 }
