@@ -76,3 +76,40 @@ fn soup_writes_the_frame_as_ply() {
     let msg = run_soup(&missing).unwrap_err().to_string();
     assert!(msg.contains("nothere.glb"), "{msg}");
 }
+
+#[test]
+fn info_lists_the_material_extensions_as_read() {
+    use serde_json::json;
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = scene_support::Builder::default();
+    let p = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
+    let root = json!({
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_materials_specular", "KHR_materials_unlit"],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p}, "material": 0}, {"attributes": {"POSITION": p}, "material": 1}]}],
+        "images": [{"uri": "t.png"}],
+        "textures": [{"source": 0}],
+        "materials": [
+            {"name": "water", "extensions": {
+                "KHR_materials_transmission": {"transmissionFactor": 1.0, "transmissionTexture": {"index": 0}},
+                "KHR_materials_ior": {"ior": 1.33},
+                "KHR_materials_volume": {"thicknessFactor": 0.1, "attenuationColor": [0.5, 0.8, 0.9], "attenuationDistance": 2.0},
+                "KHR_materials_specular": {"specularFactor": 0.5, "specularColorTexture": {"index": 0, "texCoord": 1}}
+            }},
+            {"name": "sign", "extensions": {"KHR_materials_unlit": {}}}
+        ]
+    });
+    let path = b.write(root, dir.path(), "exts", true);
+    let text = describe(&load(&path, None));
+    for part in [
+        "transmission 1 [texture 0 uv0]",
+        "ior 1.33",
+        "volume (attenuation colour [0.5, 0.8, 0.9] per 2)",
+        "specular 0.5 colour [1.0, 1.0, 1.0] [texture 0 uv1]",
+        "material 1 \"sign\"",
+        "    unlit",
+    ] {
+        assert!(text.contains(part), "missing {part:?} in:\n{text}");
+    }
+}

@@ -335,6 +335,10 @@ pub fn describe(scene: &Scene) -> String {
             if m.alpha_mode == crate::scene::AlphaMode::Mask { format!(" (cutoff {})", m.alpha_cutoff) } else { String::new() },
             if m.double_sided { ", double-sided" } else { "" }
         );
+        let exts = material_extensions(m, &tex);
+        if !exts.is_empty() {
+            let _ = writeln!(o, "    {}", exts.join(", "));
+        }
     }
 
     if !scene.warnings().is_empty() {
@@ -342,6 +346,55 @@ pub fn describe(scene: &Scene) -> String {
         for w in scene.warnings() {
             let _ = writeln!(o, "  {w}");
         }
+    }
+    out
+}
+
+/// The material extensions' parameters `m` departs from the defaults in,
+/// as `soupray render` reads them (`tex` formats a texture reference).
+fn material_extensions(
+    m: &crate::scene::Material,
+    tex: &dyn Fn(&Option<crate::scene::TextureRef>) -> String,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    if m.unlit {
+        out.push("unlit".to_owned());
+    }
+    if m.transmission_factor > 0.0 || m.transmission_texture.is_some() {
+        out.push(format!(
+            "transmission {}{}",
+            m.transmission_factor,
+            tex(&m.transmission_texture)
+        ));
+    }
+    if m.ior != 1.5 {
+        out.push(format!("ior {}", m.ior));
+    }
+    if m.has_volume() {
+        let distance = if m.attenuation_distance.is_finite() {
+            format!(" per {}", m.attenuation_distance)
+        } else {
+            String::new()
+        };
+        out.push(format!(
+            "volume (attenuation colour {:?}{distance})",
+            m.attenuation_color
+        ));
+    } else if m.transmission_factor > 0.0 {
+        out.push("thin-walled".to_owned());
+    }
+    if m.specular_factor != 1.0
+        || m.specular_color != [1.0; 3]
+        || m.specular_texture.is_some()
+        || m.specular_color_texture.is_some()
+    {
+        out.push(format!(
+            "specular {}{} colour {:?}{}",
+            m.specular_factor,
+            tex(&m.specular_texture),
+            m.specular_color,
+            tex(&m.specular_color_texture)
+        ));
     }
     out
 }
