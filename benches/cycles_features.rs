@@ -5,7 +5,7 @@
 //!   cargo bench --bench cycles_features -- --size 320x200 --spp 256 --cases blur
 //!
 //! Flags (defaults in brackets): `--size WxH` [320x200], `--spp N` [256],
-//! `--cases LIST` [still,blur,glass], `--out DIR` [out/bench-cycles-features].
+//! `--cases LIST` [still,blur,glass,coats], `--out DIR` [out/bench-cycles-features].
 //! `BLENDER=PATH` picks Blender (default `blender` on PATH; without it the
 //! bench says so and exits 0; Debian: `apt-get install blender
 //! python3-numpy`).
@@ -29,6 +29,12 @@
 //!   models differ a little (the glTF BRDF against the Principled BSDF), so
 //!   here the error is not expected at the noise floor; the picture is the
 //!   check.
+//! * `coats` (OUT/coats.gltf, materials as the file gives them): a red ball
+//!   under a clear coat (KHR_materials_clearcoat), the same red uncoated,
+//!   and a dark blue ball with a white sheen (KHR_materials_sheen). Blender
+//!   3.4's importer maps the coat to the Principled BSDF's clearcoat (a
+//!   GTR1 lobe of fixed index 1.5) and the sheen to a Velvet BSDF mixed in,
+//!   where glTF asks for GGX and Charlie: the picture is the check.
 //!
 //! For each case it prints the relative MSE between the renderers (and,
 //! for scale, between soupray's image and the other case's Cycles image,
@@ -56,7 +62,7 @@ struct Opts {
     size: (u32, u32),
     #[arg(long, default_value_t = 256)]
     spp: u32,
-    #[arg(long, value_delimiter = ',', default_value = "still,blur,glass")]
+    #[arg(long, value_delimiter = ',', default_value = "still,blur,glass,coats")]
     cases: Vec<String>,
     #[arg(long, default_value = "out/bench-cycles-features")]
     out: PathBuf,
@@ -239,6 +245,55 @@ fn write_glass_scene(path: &Path) -> std::io::Result<()> {
     buf.write(doc, path)
 }
 
+/// The coats case: three balls on a grey floor under a sun and a grey sky:
+/// a rough red dielectric under a smooth clear coat
+/// (KHR_materials_clearcoat 1, coat roughness 0.05), the same red without
+/// the coat, and a dark blue cloth with a white sheen
+/// (KHR_materials_sheen, roughness 0.5).
+fn write_coats_scene(path: &Path) -> std::io::Result<()> {
+    let mut buf = Buffer::default();
+    let meshes = vec![
+        buf.mesh(box_mesh([3.0, 0.05, 3.0]), Some(0)),
+        buf.mesh(sphere_mesh(0.45, 48, 96), Some(1)),
+        buf.mesh(sphere_mesh(0.45, 48, 96), Some(2)),
+        buf.mesh(sphere_mesh(0.45, 48, 96), Some(3)),
+    ];
+    let pbr = |c: [f32; 3], rough: f32| json!({"baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": rough});
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": "soupray cycles_features bench"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3, 4, 5]}],
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_clearcoat", "KHR_materials_sheen"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "sun", "type": "directional", "intensity": 3.0}]}},
+        "nodes": [
+            {"name": "camera", "camera": 0, "translation": [0.0, 0.9, 4.0],
+                "rotation": [-0.0998, 0.0, 0.0, 0.995]},
+            // Down -z, tilted 50 degrees about x, turned 30 degrees about y.
+            {"name": "sun", "extensions": {"KHR_lights_punctual": {"light": 0}},
+                "rotation": [-0.4082, 0.1094, 0.0468, 0.9050]},
+            {"name": "floor", "mesh": 0, "translation": [0.0, -0.05, 0.0]},
+            {"name": "coated", "mesh": 1, "translation": [-1.05, 0.45, 0.0]},
+            {"name": "plain", "mesh": 2, "translation": [0.0, 0.45, 0.0]},
+            {"name": "cloth", "mesh": 3, "translation": [1.05, 0.45, 0.0]},
+        ],
+        "cameras": [{"type": "perspective", "perspective": {
+            "yfov": 0.6, "aspectRatio": 1.6, "znear": 0.1, "zfar": 100.0}}],
+        "materials": [
+            {"name": "floor", "pbrMetallicRoughness": pbr([0.8, 0.8, 0.8], 1.0)},
+            {"name": "coated", "pbrMetallicRoughness": pbr([0.8, 0.05, 0.05], 0.6),
+                "extensions": {"KHR_materials_clearcoat": {
+                    "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.05}}},
+            {"name": "plain", "pbrMetallicRoughness": pbr([0.8, 0.05, 0.05], 0.6)},
+            {"name": "cloth", "pbrMetallicRoughness": pbr([0.02, 0.03, 0.2], 1.0),
+                "extensions": {"KHR_materials_sheen": {
+                    "sheenColorFactor": [0.9, 0.9, 0.9], "sheenRoughnessFactor": 0.5}}},
+        ],
+        "meshes": meshes,
+    });
+    buf.write(doc, path)
+}
+
 fn write_blur_scene(path: &Path) -> std::io::Result<()> {
     let mut buf = Buffer::default();
     let meshes = vec![
@@ -386,7 +441,7 @@ struct Case {
     other: Option<&'static str>,
 }
 
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         name: "still",
         scene: "blur.gltf",
@@ -411,6 +466,13 @@ const CASES: [Case; 3] = [
     Case {
         name: "glass",
         scene: "glass.gltf",
+        soupray: &["--env-color", "0.3,0.3,0.3"],
+        cycles: &["--env", "0.3,0.3,0.3", "--keep-materials"],
+        other: None,
+    },
+    Case {
+        name: "coats",
+        scene: "coats.gltf",
         soupray: &["--env-color", "0.3,0.3,0.3"],
         cycles: &["--env", "0.3,0.3,0.3", "--keep-materials"],
         other: None,
@@ -446,6 +508,7 @@ fn main() -> ExitCode {
     let dir = std::fs::canonicalize(&o.out).unwrap();
     write_blur_scene(&dir.join("blur.gltf")).unwrap();
     write_glass_scene(&dir.join("glass.gltf")).unwrap();
+    write_coats_scene(&dir.join("coats.gltf")).unwrap();
     let mut rows = vec![
         "| case | soupray vs Cycles | soupray vs Cycles of the other case | Cycles vs Cycles (seeds) | mean, soupray | mean, Cycles |".to_string(),
         "|---|---:|---:|---:|---:|---:|".to_string(),
