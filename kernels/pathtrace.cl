@@ -25,15 +25,20 @@
 // ends the path; light sampling does not aim at it.
 //
 // Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
-// continues from just below it. Entering a volume material through its
-// front face starts attenuation by its coefficient (Beer-Lambert over each
-// segment's length), leaving through a back face ends it; one medium at a
-// time (a path entering a second volume takes that one's coefficient, and
-// relative indices assume the outside is air). Shadow rays are blocked by
-// transmissive surfaces like any other: light reaches through them by the
-// BSDF samples of the transmitting vertex (and that vertex's own light
-// samples for rough transmission), which MIS weighs against its light
-// sampling, so no light is counted twice or lost.
+// continues from just below it. The path keeps the list of volumes it is in
+// (media.h: entered through front faces, left through back faces, the most
+// recently entered innermost); the index at an interface is relative to the
+// volume on its other side, each segment is attenuated by the innermost
+// volume's coefficient (Beer-Lambert over its length), and a back face of
+// a volume that is not the innermost is a false interface, crossed
+// unchanged. Shadow rays cross smooth thin-walled transmissive surfaces with
+// their straight-through transmittance (an unbent delta lobe: the shadow
+// ray follows the BSDF sample's path exactly) and are blocked by every
+// other surface; the matching BSDF sample is a null crossing that keeps
+// the MIS state of the vertex before it, so nothing is counted twice.
+// Light through refracting or rough glass arrives by the BSDF samples of
+// the transmitting vertex (and its own light samples for rough
+// transmission), which MIS weighs against its light sampling.
 //
 // Smooth lobes (alpha <= SMOOTH_GGX_ALPHA, bsdf.h) are delta lobes: light
 // sampling cannot reach their direction, so an emitter or the environment

@@ -351,7 +351,12 @@ fn thin_pane_passes_the_suns_light_with_its_straight_through_transmittance() {
     let base = [0.9, 0.7, 0.5];
     for dir in [Vec3::NEG_Y, Vec3::new(0.8, -0.6, 0.0)] {
         let sun = light(LightKind::Directional, Vec3::ZERO, dir, [1.0; 3], 3.0);
-        let with = floor_under_pane(Some(thin_pane(base, 1.5)), &[sun.clone()], None, 4);
+        let with = floor_under_pane(
+            Some(thin_pane(base, 1.5)),
+            std::slice::from_ref(&sun),
+            None,
+            4,
+        );
         let without = floor_under_pane(None, &[sun], None, 4);
         let (mw, sw) = mean_se(&with);
         let (mo, so) = mean_se(&without);
