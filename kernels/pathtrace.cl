@@ -460,10 +460,12 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     bp->thin = volume ? 0.0f : 1.0f;
 }
 
-// Whether a shadow ray may cross a surface of extension `mx`: thin-walled
-// and transmissive (pt_shadow_transmittance then needs it to be smooth).
-inline bool pt_maybe_clear(const PtScene* s, PtMaterialExt mx) {
-    return mx.volume == 0.0f && mx.transmission > 0.0f && (s->frame.flags & FRAME_CLAY) == 0u;
+// Whether a shadow ray may cross a surface of material `m`, extension
+// `mx`: thin-walled, transmissive, and smooth unless a texture may lower
+// its roughness (pt_shadow_transmittance decides at the point).
+inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, PtMaterialExt mx) {
+    return mx.volume == 0.0f && mx.transmission > 0.0f && (s->frame.flags & FRAME_CLAY) == 0u &&
+           (ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0);
 }
 
 // The transmittance of the shadow segment org + t dir, t in (0, tmax),
@@ -497,7 +499,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
     if ((am.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
         ((am.flags & MAT_DOUBLE_SIDED) != 0u ||
          dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f) &&
-        !pt_maybe_clear(s, pt_material_ext(s, a.prim)))
+        !pt_maybe_clear(s, am, pt_material_ext(s, a.prim)))
         return (float3)(0.0f);
 #endif
     float3 d = normalize(dir);
@@ -512,8 +514,8 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         if (blocked) return (float3)(0.0f);
         if (!found) return tr;
         PtMaterialExt mx = pt_material_ext(s, h.prim);
-        if (!pt_maybe_clear(s, mx)) return (float3)(0.0f);
         PtMaterial m = pt_material(s, h.prim);
+        if (!pt_maybe_clear(s, m, mx)) return (float3)(0.0f);
         PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
