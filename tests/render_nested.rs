@@ -413,3 +413,50 @@ fn thin_pane_under_an_area_light_counts_its_light_once() {
     assert!(mo > 0.1);
     assert!(m.abs() < 4.0 * se + 1e-3 * mo, "{m} ± {se}");
 }
+
+/// A sphere facing inward (the cavity of a hollow mesh).
+fn inward_sphere(s: &mut Soup, r: f32, mat: u32) {
+    let mut t = Soup::default();
+    sphere(&mut t, Vec3::ZERO, r, 16, 32, mat);
+    for (tri, &m) in t.positions.chunks(3).zip(&t.material_ids) {
+        s.positions.extend([tri[0], tri[2], tri[1]]);
+        s.material_ids.push(m);
+    }
+}
+
+#[test]
+fn nested_glass_in_a_white_furnace_is_invisible() {
+    // Lossless interfaces conserve radiance once the 1/eta^2 scalings of
+    // the way in and out cancel, which they do only if each interface uses
+    // the relative index the path really crosses: a glass ball in a water
+    // ball, and a glass bowl (hollow ball) full of liquid overlapping its
+    // wall, vanish in a white furnace.
+    let d = common::device();
+    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
+    let mut marble = Soup::default();
+    sphere(&mut marble, Vec3::ZERO, 1.0, 16, 32, 0);
+    sphere(&mut marble, Vec3::ZERO, 0.5, 16, 32, 1);
+    let mut bowl = Soup::default();
+    sphere(&mut bowl, Vec3::ZERO, 1.0, 16, 32, 1);
+    inward_sphere(&mut bowl, 0.85, 1);
+    sphere(&mut bowl, Vec3::ZERO, 0.9, 16, 32, 0);
+    for (name, s) in [("glass in water", marble), ("liquid in glass", bowl)] {
+        let mut st = settings(24, 64);
+        st.max_depth = 128;
+        st.environment = Environment::Color([1.0, 1.0, 1.0]);
+        let t = table(vec![volume(1.33), volume(1.5)]);
+        let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
+        let v: Vec<f64> = out
+            .image
+            .rgba
+            .iter()
+            .filter(|p| p[3] == 1.0)
+            .map(|p| grey(*p))
+            .collect();
+        assert!(v.len() > 150, "{name}: covers {} pixels", v.len());
+        let (m, se) = mean_se(&v);
+        eprintln!("{name} in a white furnace: {m} ± {se}");
+        // 128 bounces: next to no path is cut by the depth limit.
+        assert!((m - 1.0).abs() < 4.0 * se + 0.002, "{name}: {m} ± {se}");
+    }
+}
