@@ -463,9 +463,12 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 // Whether a shadow ray may cross a surface of material `m`, extension
 // `mx`: thin-walled, transmissive, and smooth unless a texture may lower
 // its roughness (pt_shadow_transmittance decides at the point).
-inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, PtMaterialExt mx) {
-    return mx.volume == 0.0f && mx.transmission > 0.0f && (s->frame.flags & FRAME_CLAY) == 0u &&
-           (ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0);
+inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
+    if ((s->frame.flags & FRAME_CLAY) != 0u ||
+        !(ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0))
+        return false;
+    PtMaterialExt mx = pt_material_ext(s, prim);
+    return mx.volume == 0.0f && mx.transmission > 0.0f;
 }
 
 // The transmittance of the shadow segment org + t dir, t in (0, tmax),
@@ -479,8 +482,11 @@ inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, PtMaterialExt mx) {
 // Beer-Lambert attenuation applies over the whole segment.
 inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float tmax, uint medium,
                                       SampleRng rng, uint bounce TEX_DECL) {
-    float3 tr = pt_attenuation(pt_medium_sigma(s, medium), tmax * length(dir));
-    if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
+    float3 tr = (float3)(1.0f);
+    if (medium != NO_MEDIUM) {
+        tr = pt_attenuation(pt_medium_sigma(s, medium), tmax * length(dir));
+        if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
+    }
     Ray r;
     r.org[0] = org.x; r.org[1] = org.y; r.org[2] = org.z;
     r.dir[0] = dir.x; r.dir[1] = dir.y; r.dir[2] = dir.z;
@@ -499,7 +505,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
     if ((am.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
         ((am.flags & MAT_DOUBLE_SIDED) != 0u ||
          dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f) &&
-        !pt_maybe_clear(s, am, pt_material_ext(s, a.prim)))
+        !pt_maybe_clear(s, am, a.prim))
         return (float3)(0.0f);
 #endif
     float3 d = normalize(dir);
@@ -513,9 +519,9 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
             pt_find_surface(s, r, rng, bounce, 1u, &h, &travelled, &blocked, &crossings TEX_PASS);
         if (blocked) return (float3)(0.0f);
         if (!found) return tr;
-        PtMaterialExt mx = pt_material_ext(s, h.prim);
         PtMaterial m = pt_material(s, h.prim);
-        if (!pt_maybe_clear(s, m, mx)) return (float3)(0.0f);
+        if (!pt_maybe_clear(s, m, h.prim)) return (float3)(0.0f);
+        PtMaterialExt mx = pt_material_ext(s, h.prim);
         PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
