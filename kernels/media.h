@@ -98,4 +98,9 @@ inline float media_eta(float ior, float n_other, bool front) {
     return front ? ior / n_other : n_other / ior;
 }
 
+// The interface's normal-incidence reflectance, from the ratio of the two
+// indices (symmetric in them; against air, the material's own F0). Needs
+// bsdf.h's f0_of_ior.
+inline float media_f0(float ior, float n_other) { return f0_of_ior(ior / n_other); }
+
 #endif

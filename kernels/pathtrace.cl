@@ -450,7 +450,7 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
         bp->thin = 1.0f;
         return;
     }
-    bp->f0 = f0_of_ior(mx.ior / n_other);
+    bp->f0 = media_f0(mx.ior, n_other);
     bp->f0_color = fmin((float3)(bp->f0) * (float3)(mx.specular_color[0], mx.specular_color[1],
                                                     mx.specular_color[2]),
                         (float3)(1.0f));

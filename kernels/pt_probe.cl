@@ -153,12 +153,14 @@ __kernel void media_probe(__global const uint* in, __global uint* out, uint n) {
     }
 }
 
-// Per case: ior, index beyond, front (1) or back (0) -> media_eta.
+// Per case: ior, index beyond, front (1) or back (0) -> media_eta,
+// media_f0 (2 floats).
 __kernel void media_eta_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
     const __global float* c = in + (size_t)i * 3u;
-    out[i] = media_eta(c[0], c[1], c[2] != 0.0f);
+    out[2u * i] = media_eta(c[0], c[1], c[2] != 0.0f);
+    out[2u * i + 1u] = media_f0(c[0], c[1]);
 }
 #endif
 

@@ -17,7 +17,7 @@ use soupray::device::Arg;
 use soupray::scene::{LightKind, Material};
 use soupray::soup::Soup;
 use soupray::trace::material::{f0_of_ior, thin_straight_through, BsdfParams, Dielectric};
-use soupray::trace::media::{relative_eta, MediumStack, MEDIUM_STACK};
+use soupray::trace::media::{relative_eta, relative_f0, MediumStack, MEDIUM_STACK};
 use soupray::trace::render::{render_soup, Environment};
 
 /// `media_probe`'s steps per case (MEDIA_PROBE_STEPS).
@@ -120,7 +120,7 @@ fn medium_list_matches_the_reference() {
 }
 
 #[test]
-fn relative_index_matches_the_reference_bit_for_bit() {
+fn relative_index_and_f0_match_the_reference_bit_for_bit() {
     let d = common::device();
     let program = probe_program(&d);
     let k = d.kernel(&program, "media_eta_probe").unwrap();
@@ -133,7 +133,7 @@ fn relative_index_matches_the_reference_bit_for_bit() {
     }
     let n = input.len() / 3;
     let inb = upload(&d, &input);
-    let outb = upload(&d, &vec![0f32; n]);
+    let outb = upload(&d, &vec![0f32; 2 * n]);
     d.launch(
         "probe",
         &k,
@@ -143,15 +143,18 @@ fn relative_index_matches_the_reference_bit_for_bit() {
     )
     .unwrap();
     d.finish().unwrap();
-    let mut got = vec![0f32; n];
+    let mut got = vec![0f32; 2 * n];
     d.read(&outb, &mut got).unwrap();
     for (i, c) in input.chunks(3).enumerate() {
-        let want = relative_eta(c[0], c[1], c[2] != 0.0);
-        assert_eq!(got[i].to_bits(), want.to_bits(), "case {c:?}");
+        let eta = relative_eta(c[0], c[1], c[2] != 0.0);
+        let f0 = relative_f0(c[0], c[1]);
+        assert_eq!(got[2 * i].to_bits(), eta.to_bits(), "eta, case {c:?}");
+        assert_eq!(got[2 * i + 1].to_bits(), f0.to_bits(), "f0, case {c:?}");
     }
-    // Against air, a lone volume's indices exactly.
+    // Against air, a lone volume's indices and F0 exactly.
     assert_eq!(got[0], 1.5);
-    assert_eq!(got[1], 1.0 / 1.5);
+    assert_eq!(got[2], 1.0 / 1.5);
+    assert_eq!(got[1], f0_of_ior(1.5));
     let d = Dielectric::nested(1.5, 1.0, 1.0, true, false);
     assert_eq!(d, Dielectric::new(1.5, 1.0, true, false));
 }

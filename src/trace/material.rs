@@ -220,7 +220,7 @@ impl Dielectric {
         } else {
             1.0
         };
-        let f0 = f0_of_ior(ior / n_other);
+        let f0 = super::media::relative_f0(ior, n_other);
         Dielectric {
             f0,
             f0_color: Vec3::splat(f0),

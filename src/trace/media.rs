@@ -97,6 +97,12 @@ pub fn relative_eta(ior: f32, n_other: f32, front: bool) -> f32 {
     }
 }
 
+/// The interface's normal-incidence reflectance from the ratio of the two
+/// indices (`media_f0`; symmetric in them, against air the material's own).
+pub fn relative_f0(ior: f32, n_other: f32) -> f32 {
+    super::material::f0_of_ior(ior / n_other)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
