@@ -256,6 +256,28 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
     return false;
 }
 
+#ifndef TRAVERSAL_STACKLESS
+// Any surface along `r` (MISS: none), for the shadow rays' common case:
+// a hit on a surface that blocks for certain (pt_blocks_for_certain)
+// settles them; otherwise they take the exact answer, which agrees with
+// it, so the stack and stackless traversals give the same result.
+inline Hit pt_trace_any(PtScene* s, Ray r) {
+    s->rays += 1u;
+#ifdef TRAVERSAL_WIDE
+    return trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
+#else
+    return trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
+#endif
+}
+
+// Whether `prim` (material `m`) blocks a ray along `dir` whatever its
+// texture: opaque, and double-sided or facing the ray.
+inline bool pt_blocks_for_certain(const PtScene* s, PtMaterial m, uint prim, float3 dir) {
+    return (m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
+           ((m.flags & MAT_DOUBLE_SIDED) != 0u || dot(dir, geometric_normal(SGEOM(s), prim)) < 0.0f);
+}
+#endif
+
 #ifndef HAS_TRANSMISSION
 // Whether the segment org + t dir, t in (0, tmax), is blocked (with
 // HAS_TRANSMISSION: pt_shadow_transmittance).
@@ -267,22 +289,9 @@ inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRn
     r.tmin = 0.0f;
     r.tmax = tmax;
 #ifndef TRAVERSAL_STACKLESS
-    // The common case first: any hit on a surface that blocks for certain
-    // (opaque, and double-sided or facing the ray) settles it. Otherwise
-    // the exact answer above; both give the same result, so the stack and
-    // stackless traversals agree.
-    s->rays += 1u;
-#ifdef TRAVERSAL_WIDE
-    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
-#else
-    Hit a = trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
-#endif
+    Hit a = pt_trace_any(s, r);
     if (a.prim == MISS) return false;
-    PtMaterial m = pt_material(s, a.prim);
-    if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
-        ((m.flags & MAT_DOUBLE_SIDED) != 0u ||
-         dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f))
-        return true;
+    if (pt_blocks_for_certain(s, pt_material(s, a.prim), a.prim, dir)) return true;
 #endif
     Hit h;
     float travelled;
@@ -439,7 +448,7 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
 // `n_other` on the surface's other side (for thin-walled surfaces: the
 // volume they are in). F0 comes from the relative index mx.ior / n_other
 // (symmetric in the two indices); against air both are what a lone surface
-// has. Rust twin: trace::material::Dielectric::new.
+// has. Rust twin: trace::material::Dielectric::nested.
 inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume, bool front,
                                  float n_other, BsdfParams* bp) {
     if ((s->frame.flags & FRAME_CLAY) != 0u) {
@@ -460,9 +469,10 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     bp->thin = volume ? 0.0f : 1.0f;
 }
 
-// Whether a shadow ray may cross a surface of material `m`, extension
-// `mx`: thin-walled, transmissive, and smooth unless a texture may lower
-// its roughness (pt_shadow_transmittance decides at the point).
+// Whether a shadow ray may cross `prim` (material `m`): thin-walled,
+// transmissive, and smooth unless a texture may lower its roughness
+// (pt_shadow_transmittance decides at the point). The roughness factor
+// first: the extension is read only where it can matter.
 inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
     if ((s->frame.flags & FRAME_CLAY) != 0u ||
         !(ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0))
@@ -493,19 +503,10 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
     r.tmin = 0.0f;
     r.tmax = tmax;
 #ifndef TRAVERSAL_STACKLESS
-    // As pt_occluded: a hit on a surface that blocks for certain settles it.
-    s->rays += 1u;
-#ifdef TRAVERSAL_WIDE
-    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
-#else
-    Hit a = trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
-#endif
+    Hit a = pt_trace_any(s, r);
     if (a.prim == MISS) return tr;
     PtMaterial am = pt_material(s, a.prim);
-    if ((am.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
-        ((am.flags & MAT_DOUBLE_SIDED) != 0u ||
-         dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f) &&
-        !pt_maybe_clear(s, am, a.prim))
+    if (pt_blocks_for_certain(s, am, a.prim, dir) && !pt_maybe_clear(s, am, a.prim))
         return (float3)(0.0f);
 #endif
     float3 d = normalize(dir);
