@@ -405,6 +405,17 @@ inline bool bsdf_only_delta(BsdfParams p) {
     return !(p.base.x > 0.0f || p.base.y > 0.0f || p.base.z > 0.0f);
 }
 
+#ifdef HAS_TRANSMISSION
+// The smooth thin-walled transmission lobe's reflectance (straight
+// through, unbent) at outgoing cosine c: what bsdf_sample's delta lobe
+// carries, and what a shadow ray crossing such a surface keeps.
+inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
+    float weight = (1.0f - p.metallic) * p.transmission;
+    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, c));
+    return p.base * (weight * (1.0f - fd));
+}
+#endif
+
 // Samples wi for wo: returns false when no direction is produced (it
 // would lie below the surface). `lobe_u` picks the lobe; `delta_out` says
 // whether wi came from a delta lobe (f and pdf as described at the top).
@@ -427,8 +438,7 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
                 float weight = (1.0f - p.metallic) * p.transmission;
                 if (p.thin != 0.0f) {
                     wi = -wo;
-                    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, wo.z));
-                    value = p.base * (weight * (1.0f - fd));
+                    value = bsdf_thin_straight_through(p, wo.z);
                 } else {
                     float c = wo.z;
                     float s2t = fmax(1.0f - c * c, 0.0f) / (p.eta * p.eta);

@@ -25,15 +25,20 @@
 // ends the path; light sampling does not aim at it.
 //
 // Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
-// continues from just below it. Entering a volume material through its
-// front face starts attenuation by its coefficient (Beer-Lambert over each
-// segment's length), leaving through a back face ends it; one medium at a
-// time (a path entering a second volume takes that one's coefficient, and
-// relative indices assume the outside is air). Shadow rays are blocked by
-// transmissive surfaces like any other: light reaches through them by the
-// BSDF samples of the transmitting vertex (and that vertex's own light
-// samples for rough transmission), which MIS weighs against its light
-// sampling, so no light is counted twice or lost.
+// continues from just below it. The path keeps the list of volumes it is in
+// (media.h: entered through front faces, left through back faces, the most
+// recently entered innermost); the index at an interface is relative to the
+// volume on its other side, each segment is attenuated by the innermost
+// volume's coefficient (Beer-Lambert over its length), and a back face of
+// a volume that is not the innermost is a false interface, crossed
+// unchanged. Shadow rays cross smooth thin-walled transmissive surfaces with
+// their straight-through transmittance (an unbent delta lobe: the shadow
+// ray follows the BSDF sample's path exactly) and are blocked by every
+// other surface; the matching BSDF sample is a null crossing that keeps
+// the MIS state of the vertex before it, so nothing is counted twice.
+// Light through refracting or rough glass arrives by the BSDF samples of
+// the transmitting vertex (and its own light samples for rough
+// transmission), which MIS weighs against its light sampling.
 //
 // Smooth lobes (alpha <= SMOOTH_GGX_ALPHA, bsdf.h) are delta lobes: light
 // sampling cannot reach their direction, so an emitter or the environment
@@ -46,6 +51,9 @@
 #include "sampling.h"
 #include "bsdf.h"
 #include "lights.h"
+#ifdef HAS_TRANSMISSION
+#include "media.h"
+#endif
 #ifdef HAS_TEXTURES
 #include "texture.h"
 #endif
@@ -140,10 +148,28 @@ inline PtMaterial pt_material(const PtScene* s, uint prim) {
 }
 
 #ifdef HAS_TRANSMISSION
-inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
+// The material table's index of `prim`'s material; it also names the
+// volume inside a refracting mesh (media.h).
+inline uint pt_material_index(const PtScene* s, uint prim) {
     uint id = s->material_ids[prim];
     uint last = s->frame.material_count - 1u;
-    return s->material_exts[min(id, last)];
+    return min(id, last);
+}
+
+inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
+    return s->material_exts[pt_material_index(s, prim)];
+}
+
+// A volume's refractive index (NO_MEDIUM: air, 1).
+inline float pt_medium_ior(const PtScene* s, uint medium) {
+    return medium == NO_MEDIUM ? 1.0f : s->material_exts[medium].ior;
+}
+
+// A volume's attenuation coefficient (NO_MEDIUM: none).
+inline float3 pt_medium_sigma(const PtScene* s, uint medium) {
+    if (medium == NO_MEDIUM) return (float3)(0.0f);
+    PtMaterialExt mx = s->material_exts[medium];
+    return (float3)(mx.sigma[0], mx.sigma[1], mx.sigma[2]);
 }
 
 // Beer-Lambert transmittance over `t` for coefficients `sigma` (a zero
@@ -198,11 +224,14 @@ inline bool pt_passes(const PtScene* s, PtMaterial m, uint prim, float u, float 
 // The first surface along `ray` that is not crossed. `kind`: 0 path ray,
 // 1 shadow ray (for the crossing decisions' dimensions). Returns false when
 // the ray escapes; `blocked` is set when the crossing budget ran out.
+// `crossings` counts the segment's crossings so far (in and out), so a
+// shadow ray through thin glass goes on numbering its decisions.
 inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uint kind,
-                            Hit* out, float* travelled, bool* blocked TEX_DECL) {
+                            Hit* out, float* travelled, bool* blocked, uint* crossings TEX_DECL) {
     *blocked = false;
     *travelled = 0.0f;
-    for (uint c = 0u; c < MAX_CROSSINGS; ++c) {
+    for (; *crossings < MAX_CROSSINGS; *crossings = *crossings + 1u) {
+        uint c = *crossings;
         Hit h = pt_trace_closest(s, ray);
         if (h.prim == MISS) return false;
         float3 dir = (float3)(ray.dir[0], ray.dir[1], ray.dir[2]);
@@ -227,7 +256,31 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
     return false;
 }
 
-// Whether the segment org + t dir, t in (0, tmax), is blocked.
+#ifndef TRAVERSAL_STACKLESS
+// Any surface along `r` (MISS: none), for the shadow rays' common case:
+// a hit on a surface that blocks for certain (pt_blocks_for_certain)
+// settles them; otherwise they take the exact answer, which agrees with
+// it, so the stack and stackless traversals give the same result.
+inline Hit pt_trace_any(PtScene* s, Ray r) {
+    s->rays += 1u;
+#ifdef TRAVERSAL_WIDE
+    return trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
+#else
+    return trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
+#endif
+}
+
+// Whether `prim` (material `m`) blocks a ray along `dir` whatever its
+// texture: opaque, and double-sided or facing the ray.
+inline bool pt_blocks_for_certain(const PtScene* s, PtMaterial m, uint prim, float3 dir) {
+    return (m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
+           ((m.flags & MAT_DOUBLE_SIDED) != 0u || dot(dir, geometric_normal(SGEOM(s), prim)) < 0.0f);
+}
+#endif
+
+#ifndef HAS_TRANSMISSION
+// Whether the segment org + t dir, t in (0, tmax), is blocked (with
+// HAS_TRANSMISSION: pt_shadow_transmittance).
 inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRng rng,
                         uint bounce TEX_DECL) {
     Ray r;
@@ -236,29 +289,19 @@ inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRn
     r.tmin = 0.0f;
     r.tmax = tmax;
 #ifndef TRAVERSAL_STACKLESS
-    // The common case first: any hit on a surface that blocks for certain
-    // (opaque, and double-sided or facing the ray) settles it. Otherwise
-    // the exact answer above; both give the same result, so the stack and
-    // stackless traversals agree.
-    s->rays += 1u;
-#ifdef TRAVERSAL_WIDE
-    Hit a = trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
-#else
-    Hit a = trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
-#endif
+    Hit a = pt_trace_any(s, r);
     if (a.prim == MISS) return false;
-    PtMaterial m = pt_material(s, a.prim);
-    if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
-        ((m.flags & MAT_DOUBLE_SIDED) != 0u ||
-         dot(dir, geometric_normal(SGEOM(s), a.prim)) < 0.0f))
-        return true;
+    if (pt_blocks_for_certain(s, pt_material(s, a.prim), a.prim, dir)) return true;
 #endif
     Hit h;
     float travelled;
     bool blocked;
-    bool found = pt_find_surface(s, r, rng, bounce, 1u, &h, &travelled, &blocked TEX_PASS);
+    uint crossings = 0u;
+    bool found =
+        pt_find_surface(s, r, rng, bounce, 1u, &h, &travelled, &blocked, &crossings TEX_PASS);
     return found || blocked;
 }
+#endif
 
 inline float3 pt_emission(PtMaterial m, float2 uv TEX_DECL) {
     float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
@@ -331,6 +374,10 @@ typedef struct {
     bool front;
 #ifdef HAS_TRANSMISSION
     float3 below; // ray origin for directions below the surface
+    // The volumes (media.h) a light sample's shadow ray travels through
+    // above (on the viewer's side) and below the surface.
+    uint medium_above;
+    uint medium_below;
 #endif
 } PtSurface;
 
@@ -395,6 +442,115 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
     return p;
 }
 
+#ifdef HAS_TRANSMISSION
+// The dielectric extensions' parameters at a surface of extension `mx`
+// (`volume`: refracting, seen from its front or back) with index
+// `n_other` on the surface's other side (for thin-walled surfaces: the
+// volume they are in). F0 comes from the relative index mx.ior / n_other
+// (symmetric in the two indices); against air both are what a lone surface
+// has. Rust twin: trace::material::Dielectric::nested.
+inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume, bool front,
+                                 float n_other, float2 uv, BsdfParams* bp TEX_DECL) {
+    if ((s->frame.flags & FRAME_CLAY) != 0u) {
+        bp->f0 = 0.04f;
+        bp->f0_color = (float3)(0.04f);
+        bp->transmission = 0.0f;
+        bp->eta = 1.0f;
+        bp->thin = 1.0f;
+        return;
+    }
+    float3 specular_color =
+        (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
+    float specular = mx.specular;
+    float transmission = mx.transmission;
+#ifdef HAS_TEXTURES
+    // The extensions' textures scale their factors: transmission by R,
+    // specular by A, the specular colour by RGB (sRGB-decoded).
+    if (mx.transmission_tex >= 0) transmission *= pt_texture(mx.transmission_tex, uv TEX_PASS).x;
+    if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, uv TEX_PASS).w;
+    if (mx.specular_color_tex >= 0)
+        specular_color *= pt_texture(mx.specular_color_tex, uv TEX_PASS).xyz;
+#endif
+    bp->f0 = media_f0(mx.ior, n_other);
+    bp->f0_color = fmin((float3)(bp->f0) * specular_color, (float3)(1.0f));
+    bp->specular = specular;
+    bp->transmission = clamp(transmission, 0.0f, 1.0f);
+    bp->eta = volume ? media_eta(mx.ior, n_other, front) : 1.0f;
+    bp->thin = volume ? 0.0f : 1.0f;
+}
+
+// Whether a shadow ray may cross `prim` (material `m`): thin-walled,
+// transmissive, and smooth unless a texture may lower its roughness
+// (pt_shadow_transmittance decides at the point). The roughness factor
+// first: the extension is read only where it can matter.
+inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
+    if ((s->frame.flags & FRAME_CLAY) != 0u ||
+        !(ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0))
+        return false;
+    PtMaterialExt mx = pt_material_ext(s, prim);
+    return mx.volume == 0.0f && mx.transmission > 0.0f;
+}
+
+// The transmittance of the shadow segment org + t dir, t in (0, tmax),
+// travelling in volume `medium`: 0 where blocked. Smooth thin-walled
+// transmissive surfaces let it through with their straight-through
+// transmittance (bsdf_thin_straight_through, the glTF thin-walled rule:
+// that lobe is a delta lobe that does not bend the ray, so the shadow ray
+// follows exactly the path its BSDF sample would take, and the path
+// tracer counts that sample as a null crossing, pt_path). Refracting
+// surfaces, rough thin ones and opaque ones block. The medium's
+// Beer-Lambert attenuation applies over the whole segment.
+inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float tmax, uint medium,
+                                      SampleRng rng, uint bounce TEX_DECL) {
+    float3 tr = (float3)(1.0f);
+    if (medium != NO_MEDIUM) {
+        tr = pt_attenuation(pt_medium_sigma(s, medium), tmax * length(dir));
+        if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
+    }
+    Ray r;
+    r.org[0] = org.x; r.org[1] = org.y; r.org[2] = org.z;
+    r.dir[0] = dir.x; r.dir[1] = dir.y; r.dir[2] = dir.z;
+    r.tmin = 0.0f;
+    r.tmax = tmax;
+#ifndef TRAVERSAL_STACKLESS
+    Hit a = pt_trace_any(s, r);
+    if (a.prim == MISS) return tr;
+    PtMaterial am = pt_material(s, a.prim);
+    if (pt_blocks_for_certain(s, am, a.prim, dir) && !pt_maybe_clear(s, am, a.prim))
+        return (float3)(0.0f);
+#endif
+    float3 d = normalize(dir);
+    float n_medium = pt_medium_ior(s, medium);
+    uint crossings = 0u;
+    for (;;) {
+        Hit h;
+        float travelled;
+        bool blocked;
+        bool found =
+            pt_find_surface(s, r, rng, bounce, 1u, &h, &travelled, &blocked, &crossings TEX_PASS);
+        if (blocked) return (float3)(0.0f);
+        if (!found) return tr;
+        PtMaterial m = pt_material(s, h.prim);
+        if (!pt_maybe_clear(s, m, h.prim)) return (float3)(0.0f);
+        PtMaterialExt mx = pt_material_ext(s, h.prim);
+        PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
+        float3 albedo;
+        BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
+        pt_dielectric_params(s, mx, false, sf.front, n_medium, sf.uv, &bp TEX_PASS);
+        if (!ggx_smooth(bp.alpha)) return (float3)(0.0f);
+        tr = tr * bsdf_thin_straight_through(bp, dot(-d, sf.ns));
+        if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
+        crossings += 1u;
+        if (crossings >= MAX_CROSSINGS) return (float3)(0.0f);
+        float3 o = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
+        r.org[0] = o.x; r.org[1] = o.y; r.org[2] = o.z;
+        r.tmin = 0.0f;
+        r.tmax = r.tmax - travelled;
+        if (!(r.tmax > 0.0f)) return tr;
+    }
+}
+#endif
+
 // A light sample's contribution at a vertex: the BSDF times the cosine
 // times `contrib` (radiance or irradiance over the sampling pdf), weighted
 // by MIS against the BSDF sample when `light_pdf` > 0 (0: a delta light),
@@ -428,8 +584,14 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
     float3 c = beta * f * (cos_i * w) * contrib;
     if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return (float3)(0.0f);
+#ifdef HAS_TRANSMISSION
+    uint medium = reflected ? sf.medium_above : sf.medium_below;
+    return c * pt_shadow_transmittance(s, above, shadow_dir, shadow_t, medium, rng,
+                                       bounce TEX_PASS);
+#else
     if (pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS)) return (float3)(0.0f);
     return c;
+#endif
 }
 
 // Punctual light `i` at the path's time: with MOTION_BLUR the lights buffer
@@ -583,23 +745,38 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     // direction, so an emitter found along it counts in full (MIS weight 1).
     bool prev_delta = false;
     uint max_depth = s->frame.max_depth;
+    // Scattering vertices so far: `bounce` also counts null crossings (false
+    // interfaces, thin glass's straight-through lobe), which keep the MIS
+    // state of the vertex before them and count towards no limit but
+    // MAX_CROSSINGS.
+    uint depth = 0u;
 #ifdef HAS_TRANSMISSION
-    // The attenuation coefficient of the volume the path is in (0: none).
+    // The volumes the path is in (media.h) and the innermost one's
+    // attenuation coefficient (0: none).
+    PtMedia media = media_empty();
     float3 sigma = (float3)(0.0f);
+    // The distance from the last scattering vertex to this segment's start
+    // (null crossings), for the pdf of light sampling an emitter found.
+    float carried = 0.0f;
 #endif
     for (uint bounce = 0u;; ++bounce) {
         Hit h;
         float travelled;
         bool blocked;
-        bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked TEX_PASS);
+        uint crossings = 0u;
+        bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
+                                     &crossings TEX_PASS);
 #ifdef HAS_TRANSMISSION
         beta = beta * pt_attenuation(sigma, found ? travelled : INFINITY);
+        float reach = carried + travelled;
+#else
+        float reach = travelled;
 #endif
         if (!found) {
             if (!blocked && s->env.kind != ENV_NONE) {
                 float3 le = env_radiance(s->env, s->env_texels, dir);
                 float w = 1.0f;
-                if (bounce > 0u && !prev_delta && s->frame.env_select_pmf > 0.0f) {
+                if (depth > 0u && !prev_delta && s->frame.env_select_pmf > 0.0f) {
                     float pl = s->frame.env_select_pmf *
                                env_pdf(s->env, s->env_marginal, s->env_conditional, dir);
                     w = power_heuristic(prev_pdf, pl);
@@ -610,6 +787,23 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         }
         PtMaterial m = pt_material(s, h.prim);
         PtSurface sf = pt_surface(s, m, h, dir TEX_PASS);
+#ifdef HAS_TRANSMISSION
+        uint mat = pt_material_index(s, h.prim);
+        PtMaterialExt mx = s->material_exts[mat];
+        bool volume = mx.volume != 0.0f;
+        if (volume && !sf.front && media_false_interface(&media, mat)) {
+            // A false interface (media.h): cross it unchanged.
+            media_leave(&media, mat);
+            sigma = pt_medium_sigma(s, media_innermost(&media));
+            carried = reach;
+            if (bounce - depth >= MAX_CROSSINGS) break;
+            float3 o = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
+            ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
+            ray.tmin = 0.0f;
+            ray.tmax = INFINITY;
+            continue;
+        }
+#endif
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
         if (bounce == 0u) {
@@ -621,9 +815,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         if ((m.flags & MAT_EMISSIVE) != 0u) {
             float3 le = pt_emission(m, sf.uv TEX_PASS);
             float w = 1.0f;
-            if (bounce > 0u && !prev_delta) {
+            if (depth > 0u && !prev_delta) {
                 float cos_l = dot(-dir, sf.ng);
-                w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, travelled, cos_l));
+                w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, reach, cos_l));
             }
             out.radiance += beta * le * w;
         }
@@ -633,7 +827,15 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             break;
         }
 #endif
-        if (bounce >= max_depth) break;
+#ifdef HAS_TRANSMISSION
+        // At the depth limit only thin glass's straight-through lobe may
+        // go on (a null crossing, which the vertex before counted on).
+        bool last = depth >= max_depth;
+        if (last && !(mx.volume == 0.0f && mx.transmission > 0.0f)) break;
+#else
+        bool last = false;
+        if (depth >= max_depth) break;
+#endif
 
         float3 wo_w = -dir;
         float3 t, b;
@@ -642,35 +844,13 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
 #ifdef HAS_TRANSMISSION
         sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
-        PtMaterialExt mx = pt_material_ext(s, h.prim);
-        bool volume = mx.volume != 0.0f;
-        if ((s->frame.flags & FRAME_CLAY) != 0u) {
-            bp.f0 = 0.04f;
-            bp.f0_color = (float3)(0.04f);
-            bp.transmission = 0.0f;
-            bp.eta = 1.0f;
-            bp.thin = 1.0f;
-        } else {
-            float3 specular_color =
-                (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
-            float specular = mx.specular;
-            float transmission = mx.transmission;
-#ifdef HAS_TEXTURES
-            // The extensions' textures scale their factors: transmission by
-            // R, specular by A, the specular colour by RGB (sRGB-decoded).
-            if (mx.transmission_tex >= 0)
-                transmission *= pt_texture(mx.transmission_tex, sf.uv TEX_PASS).x;
-            if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, sf.uv TEX_PASS).w;
-            if (mx.specular_color_tex >= 0)
-                specular_color *= pt_texture(mx.specular_color_tex, sf.uv TEX_PASS).xyz;
-#endif
-            bp.f0 = f0_of_ior(mx.ior);
-            bp.f0_color = fmin((float3)(bp.f0) * specular_color, (float3)(1.0f));
-            bp.specular = specular;
-            bp.transmission = clamp(transmission, 0.0f, 1.0f);
-            bp.eta = volume ? (sf.front ? mx.ior : 1.0f / mx.ior) : 1.0f;
-            bp.thin = volume ? 0.0f : 1.0f;
-        }
+        // The indices on the two sides: the volume the path is in, and for a
+        // refracting surface the one beyond it (media.h).
+        uint inner = media_innermost(&media);
+        uint other = volume ? media_other(&media, mat, sf.front) : inner;
+        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other), sf.uv, &bp TEX_PASS);
+        sf.medium_above = inner;
+        sf.medium_below = volume && sf.front ? mat : other;
 #endif
 
         // Next-event estimation: every punctual light when the frame loops
@@ -679,12 +859,12 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // draws no sample, and the sampler's dimensions are fixed per set,
         // so the other sets are unchanged.
         bool only_delta = bsdf_only_delta(bp);
-        if (!only_delta && s->frame.light_loop != 0u) {
+        if (!only_delta && !last && s->frame.light_loop != 0u) {
             for (uint i = 0u; i < s->frame.light_count; ++i)
                 out.radiance += pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
                                                    bounce TEX_PASS);
         }
-        if (!only_delta && s->frame.select_count > 0u) {
+        if (!only_delta && !last && s->frame.select_count > 0u) {
             float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
             uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
             uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
@@ -717,29 +897,47 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         beta = beta * f * (fabs(wi.z) / pdf);
         if (transmitted) {
             above = sf.below;
-            if (volume)
-                sigma = sf.front ? (float3)(mx.sigma[0], mx.sigma[1], mx.sigma[2]) : (float3)(0.0f);
+            if (volume) {
+                if (sf.front)
+                    media_enter(&media, mat);
+                else
+                    media_leave(&media, mat);
+                sigma = pt_medium_sigma(s, media_innermost(&media));
+            }
         }
+        // Smooth thin glass's straight-through lobe is a null crossing: the
+        // shadow rays of the vertex before it cross such glass
+        // (pt_shadow_transmittance), so a light found beyond it is weighed
+        // by MIS against that vertex's light sample (its pdf, its
+        // distance), not counted in full as after a delta bounce.
+        bool scattered = !(delta && transmitted && bp.thin != 0.0f);
+        if (last && scattered) break;
+        carried = scattered ? 0.0f : reach;
+        if (!scattered && bounce - depth >= MAX_CROSSINGS) break;
 #else
         if (dot(wi_w, sf.ng) <= 0.0f) break;
         beta = beta * f * (wi.z / pdf);
+        bool scattered = true;
 #endif
-        prev_pdf = pdf;
-        prev_delta = delta;
-        // Russian roulette from the sixth vertex on (after the fifth
-        // bounce's sample), keeping throughput near 1 where it survives.
-        // Started at the fourth vertex it was the largest source of noise
-        // on the clay scan under a sky: a path ground -> mesh -> ground
-        // became 0 or 2x instead of 0.51, 3.2x the error of starting here
-        // for 0.9% fewer rays (BENCHMARKS.md); Mitsuba 3 starts at the same
-        // depth.
-        if (bounce >= RR_FIRST_BOUNCE) {
-            float q = fmin(fmax(fmax(beta.x, beta.y), beta.z), 1.0f);
-            if (!(q > 0.0f)) break;
-            if (q < 1.0f) {
-                if (ub.w >= q) break;
-                beta = beta / q;
+        if (scattered) {
+            prev_pdf = pdf;
+            prev_delta = delta;
+            // Russian roulette from the sixth vertex on (after the fifth
+            // bounce's sample), keeping throughput near 1 where it survives.
+            // Started at the fourth vertex it was the largest source of noise
+            // on the clay scan under a sky: a path ground -> mesh -> ground
+            // became 0 or 2x instead of 0.51, 3.2x the error of starting here
+            // for 0.9% fewer rays (BENCHMARKS.md); Mitsuba 3 starts at the same
+            // depth.
+            if (depth >= RR_FIRST_BOUNCE) {
+                float q = fmin(fmax(fmax(beta.x, beta.y), beta.z), 1.0f);
+                if (!(q > 0.0f)) break;
+                if (q < 1.0f) {
+                    if (ub.w >= q) break;
+                    beta = beta / q;
+                }
             }
+            depth += 1u;
         }
         dir = wi_w;
         ray.org[0] = above.x; ray.org[1] = above.y; ray.org[2] = above.z;

@@ -9,6 +9,9 @@
 #include "sampling.h"
 #include "bsdf.h"
 #include "lights.h"
+#ifdef HAS_TRANSMISSION
+#include "media.h"
+#endif
 
 #ifndef offsetof
 #define offsetof(T, field) __builtin_offsetof(T, field)
@@ -126,6 +129,42 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
     o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
     o[11] = ok ? spdf : 0.0f;
+}
+
+// The nested dielectrics' list (media.h): per case MEDIA_PROBE_STEPS
+// crossings (material, front: 1 or back: 0) of a transmitting path from
+// outside everything. Out per step: whether it is a false interface (back
+// faces), the volume on the other side, then the innermost volume and the
+// count after the crossing (4 uints).
+#define MEDIA_PROBE_STEPS 16u
+__kernel void media_probe(__global const uint* in, __global uint* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global uint* c = in + (size_t)i * (2u * MEDIA_PROBE_STEPS);
+    __global uint* o = out + (size_t)i * (4u * MEDIA_PROBE_STEPS);
+    PtMedia m = media_empty();
+    for (uint k = 0u; k < MEDIA_PROBE_STEPS; ++k) {
+        uint mat = c[2u * k];
+        bool front = c[2u * k + 1u] != 0u;
+        o[4u * k] = !front && media_false_interface(&m, mat) ? 1u : 0u;
+        o[4u * k + 1u] = media_other(&m, mat, front);
+        if (front)
+            media_enter(&m, mat);
+        else
+            media_leave(&m, mat);
+        o[4u * k + 2u] = media_innermost(&m);
+        o[4u * k + 3u] = m.count;
+    }
+}
+
+// Per case: ior, index beyond, front (1) or back (0) -> media_eta,
+// media_f0 (2 floats).
+__kernel void media_eta_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 3u;
+    out[2u * i] = media_eta(c[0], c[1], c[2] != 0.0f);
+    out[2u * i + 1u] = media_f0(c[0], c[1]);
 }
 #endif
 

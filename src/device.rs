@@ -55,6 +55,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     ("ggx_energy.h", include_str!("../kernels/ggx_energy.h")),
     ("bsdf.h", include_str!("../kernels/bsdf.h")),
     ("lights.h", include_str!("../kernels/lights.h")),
+    ("media.h", include_str!("../kernels/media.h")),
     ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
     ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
     ("motion.h", include_str!("../kernels/motion.h")),

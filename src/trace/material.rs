@@ -207,19 +207,33 @@ pub struct Dielectric {
 }
 
 impl Dielectric {
-    /// For a material of index `ior`, seen from outside (`front`) or
-    /// inside; `volume`: refracting rather than thin-walled.
+    /// For a material of index `ior` in air, seen from outside (`front`)
+    /// or inside; `volume`: refracting rather than thin-walled.
     pub fn new(ior: f32, transmission: f32, volume: bool, front: bool) -> Dielectric {
-        let eta = if !volume {
-            1.0
-        } else if front {
-            ior
+        Dielectric::nested(ior, 1.0, transmission, volume, front)
+    }
+
+    /// With index `n_other` on the surface's other side (for a thin-walled
+    /// surface, the volume it is in; `trace::media`): F0 from the relative
+    /// index `ior / n_other`, and for a volume the relative index
+    /// `media::relative_eta`. Mirrors `pt_dielectric_params` in
+    /// `kernels/pathtrace.cl`.
+    pub fn nested(
+        ior: f32,
+        n_other: f32,
+        transmission: f32,
+        volume: bool,
+        front: bool,
+    ) -> Dielectric {
+        let eta = if volume {
+            super::media::relative_eta(ior, n_other, front)
         } else {
-            1.0 / ior
+            1.0
         };
+        let f0 = super::media::relative_f0(ior, n_other);
         Dielectric {
-            f0: f0_of_ior(ior),
-            f0_color: Vec3::splat(f0_of_ior(ior)),
+            f0,
+            f0_color: Vec3::splat(f0),
             transmission: transmission.clamp(0.0, 1.0),
             eta,
             thin: !volume,
@@ -516,8 +530,7 @@ fn dielectric_sample(
         } else {
             let weight = (1.0 - p.metallic) * d.transmission;
             let (wi, value) = if d.thin {
-                let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, wo.z));
-                (-wo, p.base * (weight * (1.0 - fd)))
+                (-wo, thin_straight_through(p, d, wo.z))
             } else {
                 let c = wo.z;
                 let s2t = (1.0 - c * c).max(0.0) / (d.eta * d.eta);
@@ -751,6 +764,15 @@ pub fn bsdf_only_delta(p: &BsdfParams) -> bool {
         }
     }
     !(p.base.x > 0.0 || p.base.y > 0.0 || p.base.z > 0.0)
+}
+
+/// The smooth thin-walled transmission lobe's reflectance at outgoing
+/// cosine `c` (straight through, unbent): what `bsdf_sample`'s delta lobe
+/// carries, and what a shadow ray crossing such a surface keeps.
+pub fn thin_straight_through(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
+    let weight = (1.0 - p.metallic) * d.transmission;
+    let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, c));
+    p.base * (weight * (1.0 - fd))
 }
 
 /// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.

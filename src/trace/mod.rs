@@ -28,6 +28,7 @@ pub mod escape;
 pub mod intersect;
 pub mod lights;
 pub mod material;
+pub mod media;
 pub mod motion;
 pub mod render;
 pub mod sampling;
