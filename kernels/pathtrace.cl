@@ -1085,15 +1085,30 @@ inline float pt_noise_estimate(float4 color, float4 half_sum, float4 aux) {
     return sqrt(num / den);
 }
 
+// The error below which a pixel stops (Rust twin: film::stop_threshold).
+// Equal-error allocation (`inv_work_ref` 0): `threshold` itself. Time
+// allocation: threshold * sqrt(work / work_ref), `work` the rays the pixel
+// has traced so far. A pixel stops once its error's marginal gain per unit
+// of work, e^2 / work, is below threshold^2 / work_ref: the allocation
+// that minimises the frame's squared error for the work spent gives each
+// pixel samples in proportion to its spread over the square root of its
+// cost per sample, not to its variance.
+inline float pt_stop_threshold(float threshold, uint work, float inv_work_ref) {
+    if (inv_work_ref == 0.0f) return threshold;
+    return threshold * sqrt((float)work * inv_work_ref);
+}
+
 // A convergence check: whether each pixel's estimated error is at or above
-// `threshold`.
+// its stop threshold (pt_stop_threshold).
 __kernel void pt_converge(__global const float4* accum_color, __global const float4* accum_half,
-                          __global const float4* accum_aux, __global uint* unconverged,
-                          float threshold, uint width, uint height) {
+                          __global const float4* accum_aux, __global const uint* ray_counts,
+                          __global uint* unconverged, float threshold, float inv_work_ref,
+                          uint width, uint height) {
     uint i = get_global_id(0);
     if (i >= width * height) return;
     float e = pt_noise_estimate(accum_color[i], accum_half[i], accum_aux[i]);
-    unconverged[i] = e < threshold ? 0u : 1u;
+    float t = pt_stop_threshold(threshold, ray_counts[i], inv_work_ref);
+    unconverged[i] = e < t ? 0u : 1u;
 }
 
 // Grows the unconverged region by a pixel: a pixel keeps sampling while it

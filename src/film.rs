@@ -412,6 +412,25 @@ pub fn noise_estimate(color: [f32; 4], half: [f32; 4], aux: [f32; 4]) -> f32 {
     (num / den).sqrt()
 }
 
+/// The error below which a pixel stops sampling (`pt_stop_threshold` in
+/// kernels/pathtrace.cl, the same float operations). With `inv_work_ref`
+/// 0 (equal-error allocation) it is `threshold` for every pixel; otherwise
+/// (time allocation) `threshold * sqrt(work / work_ref)`, `work` the rays
+/// the pixel has traced and `work_ref` the frame's mean rays per pixel at
+/// the first check. Stopping once e^2 / work < threshold^2 / work_ref
+/// stops a pixel where one more unit of work buys less squared error than
+/// the same unit elsewhere would: the frame's least squared error for its
+/// work, with samples in proportion to a pixel's spread over the square
+/// root of its cost per sample (equal error gives them in proportion to
+/// the variance, the same squared error as uniform sampling for the same
+/// samples on the pixels that have any).
+pub fn stop_threshold(threshold: f32, work: u32, inv_work_ref: f32) -> f32 {
+    if inv_work_ref == 0.0 {
+        return threshold;
+    }
+    threshold * (work as f32 * inv_work_ref).sqrt()
+}
+
 /// How close a frame came to its noise target, for the frame log's `noise`
 /// object.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
@@ -424,9 +443,17 @@ pub struct NoiseStats {
     /// comparable with a relative MSE against a converged reference.
     pub estimated_mean: f64,
     pub estimated_p99: f64,
-    /// Fraction of the pixels whose estimate is below the target (`null`
-    /// without one).
+    /// Fraction of the pixels whose estimate is below their stop threshold
+    /// (`stop_threshold`: the target itself with `allocation` `error`)
+    /// (`null` without a target).
     pub converged_fraction: Option<f64>,
+    /// With a target: how samples were shared (`error`: every pixel to the
+    /// target; `time`: the least squared error for the work, see
+    /// `stop_threshold`); `null` without one.
+    pub allocation: Option<String>,
+    /// With `allocation` `time`: the frame's mean rays per pixel at the
+    /// first convergence check (`work_ref` of `stop_threshold`).
+    pub work_reference: Option<f64>,
     /// Samples taken per pixel.
     pub spp_min: u32,
     pub spp_mean: f64,
@@ -438,8 +465,26 @@ pub struct NoiseStats {
 }
 
 impl NoiseStats {
-    /// From each pixel's estimate and sample count.
+    /// From each pixel's estimate and sample count; a pixel has converged
+    /// when its estimate is below `target`.
     pub fn new(target: Option<f32>, estimates: &[f32], counts: &[u32], stopped: &str) -> Self {
+        let thresholds = target.map(|t| vec![t; estimates.len()]);
+        let mut stats =
+            Self::with_thresholds(target, thresholds.as_deref(), estimates, counts, stopped);
+        stats.allocation = target.map(|_| "error".to_owned());
+        stats
+    }
+
+    /// As `new`, a pixel converged when its estimate is below its own
+    /// stop threshold (`stop_threshold`). `allocation` and
+    /// `work_reference` are left for the caller.
+    pub fn with_thresholds(
+        target: Option<f32>,
+        thresholds: Option<&[f32]>,
+        estimates: &[f32],
+        counts: &[u32],
+        stopped: &str,
+    ) -> Self {
         let mut finite: Vec<f32> = estimates
             .iter()
             .copied()
@@ -459,9 +504,12 @@ impl NoiseStats {
             target,
             estimated_mean: mean,
             estimated_p99: p99,
-            converged_fraction: target.map(|t| {
-                estimates.iter().filter(|&&e| e < t).count() as f64 / estimates.len().max(1) as f64
+            converged_fraction: thresholds.map(|t| {
+                estimates.iter().zip(t).filter(|(e, t)| e < t).count() as f64
+                    / estimates.len().max(1) as f64
             }),
+            allocation: None,
+            work_reference: None,
             spp_min: counts.iter().copied().min().unwrap_or(0),
             spp_mean: counts.iter().map(|&c| c as f64).sum::<f64>() / n,
             spp_max: counts.iter().copied().max().unwrap_or(0),

@@ -532,8 +532,9 @@ pub struct FrameLog {
     /// The frame's estimated error and its samples per pixel
     /// (`film::NoiseStats`): `target` (`--noise-threshold` or null),
     /// `estimated_mean` and `estimated_p99` (relative error of the pixels'
-    /// means), `converged_fraction`, `spp_min`, `spp_mean`, `spp_max`, and
-    /// `stopped` (`threshold`, `max_spp` or `time_limit`).
+    /// means), `converged_fraction`, `allocation` (`time` or `error`) and
+    /// `work_reference` (time allocation's W0), `spp_min`, `spp_mean`,
+    /// `spp_max`, and `stopped` (`threshold`, `max_spp` or `time_limit`).
     pub noise: crate::film::NoiseStats,
     pub camera: CameraLog,
     pub output: OutputLog,

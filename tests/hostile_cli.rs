@@ -500,3 +500,19 @@ fn sigterm_while_loading_a_large_scene_exits_at_once() {
     // so the signal ended the load itself (before, it was only recorded).
     assert!(!out_dir.exists(), "the load finished before the signal");
 }
+
+#[test]
+fn an_unknown_adaptive_allocation_is_a_usage_error() {
+    assert_exit(
+        &soupray(&[
+            "render",
+            &asset("BoxAnimated/BoxAnimated.glb"),
+            "--noise-threshold",
+            "0.05",
+            "--adaptive-allocation",
+            "fastest",
+        ]),
+        2,
+        &["--adaptive-allocation", "fastest", "time", "error"],
+    );
+}

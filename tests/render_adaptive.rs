@@ -12,7 +12,8 @@ use render_support::*;
 use soupray::film::{Aovs, Image};
 use soupray::soup::Soup;
 use soupray::trace::render::{
-    check_counts, render_soup, Adaptive, Environment, PathTracer, RenderSettings, Schedule,
+    check_counts, render_soup, Adaptive, Allocation, Environment, PathTracer, RenderSettings,
+    Schedule,
 };
 
 fn base(size: u32, spp: u32) -> RenderSettings {
@@ -26,6 +27,7 @@ fn adaptive(size: u32, spp: u32, threshold: f32) -> RenderSettings {
     st.adaptive = Some(Adaptive {
         threshold,
         min_spp: 16,
+        allocation: Allocation::Error,
     });
     st.aovs = Aovs {
         sample_count: true,
@@ -185,4 +187,106 @@ fn the_estimate_tracks_the_measured_error() {
             "spp {spp}: estimated {est} vs measured {measured}"
         );
     }
+}
+
+fn time_allocation(size: u32, spp: u32, threshold: f32) -> RenderSettings {
+    let mut st = adaptive(size, spp, threshold);
+    st.adaptive.as_mut().unwrap().allocation = Allocation::Time;
+    st
+}
+
+#[test]
+fn time_allocation_frames_are_identical_whatever_the_schedule() {
+    let d = common::device();
+    let (s, t, lights) = busy_scene();
+    let st = time_allocation(29, 96, 0.03);
+    let mut a = PathTracer::with_materials(&d, &t, &st).unwrap();
+    let one = a.render_soup(&s, &busy_camera(), &lights, 0).unwrap();
+    let mut b = PathTracer::with_materials(&d, &t, &st).unwrap();
+    b.set_schedule(Schedule {
+        samples_per_pass: 5,
+        tile: Some((6, 11)),
+        local_size: 7,
+    });
+    let two = b.render_soup(&s, &busy_camera(), &lights, 0).unwrap();
+    assert_eq!(bits(&one.image), bits(&two.image));
+    assert_eq!(one.image.sample_count, two.image.sample_count);
+    assert_eq!(one.pixel_rays, two.pixel_rays);
+    assert_eq!(one.noise, two.noise);
+    let counts = one.image.sample_count.as_ref().unwrap();
+    assert!(counts.iter().any(|&c| c < 96.0) && counts.iter().any(|&c| c > 16.0));
+}
+
+#[test]
+fn time_allocation_stops_dear_pixels_at_a_higher_error() {
+    // The device decides with pt_stop_threshold from the rays each pixel
+    // traced; its Rust twin (film::stop_threshold) from the same counts and
+    // the logged reference must agree for every pixel that stopped early.
+    // Some of them stopped above T itself: pixels dearer than the frame's
+    // mean at the first check, which equal-error allocation would have
+    // sampled on.
+    let (spp, t) = (128u32, 0.03f32);
+    let out = render(&time_allocation(32, spp, t), 3);
+    let counts = out.image.sample_count.as_ref().unwrap();
+    let noise = out.image.noise.as_ref().unwrap();
+    let work_ref = out.noise.work_reference.expect("time allocation logs it");
+    let total: u64 = out.pixel_rays.iter().map(|&r| r as u64).sum();
+    assert_eq!(total, out.rays);
+    assert!(
+        work_ref >= 16.0 && work_ref <= total as f64 / 1024.0,
+        "{work_ref}"
+    );
+    assert_eq!(out.noise.allocation.as_deref(), Some("time"));
+    let inv = (1.0 / work_ref) as f32;
+    let checks = check_counts(16, spp);
+    let (mut stopped, mut above_t, mut converged) = (0, 0, 0);
+    for ((&c, &e), &w) in counts.iter().zip(noise).zip(&out.pixel_rays) {
+        let c = c as u32;
+        assert!(c == spp || checks.contains(&c), "count {c}");
+        let limit = soupray::film::stop_threshold(t, w, inv);
+        if e < limit {
+            converged += 1;
+        }
+        if c < spp {
+            assert!(
+                e < limit,
+                "a pixel stopped at {c} samples, {w} rays, with estimate {e} >= {limit}"
+            );
+            stopped += 1;
+            if e >= t {
+                above_t += 1;
+            }
+        }
+    }
+    assert!(
+        stopped > 0 && above_t > 0,
+        "{stopped} stopped, {above_t} above T"
+    );
+    let fraction = converged as f64 / counts.len() as f64;
+    assert_eq!(out.noise.converged_fraction, Some(fraction));
+}
+
+#[test]
+fn time_allocation_mean_matches_the_uniform_render() {
+    // As adaptive_mean_matches_the_uniform_render, with the time rule.
+    let uniform = render(&base(48, 256), 11);
+    let adapt = render(&time_allocation(48, 256, 0.015), 11);
+    let (mu, ma) = (image_mean(&uniform.image), image_mean(&adapt.image));
+    assert!(
+        ((ma - mu) / mu).abs() < 5e-3,
+        "adaptive mean {ma} vs uniform {mu} (spp mean {})",
+        adapt.noise.spp_mean
+    );
+    assert!(adapt.noise.spp_mean < 200.0, "{:?}", adapt.noise);
+}
+
+#[test]
+fn stop_threshold_scales_with_the_square_root_of_the_work() {
+    use soupray::film::stop_threshold;
+    // Equal-error allocation: the threshold itself, whatever the work.
+    assert_eq!(stop_threshold(0.05, 12345, 0.0), 0.05);
+    // Time allocation: T at the reference work, 2T at four times it.
+    assert_eq!(stop_threshold(0.05, 100, 0.01), 0.05);
+    assert_eq!(stop_threshold(0.05, 400, 0.01), 0.1);
+    assert_eq!(stop_threshold(0.05, 0, 0.01), 0.0);
 }

@@ -235,6 +235,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
             threshold,
             // The render command's default.
             min_spp: 16.min(spp),
+            allocation: Default::default(),
         }),
         time_limit: None,
         environment: Environment::Default,

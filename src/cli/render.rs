@@ -21,8 +21,8 @@ use crate::scene::{LoadOptions, Projection, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::motion::{motion_steps, MotionSoup};
 use crate::trace::motion::{step_times, Shutter, ShutterPosition};
-use crate::trace::render::Adaptive;
 use crate::trace::render::MotionFrame;
+use crate::trace::render::{Adaptive, Allocation};
 use crate::trace::render::{
     Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
 };
@@ -160,8 +160,10 @@ pub struct RenderArgs {
     )]
     pub spp: u32,
     /// Adaptive sampling: a pixel stops once the estimated relative error of
-    /// its mean is below T (e.g. 0.02; the frame's relative MSE then comes
-    /// out near T^2 or below). Checks run after --min-spp and then at
+    /// its mean is below T (with --adaptive-allocation error, e.g. 0.02:
+    /// the frame's relative MSE then comes out near T^2 or below), or below
+    /// T scaled by the work it has done (time, the default: see there; for
+    /// the same error T is about half). Checks run after --min-spp and then at
     /// steps of half the count so far (16, 24, 32, 48, 72, ...), at fixed
     /// sample counts, so the image stays reproducible bit for bit.
     /// Raise --spp to let hard pixels go further: `--spp 1024
@@ -169,6 +171,21 @@ pub struct RenderArgs {
     /// frame came.
     #[arg(long, value_name = "T", help_heading = "Image")]
     pub noise_threshold: Option<f32>,
+    /// With --noise-threshold: how samples are shared among pixels. `time`
+    /// (the default) gives the least error for the time: a pixel stops once
+    /// its error is below T * sqrt(W / W0), W the rays it has traced and W0
+    /// the frame's mean rays per pixel at the first check, so cheap and
+    /// smooth pixels stop at lower error and dear, noisy ones (long paths
+    /// into crevices) at higher error; the frame reaches a given error
+    /// sooner, with a smaller T than `error` needs. `error` takes every
+    /// pixel to the same error T (Cycles' rule).
+    #[arg(
+        long,
+        default_value = "time",
+        value_name = "KIND",
+        help_heading = "Image"
+    )]
+    pub adaptive_allocation: String,
     /// With --noise-threshold: samples every pixel takes before its first
     /// convergence check.
     #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
@@ -433,11 +450,18 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
     if args.spp == 0 {
         return Err(UsageError("--spp 0: render at least one sample per pixel".into()).into());
     }
+    let allocation: Allocation = args.adaptive_allocation.parse().map_err(|_| {
+        UsageError(format!(
+            "--adaptive-allocation {:?}: use `time` (the default) or `error`",
+            args.adaptive_allocation
+        ))
+    })?;
     let adaptive = match args.noise_threshold {
         None => None,
         Some(t) if t.is_finite() && t > 0.0 => Some(Adaptive {
             threshold: t,
             min_spp: args.min_spp.clamp(1, args.spp),
+            allocation,
         }),
         Some(t) => {
             return Err(UsageError(format!(
@@ -900,6 +924,7 @@ impl<'d> Pipeline<'d> {
                     return Ok(RenderOutput {
                         image: crate::film::Image::new(1, 1, Aovs::NONE),
                         rays: 0,
+                        pixel_rays: Vec::new(),
                         trace_ms: 0.0,
                         noise: Default::default(),
                         warnings: Vec::new(),
@@ -913,6 +938,7 @@ impl<'d> Pipeline<'d> {
                     return Ok(RenderOutput {
                         image: crate::film::Image::new(1, 1, Aovs::NONE),
                         rays: 0,
+                        pixel_rays: Vec::new(),
                         trace_ms: 0.0,
                         noise: Default::default(),
                         warnings: Vec::new(),

@@ -142,7 +142,10 @@ impl Default for RenderSettings {
 }
 
 /// Adaptive sampling: each pixel stops once the estimated relative error
-/// of its mean (`film::noise_estimate`) is below `threshold`.
+/// of its mean (`film::noise_estimate`) is below its stop threshold
+/// (`film::stop_threshold`): `threshold` itself (`Allocation::Error`), or
+/// `threshold` scaled by the square root of the work the pixel has done
+/// against the frame's mean at the first check (`Allocation::Time`).
 ///
 /// Every pixel first takes `min_spp` samples; from then on convergence
 /// checks run at the counts of `check_counts` (fixed sample counts, so the
@@ -153,6 +156,44 @@ impl Default for RenderSettings {
 pub struct Adaptive {
     pub threshold: f32,
     pub min_spp: u32,
+    pub allocation: Allocation,
+}
+
+/// How adaptive sampling shares samples among pixels
+/// (`--adaptive-allocation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Allocation {
+    /// Every pixel to the same estimated error (Cycles' rule): samples in
+    /// proportion to a pixel's variance.
+    Error,
+    /// The least squared error of the frame for its work: samples in
+    /// proportion to a pixel's spread over the square root of its cost
+    /// per sample (the rays it traces), by stopping a pixel once its error
+    /// is below `threshold * sqrt(work / work_ref)`.
+    #[default]
+    Time,
+}
+
+impl Allocation {
+    /// The name in the frame log's `noise.allocation` and on the command
+    /// line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Allocation::Error => "error",
+            Allocation::Time => "time",
+        }
+    }
+}
+
+impl std::str::FromStr for Allocation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Allocation, String> {
+        match s {
+            "error" => Ok(Allocation::Error),
+            "time" => Ok(Allocation::Time),
+            _ => Err(format!("unknown allocation {s:?}: use time or error")),
+        }
+    }
 }
 
 /// The granularity of convergence checks: a multiple of 8 keeps each
@@ -196,6 +237,9 @@ pub struct RenderOutput {
     /// Rays traced: camera, bounce and shadow rays, and continuations
     /// through cut-out or culled surfaces.
     pub rays: u64,
+    /// Rays traced per pixel, row by row (the work `film::stop_threshold`
+    /// weighs a pixel's error by).
+    pub pixel_rays: Vec<u32>,
     /// Device time of the frame's path tracing launches (profiling events).
     pub trace_ms: f64,
     /// The frame's estimated error and samples (the log's `noise`).
@@ -1239,6 +1283,10 @@ impl<'d> PathTracer<'d> {
         // a launch over a mostly converged image costs as much as sampling.
         let mut listed: Option<u32> = None;
         let mut flags = Vec::new();
+        // Time allocation: 1 / the mean rays per pixel at the first check
+        // (0 until then, and for equal-error allocation).
+        let mut inv_work_ref = 0.0f32;
+        let mut work_reference = None;
         while begin < spp {
             if listed == Some(0) {
                 break; // every pixel converged
@@ -1264,7 +1312,19 @@ impl<'d> PathTracer<'d> {
                 motion_steps,
             )?;
             if check {
-                self.enqueue_check(pixels, w, h)?;
+                let time = s.adaptive.map(|a| a.allocation) == Some(Allocation::Time);
+                if time && work_reference.is_none() {
+                    // Once per frame, at the first check: the host sums the
+                    // integer counts, so the reference is exact and the
+                    // same whatever the schedule.
+                    let mut rays = vec![0u32; pixels];
+                    d.read(self.ray_counts.get(), &mut rays)?;
+                    let total: u64 = rays.iter().map(|&r| r as u64).sum();
+                    let mean = total as f64 / pixels.max(1) as f64;
+                    work_reference = Some(mean);
+                    inv_work_ref = if total > 0 { (1.0 / mean) as f32 } else { 0.0 };
+                }
+                self.enqueue_check(pixels, w, h, inv_work_ref)?;
                 flags.resize(pixels, 0u32);
                 d.read(self.active.get(), &mut flags)?;
                 let list: Vec<u32> = (0..pixels as u32)
@@ -1378,15 +1438,26 @@ impl<'d> PathTracer<'d> {
         } else {
             "max_spp"
         };
-        let noise = NoiseStats::new(
+        // Each pixel against its own stop threshold, from the work it had
+        // done when it stopped (a stopped pixel's counts no longer change).
+        let thresholds: Option<Vec<f32>> = s.adaptive.map(|a| {
+            rays.iter()
+                .map(|&r| film::stop_threshold(a.threshold, r, inv_work_ref))
+                .collect()
+        });
+        let mut noise = NoiseStats::with_thresholds(
             s.adaptive.map(|a| a.threshold),
+            thresholds.as_deref(),
             &estimates,
             &counts,
             stopped,
         );
+        noise.allocation = s.adaptive.map(|a| a.allocation.name().to_owned());
+        noise.work_reference = work_reference;
         Ok(RenderOutput {
             image,
             rays: rays.iter().map(|&r| r as u64).sum(),
+            pixel_rays: rays,
             trace_ms,
             noise,
             warnings,
@@ -1525,7 +1596,13 @@ impl<'d> PathTracer<'d> {
 
     /// Queues a convergence check: each pixel's estimate against the
     /// threshold, then the dilation that decides which pixels go on.
-    fn enqueue_check(&self, pixels: usize, w: u32, h: u32) -> Result<(), TraceError> {
+    fn enqueue_check(
+        &self,
+        pixels: usize,
+        w: u32,
+        h: u32,
+        inv_work_ref: f32,
+    ) -> Result<(), TraceError> {
         let d = self.device;
         let threshold = self.settings.adaptive.map_or(0.0, |a| a.threshold);
         d.launch(
@@ -1537,8 +1614,10 @@ impl<'d> PathTracer<'d> {
                 Arg::Buf(self.accum_color.get()),
                 Arg::Buf(self.accum_half.get()),
                 Arg::Buf(self.accum_aux.get()),
+                Arg::Buf(self.ray_counts.get()),
                 Arg::Buf(self.unconverged.get()),
                 Arg::F32(threshold),
+                Arg::F32(inv_work_ref),
                 Arg::U32(w),
                 Arg::U32(h),
             ],
