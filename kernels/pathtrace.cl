@@ -23,6 +23,9 @@
 // material is KHR_materials_unlit: such a surface returns its base colour
 // (factor times texture) to any ray that reaches it, camera or bounce, and
 // ends the path; light sampling does not aim at it.
+// HAS_CLEARCOAT and HAS_SHEEN when some material has a clear coat or a
+// sheen (the layers over the BSDF, bsdf.h); any of the three binds the
+// material-extension table (MATX_DECL).
 //
 // Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
 // continues from just below it. Entering a volume material through its
@@ -89,7 +92,7 @@ typedef struct {
     // The path's time: every triangle, normal and camera is read at it.
     MotionTime mt;
 #endif
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
     const __global PtMaterialExt* material_exts;
 #endif
 } PtScene;
@@ -115,8 +118,9 @@ typedef struct {
 #else
 #define MOTION_DECL
 #endif
-#ifdef HAS_TRANSMISSION
-// The dielectric extensions' table, beside the materials (last argument).
+#ifdef HAS_MATERIAL_EXT
+// The material extensions' table (dielectric, clear coat, sheen), beside
+// the materials.
 #define MATX_DECL , __global const PtMaterialExt* material_exts
 #else
 #define MATX_DECL
@@ -139,12 +143,15 @@ inline PtMaterial pt_material(const PtScene* s, uint prim) {
     return s->materials[min(id, last)];
 }
 
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
 inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
     uint id = s->material_ids[prim];
     uint last = s->frame.material_count - 1u;
     return s->material_exts[min(id, last)];
 }
+#endif
+
+#ifdef HAS_TRANSMISSION
 
 // Beer-Lambert transmittance over `t` for coefficients `sigma` (a zero
 // coefficient transmits everything, even over an infinite segment).
@@ -640,9 +647,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         onb(sf.ns, &t, &b);
         float3 wo = to_local(wo_w, t, b, sf.ns);
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
+#ifdef HAS_MATERIAL_EXT
+        PtMaterialExt mx = pt_material_ext(s, h.prim);
+#endif
 #ifdef HAS_TRANSMISSION
         sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
-        PtMaterialExt mx = pt_material_ext(s, h.prim);
         bool volume = mx.volume != 0.0f;
         if ((s->frame.flags & FRAME_CLAY) != 0u) {
             bp.f0 = 0.04f;
@@ -660,6 +669,19 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             bp.eta = volume ? (sf.front ? mx.ior : 1.0f / mx.ior) : 1.0f;
             bp.thin = volume ? 0.0f : 1.0f;
         }
+#endif
+#ifdef HAS_LAYERS
+        // Clay has neither coat nor sheen.
+        bool layered = (s->frame.flags & FRAME_CLAY) == 0u;
+#endif
+#ifdef HAS_CLEARCOAT
+        bp.clearcoat = layered ? mx.clearcoat : 0.0f;
+        bp.coat_alpha = ggx_alpha(mx.clearcoat_roughness);
+#endif
+#ifdef HAS_SHEEN
+        bp.sheen_color = layered ? (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2])
+                                 : (float3)(0.0f);
+        bp.sheen_roughness = mx.sheen_roughness;
 #endif
 
         // Next-event estimation: every punctual light when the frame loops
@@ -805,7 +827,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.motion_steps = motion_steps;
     s.motion_triangles = motion_triangles;
 #endif
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
     s.material_exts = material_exts;
 #endif
     if (px >= s.frame.width || py >= s.frame.height) return;
