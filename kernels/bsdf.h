@@ -40,6 +40,18 @@
 #ifdef GGX_ENERGY_COMPENSATION
 #include "ggx_energy.h"
 #endif
+#ifdef HAS_SHEEN
+#include "sheen_energy.h"
+#endif
+
+// The coat and sheen layers (HAS_CLEARCOAT, HAS_SHEEN) wrap the base BSDF;
+// the material-extension table is bound when any extension needs it.
+#if defined(HAS_CLEARCOAT) || defined(HAS_SHEEN)
+#define HAS_LAYERS
+#endif
+#if defined(HAS_TRANSMISSION) || defined(HAS_LAYERS)
+#define HAS_MATERIAL_EXT
+#endif
 
 // Material flags (PtMaterial.flags).
 #define MAT_DOUBLE_SIDED 1u
@@ -66,9 +78,8 @@ typedef struct {
     uint pad[3];
 } PtMaterial;
 
-// A material's dielectric extension factors (mirrored by
-// `DeviceMaterialExt`), in a table beside the materials that only
-// HAS_TRANSMISSION kernels take.
+// A material's extension factors (mirrored by `DeviceMaterialExt`), in a
+// table beside the materials that only HAS_MATERIAL_EXT kernels take.
 typedef struct {
     float transmission;
     float ior;
@@ -81,7 +92,11 @@ typedef struct {
     int transmission_tex;
     int specular_tex;
     int specular_color_tex;
-    uint pad;
+    float clearcoat; // KHR_materials_clearcoat clearcoatFactor
+    float clearcoat_roughness; // KHR_materials_clearcoat clearcoatRoughnessFactor
+    float sheen_roughness; // KHR_materials_sheen sheenRoughnessFactor
+    float pad[2];
+    float sheen_color[4]; // KHR_materials_sheen sheenColorFactor, rgb
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
@@ -98,6 +113,14 @@ typedef struct {
     float transmission; // share of the diffuse lobe that transmits
     float eta;          // relative index, far side over wo's side (1: thin)
     float thin;         // 1: thin-walled, transmission unbent
+#endif
+#ifdef HAS_CLEARCOAT
+    float clearcoat;    // clearcoatFactor (0: no coat)
+    float coat_alpha;   // the coat's GGX alpha
+#endif
+#ifdef HAS_SHEEN
+    float3 sheen_color; // sheenColorFactor (black: no sheen)
+    float sheen_roughness;
 #endif
 } BsdfParams;
 
@@ -132,23 +155,29 @@ inline float schlick_weight(float c) {
     return (m2 * m2) * m;
 }
 
+#if defined(GGX_ENERGY_COMPENSATION) || defined(HAS_SHEEN)
+// Bilinear lookup in a 32 x 32 table (row x, column y, both in 0..1);
+// mirrors trace::energy::lut_bilinear.
+inline float lut_bilinear(__constant const float* t, float x01, float y01) {
+    float last = 31.0f;
+    float x = clamp(x01, 0.0f, 1.0f) * last;
+    float y = clamp(y01, 0.0f, 1.0f) * last;
+    uint i0 = min((uint)x, 30u);
+    uint j0 = min((uint)y, 30u);
+    float fx = x - (float)i0;
+    float fy = y - (float)j0;
+    float e00 = t[i0 * 32u + j0];
+    float e10 = t[(i0 + 1u) * 32u + j0];
+    float e01 = t[i0 * 32u + j0 + 1u];
+    float e11 = t[(i0 + 1u) * 32u + j0 + 1u];
+    return (e00 * (1.0f - fx) + e10 * fx) * (1.0f - fy) + (e01 * (1.0f - fx) + e11 * fx) * fy;
+}
+#endif
+
 #ifdef GGX_ENERGY_COMPENSATION
 // The white single-scattering albedo E(alpha, mu), bilinear in (roughness,
 // cosine); mirrors trace::energy::ggx_albedo.
-inline float ggx_albedo(float a, float mu) {
-    float last = (float)(GGX_ENERGY_SIZE - 1u);
-    float x = clamp(sqrt(a), 0.0f, 1.0f) * last;
-    float y = clamp(mu, 0.0f, 1.0f) * last;
-    uint i0 = min((uint)x, GGX_ENERGY_SIZE - 2u);
-    uint j0 = min((uint)y, GGX_ENERGY_SIZE - 2u);
-    float fx = x - (float)i0;
-    float fy = y - (float)j0;
-    float e00 = GGX_ALBEDO[i0 * GGX_ENERGY_SIZE + j0];
-    float e10 = GGX_ALBEDO[(i0 + 1u) * GGX_ENERGY_SIZE + j0];
-    float e01 = GGX_ALBEDO[i0 * GGX_ENERGY_SIZE + j0 + 1u];
-    float e11 = GGX_ALBEDO[(i0 + 1u) * GGX_ENERGY_SIZE + j0 + 1u];
-    return (e00 * (1.0f - fx) + e10 * fx) * (1.0f - fy) + (e01 * (1.0f - fx) + e11 * fx) * fy;
-}
+inline float ggx_albedo(float a, float mu) { return lut_bilinear(GGX_ALBEDO, sqrt(a), mu); }
 #endif
 
 // The probability of sampling the specular lobe, for outgoing cosine `cos_o`.
@@ -276,8 +305,8 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
 }
 #endif
 
-// The BSDF value (without the cosine) for wo, wi in the local frame.
-inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+// The base BSDF's value (without the cosine) for wo, wi in the local frame.
+inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 #ifdef HAS_TRANSMISSION
     return dielectric_eval(p, wo, wi);
 #endif
@@ -337,7 +366,7 @@ inline float dielectric_pdf(BsdfParams p, float3 wo, float3 wi) {
 }
 #endif
 
-inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
+inline float base_bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
 #ifdef HAS_TRANSMISSION
     return dielectric_pdf(p, wo, wi);
 #endif
@@ -396,7 +425,7 @@ inline float3 smooth_reflectance(BsdfParams p, float c) {
 
 // True when every lobe of the material is a delta lobe, so bsdf_eval is 0
 // for every pair of directions and light sampling can be skipped.
-inline bool bsdf_only_delta(BsdfParams p) {
+inline bool base_only_delta(BsdfParams p) {
     if (!ggx_smooth(p.alpha)) return false;
     if (p.metallic >= 1.0f) return true;
 #ifdef HAS_TRANSMISSION
@@ -419,8 +448,8 @@ inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
 // Samples wi for wo: returns false when no direction is produced (it
 // would lie below the surface). `lobe_u` picks the lobe; `delta_out` says
 // whether wi came from a delta lobe (f and pdf as described at the top).
-inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                             float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
     *delta_out = false;
     if (wo.z <= 0.0f) return false;
 #ifdef HAS_TRANSMISSION
@@ -504,6 +533,193 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
         wi = sample_cosine_hemisphere(u1, u2);
     }
     if (wi.z <= 0.0f) return false;
+    float pdf = base_bsdf_pdf(p, wo, wi);
+    if (!(pdf > 0.0f)) return false;
+    *wi_out = wi;
+    *f_out = base_bsdf_eval(p, wo, wi);
+    *pdf_out = pdf;
+    return true;
+}
+
+#ifdef HAS_LAYERS
+// The clear coat and sheen layers over the base (KHR_materials_clearcoat,
+// KHR_materials_sheen), mirroring trace::material's layered_eval, _pdf and
+// _sample: f = (1 - cc Fc(n.v)) (sheen + base * scaling) + cc Fc(n.v) coat.
+// A coat or sheen of weight 0 leaves the base's value unchanged.
+
+#ifdef HAS_CLEARCOAT
+// Schlick's Fresnel of the ior-1.5 coat at the view cosine (fresnel_coat).
+inline float coat_weight(BsdfParams p, float cos_o) {
+    return clamp(p.clearcoat * (0.04f + 0.96f * schlick_weight(cos_o)), 0.0f, 1.0f);
+}
+
+// The coat's white GGX lobe (0 when smooth: a delta lobe), compensated to
+// albedo 1 with GGX_ENERGY_COMPENSATION.
+inline float coat_lobe(BsdfParams p, float3 wo, float3 wi) {
+    if (!(wi.z > 0.0f) || ggx_smooth(p.coat_alpha)) return 0.0f;
+    float3 hv = wo + wi;
+    float hl = length(hv);
+    if (hl == 0.0f) return 0.0f;
+    float3 h = hv / hl;
+    float a = p.coat_alpha;
+    float g2 = 1.0f / ((1.0f + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi.z));
+    float s = (ggx_d(a, h.z) * g2) / ((4.0f * wo.z) * wi.z);
+#ifdef GGX_ENERGY_COMPENSATION
+    return s / ggx_albedo(a, wo.z);
+#else
+    return s;
+#endif
+}
+
+inline float coat_smooth_reflectance(BsdfParams p, float cos_o) {
+    float w = coat_weight(p, cos_o);
+#ifdef GGX_ENERGY_COMPENSATION
+    return w / ggx_albedo(p.coat_alpha, cos_o);
+#else
+    return w;
+#endif
+}
+#endif
+
+#ifdef HAS_SHEEN
+#define SHEEN_MIN_ROUGHNESS 0.07f
+
+inline float sheen_albedo(float r, float mu) { return lut_bilinear(SHEEN_ALBEDO, r, mu); }
+
+inline float sheen_l(float x, float a) {
+    float t = (1.0f - a) * (1.0f - a);
+    float ma = 21.5473f + (25.3245f - 21.5473f) * t;
+    float mb = 3.82987f + (3.32435f - 3.82987f) * t;
+    float mc = 0.19823f + (0.16801f - 0.19823f) * t;
+    float md = -1.9776f + (-1.27393f - -1.9776f) * t;
+    float me = -4.32054f + (-4.85967f - -4.32054f) * t;
+    return (ma / (1.0f + mb * pow(x, mc)) + md * x) + me;
+}
+
+inline float sheen_lambda(float c, float a) {
+    return c < 0.5f ? exp(sheen_l(c, a)) : exp(2.0f * sheen_l(0.5f, a) - sheen_l(1.0f - c, a));
+}
+
+// The white Charlie sheen lobe D V (Estevez and Kulla 2017, the
+// extension's fits), 0 below the surface.
+inline float sheen_lobe(float roughness, float3 wo, float3 wi) {
+    if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
+    float3 hv = wo + wi;
+    float hl = length(hv);
+    if (hl == 0.0f) return 0.0f;
+    float ch = hv.z / hl;
+    float a = fmax(roughness, SHEEN_MIN_ROUGHNESS);
+    float s2 = fmax(1.0f - ch * ch, 0.0f);
+    float d = ((2.0f + 1.0f / a) * pow(s2, 0.5f / a)) * (0.5f * PT_INV_PI);
+    return d / (((1.0f + sheen_lambda(wo.z, a)) + sheen_lambda(wi.z, a)) * ((4.0f * wo.z) * wi.z));
+}
+
+inline float sheen_max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
+
+inline float sheen_probability(BsdfParams p, float cos_o) {
+    return clamp(sheen_max3(p.sheen_color) * sheen_albedo(p.sheen_roughness, cos_o), 0.0f, 1.0f);
+}
+
+// The extension's albedo scaling of the base under the sheen.
+inline float sheen_scaling(BsdfParams p, float cos_o, float cos_i) {
+    float m = sheen_max3(p.sheen_color);
+    return fmin(1.0f - m * sheen_albedo(p.sheen_roughness, cos_o),
+                1.0f - m * sheen_albedo(p.sheen_roughness, cos_i));
+}
+#endif
+
+inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+    if (!(wo.z > 0.0f)) return (float3)(0.0f);
+    float3 under = base_bsdf_eval(p, wo, wi);
+#ifdef HAS_SHEEN
+    under = under * sheen_scaling(p, wo.z, fabs(wi.z)) +
+            p.sheen_color * sheen_lobe(p.sheen_roughness, wo, wi);
+#endif
+#ifdef HAS_CLEARCOAT
+    float wc = coat_weight(p, wo.z);
+    return under * (1.0f - wc) + (float3)(wc * coat_lobe(p, wo, wi));
+#else
+    return under;
+#endif
+}
+
+inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
+    if (!(wo.z > 0.0f)) return 0.0f;
+    float pdf = base_bsdf_pdf(p, wo, wi);
+#ifdef HAS_SHEEN
+    float psh = sheen_probability(p, wo.z);
+    float sheen = wi.z > 0.0f ? 0.5f * PT_INV_PI : 0.0f;
+    pdf = psh * sheen + (1.0f - psh) * pdf;
+#endif
+#ifdef HAS_CLEARCOAT
+    float pc = coat_weight(p, wo.z);
+    float coat = wi.z > 0.0f && pc > 0.0f && !ggx_smooth(p.coat_alpha)
+                     ? ggx_vndf_pdf(p.coat_alpha, wo, wi) : 0.0f;
+    pdf = (1.0f - pc) * pdf + pc * coat;
+#endif
+    return pdf;
+}
+
+inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+    *delta_out = false;
+    if (!(wo.z > 0.0f)) return false;
+    float3 wi;
+    float u = lobe_u;
+    float keep = 1.0f; // the probability of reaching the base's sampler
+    float under_weight = 1.0f; // what scales the base's delta lobes
+    bool chosen = false;
+#ifdef HAS_CLEARCOAT
+    float pc = coat_weight(p, wo.z);
+    if (u < pc) {
+        if (ggx_smooth(p.coat_alpha)) {
+            *wi_out = (float3)(-wo.x, -wo.y, wo.z);
+            *f_out = (float3)(coat_smooth_reflectance(p, wo.z) / wo.z);
+            *pdf_out = pc;
+            *delta_out = true;
+            return true;
+        }
+        float3 h = ggx_sample_vndf(p.coat_alpha, wo, u1, u2);
+        wi = h * (2.0f * dot(wo, h)) - wo;
+        if (!(wi.z > 0.0f)) return false;
+        chosen = true;
+    } else {
+        u = (u - pc) / (1.0f - pc);
+        keep = 1.0f - pc;
+        under_weight = 1.0f - pc;
+    }
+#endif
+#ifdef HAS_SHEEN
+    float psh = sheen_probability(p, wo.z);
+    if (!chosen) {
+        if (u < psh) {
+            wi = sample_uniform_hemisphere(u1, u2);
+            chosen = true;
+        } else {
+            u = (u - psh) / (1.0f - psh);
+            keep = keep * (1.0f - psh);
+        }
+    }
+#endif
+    if (!chosen) {
+        float3 bf;
+        float bpdf;
+        bool bdelta;
+        if (!base_bsdf_sample(p, wo, u, u1, u2, &wi, &bf, &bpdf, &bdelta)) return false;
+        if (bdelta) {
+#ifdef HAS_SHEEN
+            float scale = sheen_scaling(p, wo.z, fabs(wi.z)) * under_weight;
+#else
+            float scale = under_weight;
+#endif
+            *wi_out = wi;
+            *f_out = bf * scale;
+            *pdf_out = bpdf * keep;
+            *delta_out = true;
+            return true;
+        }
+    }
+    if (wi.z == 0.0f) return false;
     float pdf = bsdf_pdf(p, wo, wi);
     if (!(pdf > 0.0f)) return false;
     *wi_out = wi;
@@ -511,5 +727,43 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
     *pdf_out = pdf;
     return true;
 }
+
+// True when every lobe is a delta lobe (see base_only_delta).
+inline bool bsdf_only_delta(BsdfParams p) {
+#ifdef HAS_CLEARCOAT
+    if (p.clearcoat > 0.0f && !ggx_smooth(p.coat_alpha)) return false;
+#endif
+#ifdef HAS_SHEEN
+    if (sheen_max3(p.sheen_color) > 0.0f) return false;
+#endif
+    return base_only_delta(p);
+}
+#else
+// Without layers the BSDF is the base.
+inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_eval(p, wo, wi); }
+inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_pdf(p, wo, wi); }
+inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+    return base_bsdf_sample(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out);
+}
+inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
+#endif
+
+#ifdef HAS_TRANSMISSION
+// What a shadow ray crossing a smooth thin-walled surface keeps: the
+// straight-through lobe as bsdf_sample carries it, under the coat and
+// the sheen (for that lobe wi = -wo, so both cosines are c). Rust twin:
+// trace::material::shadow_straight_through.
+inline float3 bsdf_shadow_straight_through(BsdfParams p, float c) {
+    float3 t = bsdf_thin_straight_through(p, c);
+#ifdef HAS_CLEARCOAT
+    t = t * (1.0f - coat_weight(p, c));
+#endif
+#ifdef HAS_SHEEN
+    t = t * sheen_scaling(p, c, c);
+#endif
+    return t;
+}
+#endif
 
 #endif

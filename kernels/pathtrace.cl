@@ -23,6 +23,9 @@
 // material is KHR_materials_unlit: such a surface returns its base colour
 // (factor times texture) to any ray that reaches it, camera or bounce, and
 // ends the path; light sampling does not aim at it.
+// HAS_CLEARCOAT and HAS_SHEEN when some material has a clear coat or a
+// sheen (the layers over the BSDF, bsdf.h); any of the three binds the
+// material-extension table (MATX_DECL).
 //
 // Transmission (HAS_TRANSMISSION): a BSDF sample below the surface
 // continues from just below it. The path keeps the list of volumes it is in
@@ -97,7 +100,7 @@ typedef struct {
     // The path's time: every triangle, normal and camera is read at it.
     MotionTime mt;
 #endif
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
     const __global PtMaterialExt* material_exts;
 #endif
 } PtScene;
@@ -123,8 +126,9 @@ typedef struct {
 #else
 #define MOTION_DECL
 #endif
-#ifdef HAS_TRANSMISSION
-// The dielectric extensions' table, beside the materials (last argument).
+#ifdef HAS_MATERIAL_EXT
+// The material extensions' table (dielectric, clear coat, sheen), beside
+// the materials.
 #define MATX_DECL , __global const PtMaterialExt* material_exts
 #else
 #define MATX_DECL
@@ -147,7 +151,7 @@ inline PtMaterial pt_material(const PtScene* s, uint prim) {
     return s->materials[min(id, last)];
 }
 
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
 // The material table's index of `prim`'s material; it also names the
 // volume inside a refracting mesh (media.h).
 inline uint pt_material_index(const PtScene* s, uint prim) {
@@ -159,7 +163,9 @@ inline uint pt_material_index(const PtScene* s, uint prim) {
 inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
     return s->material_exts[pt_material_index(s, prim)];
 }
+#endif
 
+#ifdef HAS_TRANSMISSION
 // A volume's refractive index (NO_MEDIUM: air, 1).
 inline float pt_medium_ior(const PtScene* s, uint medium) {
     return medium == NO_MEDIUM ? 1.0f : s->material_exts[medium].ior;
@@ -171,6 +177,9 @@ inline float3 pt_medium_sigma(const PtScene* s, uint medium) {
     PtMaterialExt mx = s->material_exts[medium];
     return (float3)(mx.sigma[0], mx.sigma[1], mx.sigma[2]);
 }
+#endif
+
+#ifdef HAS_TRANSMISSION
 
 // Beer-Lambert transmittance over `t` for coefficients `sigma` (a zero
 // coefficient transmits everything, even over an infinite segment).
@@ -442,6 +451,22 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
     return p;
 }
 
+#ifdef HAS_LAYERS
+// The clear coat and sheen of extension `mx` (clay has neither).
+inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, BsdfParams* bp) {
+    bool layered = (s->frame.flags & FRAME_CLAY) == 0u;
+#ifdef HAS_CLEARCOAT
+    bp->clearcoat = layered ? mx.clearcoat : 0.0f;
+    bp->coat_alpha = ggx_alpha(mx.clearcoat_roughness);
+#endif
+#ifdef HAS_SHEEN
+    bp->sheen_color = layered ? (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2])
+                              : (float3)(0.0f);
+    bp->sheen_roughness = mx.sheen_roughness;
+#endif
+}
+#endif
+
 #ifdef HAS_TRANSMISSION
 // The dielectric extensions' parameters at a surface of extension `mx`
 // (`volume`: refracting, seen from its front or back) with index
@@ -494,7 +519,7 @@ inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
 // The transmittance of the shadow segment org + t dir, t in (0, tmax),
 // travelling in volume `medium`: 0 where blocked. Smooth thin-walled
 // transmissive surfaces let it through with their straight-through
-// transmittance (bsdf_thin_straight_through, the glTF thin-walled rule:
+// transmittance (bsdf_shadow_straight_through, the glTF thin-walled rule:
 // that lobe is a delta lobe that does not bend the ray, so the shadow ray
 // follows exactly the path its BSDF sample would take, and the path
 // tracer counts that sample as a null crossing, pt_path). Refracting
@@ -537,8 +562,11 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
         pt_dielectric_params(s, mx, false, sf.front, n_medium, sf.uv, &bp TEX_PASS);
+#ifdef HAS_LAYERS
+        pt_layer_params(s, mx, &bp);
+#endif
         if (!ggx_smooth(bp.alpha)) return (float3)(0.0f);
-        tr = tr * bsdf_thin_straight_through(bp, dot(-d, sf.ns));
+        tr = tr * bsdf_shadow_straight_through(bp, dot(-d, sf.ns));
         if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
         crossings += 1u;
         if (crossings >= MAX_CROSSINGS) return (float3)(0.0f);
@@ -787,9 +815,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         }
         PtMaterial m = pt_material(s, h.prim);
         PtSurface sf = pt_surface(s, m, h, dir TEX_PASS);
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
         uint mat = pt_material_index(s, h.prim);
         PtMaterialExt mx = s->material_exts[mat];
+#endif
+#ifdef HAS_TRANSMISSION
         bool volume = mx.volume != 0.0f;
         if (volume && !sf.front && media_false_interface(&media, mat)) {
             // A false interface (media.h): cross it unchanged.
@@ -851,6 +881,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other), sf.uv, &bp TEX_PASS);
         sf.medium_above = inner;
         sf.medium_below = volume && sf.front ? mat : other;
+#endif
+#ifdef HAS_LAYERS
+        pt_layer_params(s, mx, &bp);
 #endif
 
         // Next-event estimation: every punctual light when the frame loops
@@ -1014,7 +1047,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.motion_steps = motion_steps;
     s.motion_triangles = motion_triangles;
 #endif
-#ifdef HAS_TRANSMISSION
+#ifdef HAS_MATERIAL_EXT
     s.material_exts = material_exts;
 #endif
     if (px >= s.frame.width || py >= s.frame.height) return;

@@ -84,9 +84,9 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
     o[11] = ok ? spdf : 0.0f;
 }
 
-#ifdef HAS_TRANSMISSION
-// Layout of PtMaterialExt: size, offsets of volume, sigma, the specular
-// colour and the texture bindings.
+#ifdef HAS_MATERIAL_EXT
+// Layout of PtMaterialExt: size, offsets of volume, sigma, specular_color,
+// the texture bindings, clearcoat and sheen_color.
 __kernel void pt_ext_layout_probe(__global uint* out) {
     out[0] = (uint)sizeof(PtMaterialExt);
     out[1] = (uint)offsetof(PtMaterialExt, volume);
@@ -95,7 +95,12 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[4] = (uint)offsetof(PtMaterialExt, transmission_tex);
     out[5] = (uint)offsetof(PtMaterialExt, specular_tex);
     out[6] = (uint)offsetof(PtMaterialExt, specular_color_tex);
+    out[7] = (uint)offsetof(PtMaterialExt, clearcoat);
+    out[8] = (uint)offsetof(PtMaterialExt, sheen_color);
 }
+#endif
+
+#ifdef HAS_TRANSMISSION
 
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,
 // metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
@@ -165,6 +170,54 @@ __kernel void media_eta_probe(__global const float* in, __global float* out, uin
     const __global float* c = in + (size_t)i * 3u;
     out[2u * i] = media_eta(c[0], c[1], c[2] != 0.0f);
     out[2u * i + 1u] = media_f0(c[0], c[1]);
+}
+#endif
+
+#ifdef HAS_LAYERS
+// As bsdf_ext_probe with the coat and sheen layers: per case params (base
+// rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
+// f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb, 0),
+// wo, wi, u: 32 floats (the dielectric ones read only with
+// HAS_TRANSMISSION). Out as bsdf_probe: 12 floats, plus only-delta: 13.
+__kernel void bsdf_layer_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 32u;
+    BsdfParams p;
+    p.base = (float3)(c[0], c[1], c[2]);
+    p.metallic = c[3];
+    p.alpha = c[4];
+    p.specular = c[5];
+#ifdef HAS_TRANSMISSION
+    p.f0 = c[6];
+    p.transmission = c[7];
+    p.eta = c[8];
+    p.thin = c[9];
+    p.f0_color = (float3)(c[6], c[10], c[11]);
+#endif
+#ifdef HAS_CLEARCOAT
+    p.clearcoat = c[12];
+    p.coat_alpha = c[13];
+#endif
+#ifdef HAS_SHEEN
+    p.sheen_roughness = c[14];
+    p.sheen_color = (float3)(c[16], c[17], c[18]);
+#endif
+    float3 wo = (float3)(c[20], c[21], c[22]);
+    float3 wi = (float3)(c[24], c[25], c[26]);
+    __global float* o = out + (size_t)i * 13u;
+    float3 f = bsdf_eval(p, wo, wi);
+    o[0] = f.x; o[1] = f.y; o[2] = f.z;
+    o[3] = bsdf_pdf(p, wo, wi);
+    float3 swi, sf;
+    float spdf;
+    bool delta;
+    bool ok = bsdf_sample(p, wo, c[28], c[29], c[30], &swi, &sf, &spdf, &delta);
+    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
+    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
+    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
+    o[11] = ok ? spdf : 0.0f;
+    o[12] = bsdf_only_delta(p) ? 1.0f : 0.0f;
 }
 #endif
 

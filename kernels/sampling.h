@@ -331,6 +331,15 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
     return (float3)(r * cs.x, r * cs.y, z);
 }
 
+// A uniform direction on the upper hemisphere (pdf 1 / (2 pi));
+// trace::sampling::sample_uniform_hemisphere.
+inline float3 sample_uniform_hemisphere(float u1, float u2) {
+    float z = 1.0f - u1;
+    float r = sqrt(fmax(0.0f, 1.0f - z * z));
+    float2 cs = cos_sin_turns(u2);
+    return (float3)(r * cs.x, r * cs.y, z);
+}
+
 // Uniform barycentrics (b1, b2) on a triangle (the square-root warp).
 inline float2 sample_triangle(float u1, float u2) {
     float s = sqrt(u1);

@@ -552,3 +552,108 @@ fn glass_transmission_and_volume() {
         &["--env-color", "0.5,0.6,0.8", "--max-depth", "12"],
     );
 }
+
+#[test]
+fn clearcoat_over_paint_and_metal() {
+    // KHR_materials_clearcoat: a smooth coat over red diffuse paint, a
+    // rough coat over rough copper, and a coat over black (only the coat's
+    // Fresnel reflects), beside an uncoated red ball, under a sky and a
+    // point light.
+    let dir = tempfile::tempdir().unwrap();
+    let coat = |base: serde_json::Value, cc: f32, r: f32| {
+        json!({
+            "pbrMetallicRoughness": base,
+            "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": cc, "clearcoatRoughnessFactor": r}}
+        })
+    };
+    let red = json!({"baseColorFactor": [0.7, 0.05, 0.05, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.6});
+    let copper = json!({"baseColorFactor": [0.95, 0.64, 0.54, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.5});
+    let black = json!({"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0});
+    let scene = scene_file(
+        dir.path(),
+        "clearcoat",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.6, 0.6, 0.6]),
+            },
+            MeshSpec {
+                geometry: sphere([-1.05, 0.35, 0.0], 0.35, 32),
+                material: json!({"pbrMetallicRoughness": red}),
+            },
+            MeshSpec {
+                geometry: sphere([-0.35, 0.35, 0.0], 0.35, 32),
+                material: coat(red, 1.0, 0.0),
+            },
+            MeshSpec {
+                geometry: sphere([0.35, 0.35, 0.0], 0.35, 32),
+                material: coat(copper, 1.0, 0.3),
+            },
+            MeshSpec {
+                geometry: sphere([1.05, 0.35, 0.0], 0.35, 32),
+                material: coat(black, 1.0, 0.0),
+            },
+        ],
+        [0.0, 1.2, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 15.0}),
+            json!({"translation": [1.5, 3.0, 2.0]}),
+        )],
+    );
+    check(
+        "clearcoat_over_paint_and_metal",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.5,0.6,0.8"],
+    );
+}
+
+#[test]
+fn sheen_over_fabric() {
+    // KHR_materials_sheen: a dark blue velvet (white sheen, low sheen
+    // roughness), a rough sheen over pink cloth, and the same cloth without
+    // sheen, under a sky and a point light behind them (sheen shows at
+    // grazing angles).
+    let dir = tempfile::tempdir().unwrap();
+    let sheen = |base: [f32; 3], color: [f32; 3], r: f32| {
+        json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [base[0], base[1], base[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.9},
+            "extensions": {"KHR_materials_sheen": {"sheenColorFactor": color, "sheenRoughnessFactor": r}}
+        })
+    };
+    let scene = scene_file(
+        dir.path(),
+        "sheen",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.5, 0.5, 0.5]),
+            },
+            MeshSpec {
+                geometry: sphere([-0.8, 0.4, 0.0], 0.4, 32),
+                material: sheen([0.02, 0.02, 0.15], [0.9, 0.9, 1.0], 0.3),
+            },
+            MeshSpec {
+                geometry: sphere([0.0, 0.4, 0.0], 0.4, 32),
+                material: sheen([0.6, 0.3, 0.35], [1.0, 0.8, 0.8], 0.8),
+            },
+            MeshSpec {
+                geometry: sphere([0.8, 0.4, 0.0], 0.4, 32),
+                material: diffuse([0.6, 0.3, 0.35]),
+            },
+        ],
+        [0.0, 1.2, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 20.0}),
+            json!({"translation": [0.0, 2.0, -2.0]}),
+        )],
+    );
+    check(
+        "sheen_over_fabric",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.4,0.45,0.5"],
+    );
+}

@@ -31,7 +31,7 @@ use soupray::device::{assemble_source, build_options, Device, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{motion_defines, pathtrace_defines, Traversal};
+use soupray::trace::render::{motion_defines, pathtrace_defines, Layers, Traversal};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -175,6 +175,10 @@ fn variants() -> Vec<Variant> {
                             transmission,
                             compensation,
                             compensation,
+                            Layers {
+                                clearcoat: compensation,
+                                sheen: compensation,
+                            },
                         );
                         v.push(Variant {
                             entry: "pathtrace.cl",
@@ -243,6 +247,52 @@ fn variants() -> Vec<Variant> {
     v.push(Variant {
         entry: "pt_probe.cl",
         defines: vec![("HAS_TRANSMISSION", "1".to_owned())],
+        codegen: true,
+    });
+    // Each layer alone, with and without the dielectric extensions (the
+    // kernels read only the fields their defines declare).
+    for (clearcoat, sheen) in [(true, false), (false, true)] {
+        for transmission in [false, true] {
+            let layers = Layers { clearcoat, sheen };
+            v.push(Variant {
+                entry: "pathtrace.cl",
+                defines: pathtrace_defines(
+                    Traversal::Wide,
+                    true,
+                    Sampler::default(),
+                    transmission,
+                    false,
+                    false,
+                    layers,
+                ),
+                codegen: true,
+            });
+            let mut probe = vec![(
+                if clearcoat {
+                    "HAS_CLEARCOAT"
+                } else {
+                    "HAS_SHEEN"
+                },
+                "1".to_owned(),
+            )];
+            if transmission {
+                probe.push(("HAS_TRANSMISSION", "1".to_owned()));
+            }
+            v.push(Variant {
+                entry: "pt_probe.cl",
+                defines: probe,
+                codegen: true,
+            });
+        }
+    }
+    v.push(Variant {
+        entry: "pt_probe.cl",
+        defines: vec![
+            ("HAS_CLEARCOAT", "1".to_owned()),
+            ("HAS_SHEEN", "1".to_owned()),
+            ("HAS_TRANSMISSION", "1".to_owned()),
+            ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
+        ],
         codegen: true,
     });
     for entry in [

@@ -9,7 +9,7 @@ mod common;
 mod render_support;
 mod scene_support;
 
-use common::{check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
+use common::{albedo, check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
 use render_support::*;
 use soupray::device::Arg;
@@ -51,10 +51,10 @@ fn material_ext_layout_matches() {
         .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
         .unwrap();
     let k = d.kernel(&program, "pt_ext_layout_probe").unwrap();
-    let out = upload(&d, &[0u32; 7]);
+    let out = upload(&d, &[0u32; 9]);
     d.launch("probe", &k, 1, 1, &[Arg::Buf(&out)]).unwrap();
     d.finish().unwrap();
-    let mut got = [0u32; 7];
+    let mut got = [0u32; 9];
     d.read(&out, &mut got).unwrap();
     use std::mem::{offset_of, size_of};
     assert_eq!(
@@ -67,6 +67,8 @@ fn material_ext_layout_matches() {
             offset_of!(DeviceMaterialExt, transmission_tex) as u32,
             offset_of!(DeviceMaterialExt, specular_tex) as u32,
             offset_of!(DeviceMaterialExt, specular_color_tex) as u32,
+            offset_of!(DeviceMaterialExt, clearcoat) as u32,
+            offset_of!(DeviceMaterialExt, sheen_color) as u32,
         ]
     );
 }
@@ -153,29 +155,6 @@ fn dielectric_bsdf_matches_the_reference() {
     assert!(transmitted > n / 5, "{transmitted} of {n} transmitted");
     assert!(deltas > n / 20, "{deltas} of {n} from delta lobes");
     assert!(only_delta > 0, "no material with only delta lobes");
-}
-
-/// The directional albedo of the reference by stratified sampling of its
-/// own sampler (lobe choice stratified too); transmitted samples are
-/// counted times `scale_t` (eta^2 undoes the radiance scaling of a
-/// refraction, for the energy balance).
-fn albedo(p: &BsdfParams, mu: f32, scale_t: f32) -> f64 {
-    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-    let n = 64;
-    let mut sum = 0.0f64;
-    for l in 0..n {
-        for i in 0..n {
-            for j in 0..n {
-                let lobe = (l as f32 + 0.5) / n as f32;
-                let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                if let Some(s) = bsdf_sample(p, wo, lobe, u1, u2) {
-                    let k = if s.wi.z < 0.0 { scale_t } else { 1.0 };
-                    sum += (s.f.x * s.wi.z.abs() / s.pdf * k) as f64;
-                }
-            }
-        }
-    }
-    sum / (n * n * n) as f64
 }
 
 /// Also checks that the sampler's pdf is the one `bsdf_pdf` gives: the
@@ -585,7 +564,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
     // Only what the scene needs: CesiumMan uses none of the extensions, so
     // its program is built with exactly the defines it had before them.
     use soupray::scene::{LoadOptions, Scene};
-    use soupray::trace::render::{material_features, pathtrace_defines, Traversal};
+    use soupray::trace::render::{material_features, pathtrace_defines, Layers, Traversal};
     use soupray::trace::sampling::Sampler;
     let path = common::repo().join("animations/CesiumMan/CesiumMan.glb");
     let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
@@ -596,11 +575,18 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
         material_features(table, true, false),
         ["metallic_roughness", "textures"]
     );
-    let names: Vec<&str> =
-        pathtrace_defines(Traversal::Wide, true, Sampler::Sobol, false, false, false)
-            .iter()
-            .map(|(n, _)| *n)
-            .collect();
+    let names: Vec<&str> = pathtrace_defines(
+        Traversal::Wide,
+        true,
+        Sampler::Sobol,
+        false,
+        false,
+        false,
+        Layers::of(table),
+    )
+    .iter()
+    .map(|(n, _)| *n)
+    .collect();
     assert_eq!(names, ["STACK_SIZE", "TRAVERSAL_WIDE", "HAS_TEXTURES"]);
 }
 

@@ -16,7 +16,9 @@ use render_support::*;
 use soupray::device::Arg;
 use soupray::scene::{LightKind, Material};
 use soupray::soup::Soup;
-use soupray::trace::material::{f0_of_ior, thin_straight_through, BsdfParams, Dielectric};
+use soupray::trace::material::{
+    f0_of_ior, shadow_straight_through, thin_straight_through, BsdfParams, Dielectric, Layers,
+};
 use soupray::trace::media::{relative_eta, relative_f0, MediumStack, MEDIUM_STACK};
 use soupray::trace::render::{render_soup, Environment};
 
@@ -385,6 +387,46 @@ fn thin_pane_passes_the_suns_light_with_its_straight_through_transmittance() {
         );
         assert!((want - analytic).abs() < 1e-6);
         assert!(mo > 0.1, "floor lit: {mo}");
+        assert!(
+            (mw / mo - analytic).abs() < 1e-4,
+            "ratio {} vs {analytic}",
+            mw / mo
+        );
+    }
+}
+
+#[test]
+fn a_clear_coated_pane_passes_what_its_coat_lets_through() {
+    // The same pane under a smooth clear coat (clearcoatFactor 1): the
+    // shadow ray keeps the straight-through transmittance times the coat's
+    // 1 - Fc(cos), Fc Schlick's at F0 0.04, as the BSDF sample through it
+    // carries (kernels/bsdf.h bsdf_shadow_straight_through).
+    let base = [0.9, 0.7, 0.5];
+    for dir in [Vec3::NEG_Y, Vec3::new(0.8, -0.6, 0.0)] {
+        let sun = light(LightKind::Directional, Vec3::Y * 2.0, dir, [1.0; 3], 3.0);
+        let coated = Material {
+            clearcoat_factor: 1.0,
+            clearcoat_roughness: 0.0,
+            ..thin_pane(base, 1.5)
+        };
+        let with = floor_under_pane(Some(coated), std::slice::from_ref(&sun), None, 4);
+        let without = floor_under_pane(None, &[sun], None, 4);
+        let (mw, mo) = (mean_se(&with).0, mean_se(&without).0);
+        let cos = -dir.normalize().y;
+        let mut p =
+            BsdfParams::new(base, 0.0, 0.0).with_dielectric(Dielectric::new(1.5, 1.0, false, true));
+        p.layers = Some(Layers::new(1.0, 0.0, [0.0; 3], 0.0));
+        let t = shadow_straight_through(&p, p.dielectric.as_ref().unwrap(), cos);
+        let want = (t.x + t.y + t.z) as f64 / 3.0;
+        let schlick = |f0: f64| f0 + (1.0 - f0) * (1.0 - cos as f64).powi(5);
+        let analytic = (0.9 + 0.7 + 0.5) / 3.0
+            * (1.0 - schlick(f0_of_ior(1.5) as f64))
+            * (1.0 - schlick(0.04));
+        eprintln!(
+            "coated pane at cos {cos}: ratio {} (analytic {analytic})",
+            mw / mo
+        );
+        assert!((want - analytic).abs() < 1e-6, "{want} vs {analytic}");
         assert!(
             (mw / mo - analytic).abs() < 1e-4,
             "ratio {} vs {analytic}",

@@ -504,8 +504,9 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                     "KHR_materials_ior": {"ior": 1.33},
                     "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationColor": [0.5, 0.8, 1.0], "attenuationDistance": 3.0},
                     "KHR_materials_clearcoat": {"clearcoatFactor": 1.0}}},
-                {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5},
-                                                  "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}},
+                {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5,
+                                                      "clearcoatRoughnessFactor": 0.25, "clearcoatTexture": {"index": 0}},
+                                                  "KHR_materials_sheen": {"sheenColorFactor": [1, 0.5, 2], "sheenRoughnessFactor": 0.4}}},
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
                                                 "KHR_materials_ior": {"ior": 0.5}}},
                 {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
@@ -537,12 +538,41 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert!(m[4].needs_transmission() && !m[4].has_volume());
     // Out of range: clamped with a warning.
     assert_eq!((m[2].transmission_factor, m[2].ior), (1.0, 1.0));
+    // Clear coat and sheen factors are read (the sheen colour clamped to
+    // 0..1 with a warning); their textures are named as ignored.
+    assert_eq!(
+        (m[0].clearcoat_factor, m[0].clearcoat_roughness),
+        (1.0, 0.0)
+    );
+    assert_eq!(
+        (m[1].clearcoat_factor, m[1].clearcoat_roughness),
+        (0.5, 0.25)
+    );
+    assert_eq!(
+        (m[1].sheen_color, m[1].sheen_roughness),
+        ([1.0, 0.5, 1.0], 0.4)
+    );
+    assert!(m[1].has_clearcoat() && m[1].has_sheen());
+    assert!(!m[2].has_clearcoat() && !m[2].has_sheen());
     let w = scene.warnings();
-    for (ext, first) in [
-        ("KHR_materials_clearcoat", "material 0 \"glass\" and 1 more"),
-        ("KHR_materials_sheen", "material 1 \"paint\""),
-        ("KHR_materials_iridescence", "extensionsUsed"),
-    ] {
+    assert!(
+        w.iter().any(|w| w.contains("material 1 \"paint\"")
+            && w.contains("clearcoatTexture")
+            && w.contains("factor alone")),
+        "{w:?}"
+    );
+    assert!(
+        w.iter().any(|w| w.contains("sheenColorFactor.b 2")),
+        "{w:?}"
+    );
+    for ext in ["KHR_materials_clearcoat", "KHR_materials_sheen"] {
+        assert!(
+            !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
+            "{ext} is rendered: {w:?}"
+        );
+    }
+    {
+        let (ext, first) = ("KHR_materials_iridescence", "extensionsUsed");
         let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
         assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
         assert!(
@@ -559,8 +589,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     // An unsupported material extension that is required is refused.
     let path = b.write(
         json!({
-            "extensionsUsed": ["KHR_materials_clearcoat"],
-            "extensionsRequired": ["KHR_materials_clearcoat"],
+            "extensionsUsed": ["KHR_materials_anisotropy"],
+            "extensionsRequired": ["KHR_materials_anisotropy"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
         }),
@@ -569,9 +599,12 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         true,
     );
     let Err(err) = Scene::load(&path, &LoadOptions::default()) else {
-        panic!("a required KHR_materials_clearcoat is refused");
+        panic!("a required KHR_materials_anisotropy is refused");
     };
-    assert!(err.to_string().contains("KHR_materials_clearcoat"), "{err}");
+    assert!(
+        err.to_string().contains("KHR_materials_anisotropy"),
+        "{err}"
+    );
 }
 
 #[test]

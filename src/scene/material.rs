@@ -3,7 +3,8 @@
 //! KHR_materials_emissive_strength), alpha mode, double-sidedness,
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
-//! and KHR_materials_specular, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! and KHR_materials_specular, with their textures, KHR_materials_clearcoat
+//! and KHR_materials_sheen (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -88,6 +89,14 @@ pub struct Material {
     pub specular_texture: Option<TextureRef>,
     /// KHR_materials_specular `specularColorTexture` (sRGB RGB scales the colour).
     pub specular_color_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat `clearcoatFactor` (0 without it: no coat).
+    pub clearcoat_factor: f32,
+    /// KHR_materials_clearcoat `clearcoatRoughnessFactor` (0 without it).
+    pub clearcoat_roughness: f32,
+    /// KHR_materials_sheen `sheenColorFactor` (black without it: no sheen).
+    pub sheen_color: [f32; 3],
+    /// KHR_materials_sheen `sheenRoughnessFactor` (0 without it).
+    pub sheen_roughness: f32,
 }
 
 impl Default for Material {
@@ -122,6 +131,10 @@ impl Default for Material {
             transmission_texture: None,
             specular_texture: None,
             specular_color_texture: None,
+            clearcoat_factor: 0.0,
+            clearcoat_roughness: 0.0,
+            sheen_color: [0.0; 3],
+            sheen_roughness: 0.0,
         }
     }
 }
@@ -161,6 +174,17 @@ impl Material {
             || self.specular_color_texture.is_some()
     }
 
+    /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
+    pub fn has_clearcoat(&self) -> bool {
+        self.clearcoat_factor > 0.0
+    }
+
+    /// Whether the material has a sheen (`HAS_SHEEN`): a sheen colour of
+    /// black is no layer at all.
+    pub fn has_sheen(&self) -> bool {
+        self.sheen_color.iter().any(|&c| c > 0.0)
+    }
+
     /// Transmissive with a volume: refraction and Beer-Lambert attenuation
     /// inside the mesh, rather than thin-walled straight-through.
     pub fn has_volume(&self) -> bool {
@@ -178,6 +202,8 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_specular",
     "KHR_materials_variants",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -194,14 +220,30 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
             continue;
         };
         let name = m.get("name").and_then(|n| n.as_str()).map(str::to_owned);
-        for ext in exts.keys() {
+        for (ext, body) in exts {
             if !ext.starts_with("KHR_materials_") {
                 continue;
             }
-            // Supported ones are rendered with their textures, except
+            // Supported ones are rendered with their textures (except
             // KHR_materials_volume's thicknessTexture, which a path tracer
-            // does not need: it measures the distance through the mesh.
+            // does not need: it measures the distance through the mesh),
+            // but for the clear coat's and the sheen's.
             if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
+                // The layers' textures are not read yet.
+                for key in [
+                    "clearcoatTexture",
+                    "clearcoatRoughnessTexture",
+                    "clearcoatNormalTexture",
+                    "sheenColorTexture",
+                    "sheenRoughnessTexture",
+                ] {
+                    if body.get(key).is_some() {
+                        warnings.push(format!(
+                            "material {i}{}: {ext} {key} is not supported; the factor alone is used",
+                            name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
+                        ));
+                    }
+                }
                 continue;
             }
             let e = users
@@ -611,6 +653,32 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 i,
                 "KHR_materials_specular",
                 "specularColorTexture",
+            ),
+            clearcoat_factor: number(
+                material_extension(src, i, "KHR_materials_clearcoat"),
+                "clearcoatFactor",
+                0.0,
+            ),
+            clearcoat_roughness: number(
+                material_extension(src, i, "KHR_materials_clearcoat"),
+                "clearcoatRoughnessFactor",
+                0.0,
+            ),
+            sheen_color: {
+                let v = material_extension(src, i, "KHR_materials_sheen")
+                    .and_then(|v| v.get("sheenColorFactor"))
+                    .and_then(|a| a.as_array());
+                let c = |k: usize| {
+                    v.and_then(|a| a.get(k))
+                        .and_then(|x| x.as_f64())
+                        .map_or(0.0, |x| x as f32)
+                };
+                [c(0), c(1), c(2)]
+            },
+            sheen_roughness: number(
+                material_extension(src, i, "KHR_materials_sheen"),
+                "sheenRoughnessFactor",
+                0.0,
             ),
         });
     }

@@ -301,6 +301,29 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     ]) {
         clamp(w, &what, name, c, 0.0, f32::MAX, 1.0);
     }
+    for (v, name) in [
+        (
+            &mut m.clearcoat_factor,
+            "KHR_materials_clearcoat clearcoatFactor",
+        ),
+        (
+            &mut m.clearcoat_roughness,
+            "KHR_materials_clearcoat clearcoatRoughnessFactor",
+        ),
+        (
+            &mut m.sheen_roughness,
+            "KHR_materials_sheen sheenRoughnessFactor",
+        ),
+    ] {
+        clamp(w, &what, name, v, 0.0, 1.0, 0.0);
+    }
+    for (c, name) in m.sheen_color.iter_mut().zip([
+        "KHR_materials_sheen sheenColorFactor.r",
+        "KHR_materials_sheen sheenColorFactor.g",
+        "KHR_materials_sheen sheenColorFactor.b",
+    ]) {
+        clamp(w, &what, name, c, 0.0, 1.0, 0.0);
+    }
     if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
         w.push(format!(
             "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",

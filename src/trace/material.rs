@@ -25,8 +25,10 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::energy::ggx_albedo;
-use super::sampling::{cos_sin_turns, luminance, sample_cosine_hemisphere, INV_PI, PI};
+use super::energy::{ggx_albedo, sheen_albedo};
+use super::sampling::{
+    cos_sin_turns, luminance, sample_cosine_hemisphere, sample_uniform_hemisphere, INV_PI, PI,
+};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 
 pub const MAT_DOUBLE_SIDED: u32 = 1;
@@ -116,9 +118,10 @@ pub fn device_materials(table: &MaterialTable) -> Vec<DeviceMaterial> {
     v
 }
 
-/// `PtMaterialExt` of `kernels/bsdf.h`: a material's dielectric extension
-/// factors, a table beside the materials' that only kernels compiled with
-/// `HAS_TRANSMISSION` read.
+/// `PtMaterialExt` of `kernels/bsdf.h`: a material's extension factors
+/// (dielectric, clear coat, sheen), a table beside the materials' that only
+/// kernels compiled with `HAS_TRANSMISSION`, `HAS_CLEARCOAT` or `HAS_SHEEN`
+/// read.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct DeviceMaterialExt {
@@ -141,10 +144,18 @@ pub struct DeviceMaterialExt {
     pub transmission_tex: i32,
     pub specular_tex: i32,
     pub specular_color_tex: i32,
-    pub pad: u32,
+    /// KHR_materials_clearcoat `clearcoatFactor`.
+    pub clearcoat: f32,
+    /// KHR_materials_clearcoat `clearcoatRoughnessFactor`.
+    pub clearcoat_roughness: f32,
+    /// KHR_materials_sheen `sheenRoughnessFactor`.
+    pub sheen_roughness: f32,
+    pub pad: [f32; 2],
+    /// KHR_materials_sheen `sheenColorFactor` (rgb, 0).
+    pub sheen_color: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 64);
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 96);
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -174,7 +185,11 @@ impl DeviceMaterialExt {
             transmission_tex: -1,
             specular_tex: -1,
             specular_color_tex: -1,
-            pad: 0,
+            clearcoat: m.clearcoat_factor,
+            clearcoat_roughness: m.clearcoat_roughness,
+            sheen_roughness: m.sheen_roughness,
+            pad: [0.0; 2],
+            sheen_color: [m.sheen_color[0], m.sheen_color[1], m.sheen_color[2], 0.0],
         }
     }
 }
@@ -272,6 +287,38 @@ pub struct BsdfParams {
     /// Turquin's multiple-scattering compensation of the GGX reflection
     /// lobes (kernels compiled with `GGX_ENERGY_COMPENSATION`).
     pub energy_compensation: bool,
+    /// The clear coat and sheen layers over the base (kernels compiled
+    /// with `HAS_CLEARCOAT` or `HAS_SHEEN`); `None`: the base alone.
+    pub layers: Option<Layers>,
+}
+
+/// KHR_materials_clearcoat and KHR_materials_sheen at one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layers {
+    /// `clearcoatFactor` (0: no coat).
+    pub clearcoat: f32,
+    /// The coat's GGX alpha (`clearcoatRoughnessFactor` squared).
+    pub coat_alpha: f32,
+    /// `sheenColorFactor` (black: no sheen).
+    pub sheen_color: Vec3,
+    /// `sheenRoughnessFactor`.
+    pub sheen_roughness: f32,
+}
+
+impl Layers {
+    pub fn new(
+        clearcoat: f32,
+        coat_roughness: f32,
+        sheen_color: [f32; 3],
+        sheen_roughness: f32,
+    ) -> Layers {
+        Layers {
+            clearcoat: clearcoat.clamp(0.0, 1.0),
+            coat_alpha: ggx_alpha(coat_roughness),
+            sheen_color: Vec3::from(sheen_color).clamp(Vec3::ZERO, Vec3::ONE),
+            sheen_roughness: sheen_roughness.clamp(0.0, 1.0),
+        }
+    }
 }
 
 pub const MIN_GGX_ALPHA: f32 = 1.0e-3;
@@ -296,6 +343,15 @@ impl BsdfParams {
             specular: 1.0,
             dielectric: None,
             energy_compensation: false,
+            layers: None,
+        }
+    }
+
+    /// With the clear coat and sheen layers.
+    pub fn with_layers(self, l: Layers) -> BsdfParams {
+        BsdfParams {
+            layers: Some(l),
+            ..self
         }
     }
 
@@ -316,6 +372,7 @@ impl BsdfParams {
             specular: 0.0,
             dielectric: None,
             energy_compensation: false,
+            layers: None,
         }
     }
 }
@@ -617,8 +674,8 @@ pub fn spec_probability(p: &BsdfParams, cos_o: f32) -> f32 {
     }
 }
 
-/// The BSDF (without the cosine) for local directions wo, wi (z = normal).
-pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+/// The base BSDF (without the coat and sheen layers).
+fn base_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     if let Some(d) = &p.dielectric {
         return dielectric_eval(p, d, wo, wi);
     }
@@ -668,8 +725,8 @@ fn ggx_vndf_pdf(a: f32, wo: Vec3, wi: Vec3) -> f32 {
     (g1 * ggx_d(a, h.z)) / (4.0 * wo.z)
 }
 
-/// The solid-angle pdf of `bsdf_sample` producing wi.
-pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+/// The pdf of `base_sample`.
+fn base_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
     if let Some(d) = &p.dielectric {
         return dielectric_pdf(p, d, wo, wi);
     }
@@ -749,9 +806,8 @@ pub fn smooth_reflectance(p: &BsdfParams, c: f32) -> Vec3 {
     dielectric * (1.0 - p.metallic) + metal * p.metallic
 }
 
-/// True when every lobe is a delta lobe: `bsdf_eval` is 0 for every pair
-/// of directions, and the path tracer skips light sampling there.
-pub fn bsdf_only_delta(p: &BsdfParams) -> bool {
+/// `bsdf_only_delta` of the base BSDF.
+fn base_only_delta(p: &BsdfParams) -> bool {
     if !ggx_smooth(p.alpha) {
         return false;
     }
@@ -767,16 +823,17 @@ pub fn bsdf_only_delta(p: &BsdfParams) -> bool {
 }
 
 /// The smooth thin-walled transmission lobe's reflectance at outgoing
-/// cosine `c` (straight through, unbent): what `bsdf_sample`'s delta lobe
-/// carries, and what a shadow ray crossing such a surface keeps.
+/// cosine `c` (straight through, unbent): what `base_sample`'s delta lobe
+/// carries. A shadow ray crossing such a surface keeps this times the
+/// layers' scaling of the base (`layered_straight_through`).
 pub fn thin_straight_through(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
     let weight = (1.0 - p.metallic) * d.transmission;
     let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, c));
     p.base * (weight * (1.0 - fd))
 }
 
-/// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.
-pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+/// Samples the base BSDF.
+fn base_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
     if let Some(d) = &p.dielectric {
         return dielectric_sample(p, d, wo, lobe_u, u1, u2);
     }
@@ -802,14 +859,248 @@ pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> O
     if wi.z <= 0.0 {
         return None;
     }
-    let pdf = bsdf_pdf(p, wo, wi);
+    let pdf = base_pdf(p, wo, wi);
     if !(pdf > 0.0) {
         return None;
     }
     Some(BsdfSample {
         wi,
-        f: bsdf_eval(p, wo, wi),
+        f: base_eval(p, wo, wi),
         pdf,
         delta: false,
     })
+}
+
+/// The sheen distribution's roughness floor: the Charlie distribution's
+/// exponent is 1 / roughness (the glTF sample viewer's floor too).
+pub const SHEEN_MIN_ROUGHNESS: f32 = 0.07;
+
+/// The clear coat's Fresnel weight at cosine `c` with the view: Schlick's
+/// for ior 1.5 (the extension's `fresnel_coat` uses N.V, not V.H).
+fn coat_fresnel(c: f32) -> f32 {
+    0.04 + 0.96 * schlick_weight(c)
+}
+
+/// The coat's share `clearcoat * Fc(cos_o)` of what leaves towards wo: the
+/// weight of the coat lobe and the probability of sampling it.
+fn coat_weight(l: &Layers, cos_o: f32) -> f32 {
+    (l.clearcoat * coat_fresnel(cos_o)).clamp(0.0, 1.0)
+}
+
+/// The coat's white GGX lobe D G2 / (4 |n.l| |n.v|) (0 when smooth: a delta
+/// lobe), energy-compensated to albedo 1 (its Fresnel is outside, in the
+/// mix: F0 = 1 in Turquin's factor) with `GGX_ENERGY_COMPENSATION`.
+fn coat_lobe(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> f32 {
+    if !(wi.z > 0.0) || ggx_smooth(l.coat_alpha) {
+        return 0.0;
+    }
+    let hv = wo + wi;
+    let hl = hv.length();
+    if hl == 0.0 {
+        return 0.0;
+    }
+    let h = hv / hl;
+    let a = l.coat_alpha;
+    let g2 = 1.0 / ((1.0 + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi.z));
+    let s = (ggx_d(a, h.z) * g2) / ((4.0 * wo.z) * wi.z);
+    if p.energy_compensation {
+        s / ggx_albedo(a, wo.z)
+    } else {
+        s
+    }
+}
+
+/// The smooth coat's reflectance towards the mirror direction (its lobe
+/// integrated to 1, compensated as `coat_lobe`).
+fn coat_smooth_reflectance(p: &BsdfParams, l: &Layers, cos_o: f32) -> f32 {
+    let w = coat_weight(l, cos_o);
+    if p.energy_compensation {
+        w / ggx_albedo(l.coat_alpha, cos_o)
+    } else {
+        w
+    }
+}
+
+/// The Charlie sheen's Lambda: the extension's fit `l` of Estevez and Kulla.
+fn sheen_l(x: f32, a: f32) -> f32 {
+    let t = (1.0 - a) * (1.0 - a);
+    let mix = |p1: f32, p0: f32| p1 + (p0 - p1) * t;
+    mix(21.5473, 25.3245) / (1.0 + mix(3.82987, 3.32435) * x.powf(mix(0.19823, 0.16801)))
+        + mix(-1.9776, -1.27393) * x
+        + mix(-4.32054, -4.85967)
+}
+
+fn sheen_lambda(c: f32, a: f32) -> f32 {
+    if c < 0.5 {
+        sheen_l(c, a).exp()
+    } else {
+        (2.0 * sheen_l(0.5, a) - sheen_l(1.0 - c, a)).exp()
+    }
+}
+
+/// The white Charlie sheen lobe D V of KHR_materials_sheen (Estevez and
+/// Kulla 2017: D = (2 + 1/a) sin^(1/a)(h) / (2 pi), a = sheen roughness; V
+/// = 1 / ((1 + Lambda(wo) + Lambda(wi)) 4 |n.v| |n.l|)), 0 below.
+pub fn sheen_lobe(roughness: f32, wo: Vec3, wi: Vec3) -> f32 {
+    if !(wo.z > 0.0) || !(wi.z > 0.0) {
+        return 0.0;
+    }
+    let hv = wo + wi;
+    let hl = hv.length();
+    if hl == 0.0 {
+        return 0.0;
+    }
+    let ch = hv.z / hl;
+    let a = roughness.max(SHEEN_MIN_ROUGHNESS);
+    let s2 = (1.0 - ch * ch).max(0.0);
+    let d = ((2.0 + 1.0 / a) * s2.powf(0.5 / a)) * (0.5 * INV_PI);
+    d / (((1.0 + sheen_lambda(wo.z, a)) + sheen_lambda(wi.z, a)) * ((4.0 * wo.z) * wi.z))
+}
+
+/// The sheen's probability of being sampled: its albedo max(colour) E(cos_o).
+fn sheen_probability(l: &Layers, cos_o: f32) -> f32 {
+    (max3(l.sheen_color) * sheen_albedo(l.sheen_roughness, cos_o)).clamp(0.0, 1.0)
+}
+
+/// The extension's albedo scaling of the base under the sheen,
+/// min(1 - max(colour) E(n.v), 1 - max(colour) E(n.l)).
+pub fn sheen_scaling(l: &Layers, cos_o: f32, cos_i: f32) -> f32 {
+    let m = max3(l.sheen_color);
+    (1.0 - m * sheen_albedo(l.sheen_roughness, cos_o))
+        .min(1.0 - m * sheen_albedo(l.sheen_roughness, cos_i))
+}
+
+fn layered_eval(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> Vec3 {
+    if !(wo.z > 0.0) {
+        return Vec3::ZERO;
+    }
+    let base = base_eval(p, wo, wi);
+    let under = base * sheen_scaling(l, wo.z, wi.z.abs())
+        + l.sheen_color * sheen_lobe(l.sheen_roughness, wo, wi);
+    let wc = coat_weight(l, wo.z);
+    under * (1.0 - wc) + Vec3::splat(wc * coat_lobe(p, l, wo, wi))
+}
+
+fn layered_pdf(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> f32 {
+    if !(wo.z > 0.0) {
+        return 0.0;
+    }
+    let pc = coat_weight(l, wo.z);
+    let psh = sheen_probability(l, wo.z);
+    let sheen = if wi.z > 0.0 { 0.5 * INV_PI } else { 0.0 };
+    let coat = if wi.z > 0.0 && pc > 0.0 && !ggx_smooth(l.coat_alpha) {
+        ggx_vndf_pdf(l.coat_alpha, wo, wi)
+    } else {
+        0.0
+    };
+    (1.0 - pc) * (psh * sheen + (1.0 - psh) * base_pdf(p, wo, wi)) + pc * coat
+}
+
+fn layered_sample(
+    p: &BsdfParams,
+    l: &Layers,
+    wo: Vec3,
+    lobe_u: f32,
+    u1: f32,
+    u2: f32,
+) -> Option<BsdfSample> {
+    if !(wo.z > 0.0) {
+        return None;
+    }
+    let pc = coat_weight(l, wo.z);
+    let wi = if lobe_u < pc {
+        if ggx_smooth(l.coat_alpha) {
+            return Some(BsdfSample {
+                wi: Vec3::new(-wo.x, -wo.y, wo.z),
+                f: Vec3::splat(coat_smooth_reflectance(p, l, wo.z) / wo.z),
+                pdf: pc,
+                delta: true,
+            });
+        }
+        let h = ggx_sample_vndf(l.coat_alpha, wo, u1, u2);
+        let wi = h * (2.0 * wo.dot(h)) - wo;
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        wi
+    } else {
+        // The rest of lobe_u picks among the sheen and the base's lobes.
+        let u = (lobe_u - pc) / (1.0 - pc);
+        let psh = sheen_probability(l, wo.z);
+        if u < psh {
+            sample_uniform_hemisphere(u1, u2)
+        } else {
+            let s = base_sample(p, wo, (u - psh) / (1.0 - psh), u1, u2)?;
+            if s.delta {
+                let scale = sheen_scaling(l, wo.z, s.wi.z.abs()) * (1.0 - pc);
+                return Some(BsdfSample {
+                    wi: s.wi,
+                    f: s.f * scale,
+                    pdf: s.pdf * ((1.0 - pc) * (1.0 - psh)),
+                    delta: true,
+                });
+            }
+            s.wi
+        }
+    };
+    if wi.z == 0.0 {
+        return None;
+    }
+    let pdf = layered_pdf(p, l, wo, wi);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    Some(BsdfSample {
+        wi,
+        f: layered_eval(p, l, wo, wi),
+        pdf,
+        delta: false,
+    })
+}
+
+/// What a shadow ray crossing a smooth thin-walled surface keeps
+/// (`bsdf_shadow_straight_through` in kernels/bsdf.h): the straight-through
+/// lobe as `bsdf_sample` carries it, under the coat and the sheen (for that
+/// lobe wi = -wo, so both cosines are `c`).
+pub fn shadow_straight_through(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
+    let t = thin_straight_through(p, d, c);
+    match &p.layers {
+        Some(l) => t * ((1.0 - coat_weight(l, c)) * sheen_scaling(l, c, c)),
+        None => t,
+    }
+}
+
+/// The BSDF (without the cosine) for local directions wo, wi (z = normal):
+/// the base, under the sheen (albedo-scaled), under the clear coat
+/// (`fresnel_coat`: mixed by clearcoat * Fc(n.v)).
+pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+    match &p.layers {
+        Some(l) => layered_eval(p, l, wo, wi),
+        None => base_eval(p, wo, wi),
+    }
+}
+
+/// The solid-angle pdf of `bsdf_sample` producing wi.
+pub fn bsdf_pdf(p: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+    match &p.layers {
+        Some(l) => layered_pdf(p, l, wo, wi),
+        None => base_pdf(p, wo, wi),
+    }
+}
+
+/// Samples wi for wo (`lobe_u` picks the lobe); `None` below the surface.
+pub fn bsdf_sample(p: &BsdfParams, wo: Vec3, lobe_u: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+    match &p.layers {
+        Some(l) => layered_sample(p, l, wo, lobe_u, u1, u2),
+        None => base_sample(p, wo, lobe_u, u1, u2),
+    }
+}
+
+/// True when every lobe is a delta lobe: `bsdf_eval` is 0 for every pair
+/// of directions, and the path tracer skips light sampling there.
+pub fn bsdf_only_delta(p: &BsdfParams) -> bool {
+    let layers_delta = p.layers.is_none_or(|l| {
+        (!(l.clearcoat > 0.0) || ggx_smooth(l.coat_alpha)) && !(max3(l.sheen_color) > 0.0)
+    });
+    layers_delta && base_only_delta(p)
 }

@@ -398,6 +398,7 @@ pub fn pathtrace_defines(
     transmission: bool,
     energy_compensation: bool,
     unlit: bool,
+    layers: Layers,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -420,7 +421,35 @@ pub fn pathtrace_defines(
     if unlit {
         defines.push(("HAS_UNLIT", "1".to_owned()));
     }
+    if layers.clearcoat {
+        defines.push(("HAS_CLEARCOAT", "1".to_owned()));
+    }
+    if layers.sheen {
+        defines.push(("HAS_SHEEN", "1".to_owned()));
+    }
     defines
+}
+
+/// Which layers over the BSDF a program compiles (`HAS_CLEARCOAT`,
+/// `HAS_SHEEN`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Layers {
+    pub clearcoat: bool,
+    pub sheen: bool,
+}
+
+impl Layers {
+    /// The layers some material of `table` has.
+    pub fn of(table: &MaterialTable) -> Layers {
+        Layers {
+            clearcoat: table.materials.iter().any(|m| m.has_clearcoat()),
+            sheen: table.materials.iter().any(|m| m.has_sheen()),
+        }
+    }
+
+    fn any(self) -> bool {
+        self.clearcoat || self.sheen
+    }
 }
 
 /// The defines of `pathtrace.cl`'s motion-blur variant: `base` (from
@@ -468,6 +497,13 @@ pub fn material_features(
     if table.materials.iter().any(|m| m.unlit) {
         v.push("unlit");
     }
+    let layers = Layers::of(table);
+    if layers.clearcoat {
+        v.push("clearcoat");
+    }
+    if layers.sheen {
+        v.push("sheen");
+    }
     v
 }
 
@@ -485,7 +521,8 @@ pub struct PathTracer<'d> {
     material_count: u32,
     any_emissive: bool,
     textures: Option<(TextureSet<'d>, Buffer<TextureBinding>)>,
-    /// The dielectric extensions' table, when compiled in (`HAS_TRANSMISSION`).
+    /// The material extensions' table, when compiled in (`HAS_TRANSMISSION`,
+    /// `HAS_CLEARCOAT`, `HAS_SHEEN`).
     material_exts: Option<Buffer<DeviceMaterialExt>>,
     /// The material features compiled in (`material_features`).
     features: Vec<&'static str>,
@@ -590,7 +627,8 @@ impl<'d> PathTracer<'d> {
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
         // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
         // its texture slots filled below.
-        let mut host_exts = transmission.then(|| device_material_exts(table));
+        let mut host_exts =
+            (transmission || Layers::of(table).any()).then(|| device_material_exts(table));
         // The slots the kernels read: the dielectric ones only where they
         // are compiled in.
         let slots: &[Slot] = if transmission {
@@ -668,6 +706,7 @@ impl<'d> PathTracer<'d> {
             transmission,
             compensation,
             table.materials.iter().any(|m| m.unlit),
+            Layers::of(table),
         );
         let kernels = Kernels::build(device, &defines)?;
 

@@ -319,6 +319,14 @@ pub fn sample_uniform_sphere(u1: f32, u2: f32) -> Vec3 {
     Vec3::new(r * c, r * s, z)
 }
 
+/// A uniform direction on the upper hemisphere (pdf 1 / (2 pi)).
+pub fn sample_uniform_hemisphere(u1: f32, u2: f32) -> Vec3 {
+    let z = 1.0 - u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (c, s) = cos_sin_turns(u2);
+    Vec3::new(r * c, r * s, z)
+}
+
 /// Uniform barycentrics (b1, b2) on a triangle.
 pub fn sample_triangle(u1: f32, u2: f32) -> (f32, f32) {
     let s = u1.sqrt();

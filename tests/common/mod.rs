@@ -169,3 +169,27 @@ pub fn check_bsdf_probe(
         None => assert_eq!(o[4], 0.0, "sample {what}: only the device produced one"),
     }
 }
+
+/// The directional albedo of the Rust reference BSDF at `p` for outgoing
+/// cosine `mu`, by stratified sampling of its own sampler (lobe choice
+/// stratified too); transmitted samples are counted times `scale_t` (eta^2
+/// undoes the radiance scaling of a refraction, for the energy balance).
+pub fn albedo(p: &soupray::trace::material::BsdfParams, mu: f32, scale_t: f32) -> f64 {
+    use soupray::trace::material::bsdf_sample;
+    let wo = glam::Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+    let n = 64;
+    let mut sum = 0.0f64;
+    for l in 0..n {
+        for i in 0..n {
+            for j in 0..n {
+                let lobe = (l as f32 + 0.5) / n as f32;
+                let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                if let Some(s) = bsdf_sample(p, wo, lobe, u1, u2) {
+                    let k = if s.wi.z < 0.0 { scale_t } else { 1.0 };
+                    sum += (s.f.x * s.wi.z.abs() / s.pdf * k) as f64;
+                }
+            }
+        }
+    }
+    sum / (n * n * n) as f64
+}
