@@ -17,10 +17,9 @@
 mod common;
 mod render_support;
 
-use common::{albedo, check_bsdf_probe, upload, BsdfProbeTally, Rng};
+use common::{albedo, check_bsdf_probe, run_probe, BsdfProbeTally, Rng};
 use glam::Vec3;
 use render_support::*;
-use soupray::device::Arg;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::energy::{ggx_albedo, sheen_albedo};
@@ -200,19 +199,7 @@ fn layered_bsdf_matches_the_reference() {
         }
         let program = d.build_program("pt_probe.cl", &defines).unwrap();
         let k = d.kernel(&program, "bsdf_layer_probe").unwrap();
-        let inb = upload(&d, &input);
-        let out = upload(&d, &vec![0.0f32; 13 * n]);
-        d.launch(
-            "probe",
-            &k,
-            n.div_ceil(64),
-            64,
-            &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(n as u32)],
-        )
-        .unwrap();
-        d.finish().unwrap();
-        let mut got = vec![0.0f32; 13 * n];
-        d.read(&out, &mut got).unwrap();
+        let got: Vec<f32> = run_probe(&d, &k, &input, n, 13 * n);
         let mut tally = BsdfProbeTally::default();
         let mut max_rel = 0.0f32;
         for (i, (p, wo, wi, u)) in cases.iter().enumerate() {

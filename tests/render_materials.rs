@@ -9,7 +9,7 @@ mod common;
 mod render_support;
 mod scene_support;
 
-use common::{albedo, check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
+use common::{albedo, check_bsdf_probe, close, run_probe, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
 use render_support::*;
 use soupray::device::Arg;
@@ -126,19 +126,7 @@ fn dielectric_bsdf_matches_the_reference() {
         .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
         .unwrap();
     let k = d.kernel(&program, "bsdf_ext_probe").unwrap();
-    let inb = upload(&d, &input);
-    let out = upload(&d, &vec![0.0f32; 12 * n]);
-    d.launch(
-        "probe",
-        &k,
-        n.div_ceil(64),
-        64,
-        &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(n as u32)],
-    )
-    .unwrap();
-    d.finish().unwrap();
-    let mut got = vec![0.0f32; 12 * n];
-    d.read(&out, &mut got).unwrap();
+    let got: Vec<f32> = run_probe(&d, &k, &input, n, 12 * n);
     let mut tally = BsdfProbeTally::default();
     for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
         let what = format!("case {i} {p:?} wo {wo} wi {wi}");
@@ -520,19 +508,7 @@ fn energy_compensated_bsdf_matches_the_reference() {
                 },
             )
             .unwrap();
-        let inb = upload(&d, &input);
-        let out = upload(&d, &vec![0.0f32; 12 * m]);
-        d.launch(
-            "probe",
-            &k,
-            m.div_ceil(64),
-            64,
-            &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(m as u32)],
-        )
-        .unwrap();
-        d.finish().unwrap();
-        let mut got = vec![0.0f32; 12 * m];
-        d.read(&out, &mut got).unwrap();
+        let got: Vec<f32> = run_probe(&d, &k, &input, m, 12 * m);
         for (i, (p, wo, wi)) in subset.iter().enumerate() {
             let f = bsdf_eval(p, *wo, *wi);
             for c in 0..3 {

@@ -10,10 +10,9 @@
 mod common;
 mod render_support;
 
-use common::{upload, Rng};
+use common::{run_probe, Rng};
 use glam::Vec3;
 use render_support::*;
-use soupray::device::Arg;
 use soupray::scene::{LightKind, Material};
 use soupray::soup::Soup;
 use soupray::trace::material::{
@@ -89,19 +88,7 @@ fn medium_list_matches_the_reference() {
         }
     }
     let n = cases.len();
-    let inb = upload(&d, &input);
-    let outb = upload(&d, &vec![0u32; n * 4 * STEPS]);
-    d.launch(
-        "probe",
-        &k,
-        n.div_ceil(64),
-        64,
-        &[Arg::Buf(&inb), Arg::Buf(&outb), Arg::U32(n as u32)],
-    )
-    .unwrap();
-    d.finish().unwrap();
-    let mut got = vec![0u32; n * 4 * STEPS];
-    d.read(&outb, &mut got).unwrap();
+    let got: Vec<u32> = run_probe(&d, &k, &input, n, n * 4 * STEPS);
     let mut full = 0;
     for (i, c) in cases.iter().enumerate() {
         let want = media_reference(c);
@@ -134,19 +121,7 @@ fn relative_index_and_f0_match_the_reference_bit_for_bit() {
         input.push((rng.f32() < 0.5) as u32 as f32);
     }
     let n = input.len() / 3;
-    let inb = upload(&d, &input);
-    let outb = upload(&d, &vec![0f32; 2 * n]);
-    d.launch(
-        "probe",
-        &k,
-        n.div_ceil(64),
-        64,
-        &[Arg::Buf(&inb), Arg::Buf(&outb), Arg::U32(n as u32)],
-    )
-    .unwrap();
-    d.finish().unwrap();
-    let mut got = vec![0f32; 2 * n];
-    d.read(&outb, &mut got).unwrap();
+    let got: Vec<f32> = run_probe(&d, &k, &input, n, 2 * n);
     for (i, c) in input.chunks(3).enumerate() {
         let eta = relative_eta(c[0], c[1], c[2] != 0.0);
         let f0 = relative_f0(c[0], c[1]);

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{check_bsdf_probe, close, upload, BsdfProbeTally, Rng};
+use common::{check_bsdf_probe, close, run_probe, upload, BsdfProbeTally, Rng};
 use glam::Vec3;
 use soupray::device::{Arg, Device};
 use soupray::scene::{FrameLight, LightKind};
@@ -101,19 +101,7 @@ fn random_numbers(sampler: Sampler, samples: &[u32]) -> (Vec<f32>, Vec<f32>) {
         .unwrap_or_default();
     let program = d.build_program("pt_probe.cl", &defines).unwrap();
     let k = d.kernel(&program, "rng_probe").unwrap();
-    let inb = upload(&d, &input);
-    let out = upload(&d, &vec![0.0f32; n]);
-    d.launch(
-        "probe",
-        &k,
-        n.div_ceil(64),
-        64,
-        &[Arg::Buf(&inb), Arg::Buf(&out), Arg::U32(n as u32)],
-    )
-    .unwrap();
-    d.finish().unwrap();
-    let mut got = vec![0.0f32; n];
-    d.read(&out, &mut got).unwrap();
+    let got: Vec<f32> = run_probe(&d, &k, &input, n, n);
     (got, want)
 }
 

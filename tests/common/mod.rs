@@ -84,6 +84,26 @@ pub fn upload<T: Copy>(d: &Device, v: &[T]) -> opencl3::memory::Buffer<T> {
     b
 }
 
+/// Runs a probe kernel `k(in, out, n)` over `n` cases, one work item each:
+/// uploads `input` and reads `out_len` outputs back.
+pub fn run_probe<I: Copy, O: Copy + Default>(
+    d: &Device,
+    k: &opencl3::kernel::Kernel,
+    input: &[I],
+    n: usize,
+    out_len: usize,
+) -> Vec<O> {
+    use soupray::device::Arg;
+    let inb = upload(d, input);
+    let outb = upload(d, &vec![O::default(); out_len]);
+    let args = [Arg::Buf(&inb), Arg::Buf(&outb), Arg::U32(n as u32)];
+    d.launch("probe", k, n.div_ceil(64), 64, &args).unwrap();
+    d.finish().unwrap();
+    let mut got = vec![O::default(); out_len];
+    d.read(&outb, &mut got).unwrap();
+    got
+}
+
 /// A device value against its Rust twin's, within `rel` (relative) + 1e-6.
 pub fn close(a: f32, b: f32, rel: f32, what: &str) {
     assert!(
