@@ -56,6 +56,23 @@ __kernel void pt_layout_probe(__global uint* out) {
     out[i++] = 0xFFFFFFFFu;
 }
 
+// A BSDF probe's first 12 outputs for `p` at wo, wi, sampling with the
+// random numbers u (lobe, u1, u2): eval rgb, pdf, sampled (ok: 1, or 2
+// from a delta lobe; 0: none), wi xyz, f rgb, pdf.
+inline void probe_bsdf_out(BsdfParams p, float3 wo, float3 wi, float3 u, __global float* o) {
+    float3 f = bsdf_eval(p, wo, wi);
+    o[0] = f.x; o[1] = f.y; o[2] = f.z;
+    o[3] = bsdf_pdf(p, wo, wi);
+    float3 swi, sf;
+    float spdf;
+    bool delta;
+    bool ok = bsdf_sample(p, wo, u.x, u.y, u.z, &swi, &sf, &spdf, &delta);
+    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
+    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
+    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
+    o[11] = ok ? spdf : 0.0f;
+}
+
 // Per case: params (base rgb, metallic, alpha, specular, 0, 0), wo (xyz,
 // 0), wi (xyz, 0), u (lobe, u1, u2, 0): 20 floats. Out per case: eval rgb,
 // pdf, sampled (ok: 1, or 2 from a delta lobe; wi xyz), sampled f rgb, sampled pdf: 12 floats.
@@ -71,17 +88,7 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
     float3 wo = (float3)(c[8], c[9], c[10]);
     float3 wi = (float3)(c[12], c[13], c[14]);
     __global float* o = out + (size_t)i * 12u;
-    float3 f = bsdf_eval(p, wo, wi);
-    o[0] = f.x; o[1] = f.y; o[2] = f.z;
-    o[3] = bsdf_pdf(p, wo, wi);
-    float3 swi, sf;
-    float spdf;
-    bool delta;
-    bool ok = bsdf_sample(p, wo, c[16], c[17], c[18], &swi, &sf, &spdf, &delta);
-    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
-    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
-    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
-    o[11] = ok ? spdf : 0.0f;
+    probe_bsdf_out(p, wo, wi, (float3)(c[16], c[17], c[18]), o);
 }
 
 #ifdef HAS_MATERIAL_EXT
@@ -123,17 +130,7 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     float3 wo = (float3)(c[12], c[13], c[14]);
     float3 wi = (float3)(c[16], c[17], c[18]);
     __global float* o = out + (size_t)i * 12u;
-    float3 f = bsdf_eval(p, wo, wi);
-    o[0] = f.x; o[1] = f.y; o[2] = f.z;
-    o[3] = bsdf_pdf(p, wo, wi);
-    float3 swi, sf;
-    float spdf;
-    bool delta;
-    bool ok = bsdf_sample(p, wo, c[20], c[21], c[22], &swi, &sf, &spdf, &delta);
-    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
-    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
-    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
-    o[11] = ok ? spdf : 0.0f;
+    probe_bsdf_out(p, wo, wi, (float3)(c[20], c[21], c[22]), o);
 }
 
 // The nested dielectrics' list (media.h): per case MEDIA_PROBE_STEPS
@@ -206,17 +203,7 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
     float3 wo = (float3)(c[20], c[21], c[22]);
     float3 wi = (float3)(c[24], c[25], c[26]);
     __global float* o = out + (size_t)i * 13u;
-    float3 f = bsdf_eval(p, wo, wi);
-    o[0] = f.x; o[1] = f.y; o[2] = f.z;
-    o[3] = bsdf_pdf(p, wo, wi);
-    float3 swi, sf;
-    float spdf;
-    bool delta;
-    bool ok = bsdf_sample(p, wo, c[28], c[29], c[30], &swi, &sf, &spdf, &delta);
-    o[4] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
-    o[5] = ok ? swi.x : 0.0f; o[6] = ok ? swi.y : 0.0f; o[7] = ok ? swi.z : 0.0f;
-    o[8] = ok ? sf.x : 0.0f; o[9] = ok ? sf.y : 0.0f; o[10] = ok ? sf.z : 0.0f;
-    o[11] = ok ? spdf : 0.0f;
+    probe_bsdf_out(p, wo, wi, (float3)(c[28], c[29], c[30]), o);
     o[12] = bsdf_only_delta(p) ? 1.0f : 0.0f;
 }
 #endif
