@@ -31,7 +31,7 @@ use soupray::device::{assemble_source, build_options, Device, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{motion_defines, pathtrace_defines, Layers, Traversal};
+use soupray::trace::render::{motion_defines, pathtrace_defines, LayerDefines, Traversal};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -175,7 +175,7 @@ fn variants() -> Vec<Variant> {
                             transmission,
                             compensation,
                             compensation,
-                            Layers {
+                            LayerDefines {
                                 clearcoat: compensation,
                                 sheen: compensation,
                             },
@@ -253,7 +253,7 @@ fn variants() -> Vec<Variant> {
     // kernels read only the fields their defines declare).
     for (clearcoat, sheen) in [(true, false), (false, true)] {
         for transmission in [false, true] {
-            let layers = Layers { clearcoat, sheen };
+            let layers = LayerDefines { clearcoat, sheen };
             v.push(Variant {
                 entry: "pathtrace.cl",
                 defines: pathtrace_defines(

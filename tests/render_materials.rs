@@ -540,7 +540,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
     // Only what the scene needs: CesiumMan uses none of the extensions, so
     // its program is built with exactly the defines it had before them.
     use soupray::scene::{LoadOptions, Scene};
-    use soupray::trace::render::{material_features, pathtrace_defines, Layers, Traversal};
+    use soupray::trace::render::{material_features, pathtrace_defines, LayerDefines, Traversal};
     use soupray::trace::sampling::Sampler;
     let path = common::repo().join("animations/CesiumMan/CesiumMan.glb");
     let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
@@ -558,7 +558,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
         false,
         false,
         false,
-        Layers::of(table),
+        LayerDefines::of(table),
     )
     .iter()
     .map(|(n, _)| *n)

@@ -398,7 +398,7 @@ pub fn pathtrace_defines(
     transmission: bool,
     energy_compensation: bool,
     unlit: bool,
-    layers: Layers,
+    layers: LayerDefines,
 ) -> Vec<(&'static str, String)> {
     let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
     match traversal {
@@ -433,15 +433,15 @@ pub fn pathtrace_defines(
 /// Which layers over the BSDF a program compiles (`HAS_CLEARCOAT`,
 /// `HAS_SHEEN`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Layers {
+pub struct LayerDefines {
     pub clearcoat: bool,
     pub sheen: bool,
 }
 
-impl Layers {
+impl LayerDefines {
     /// The layers some material of `table` has.
-    pub fn of(table: &MaterialTable) -> Layers {
-        Layers {
+    pub fn of(table: &MaterialTable) -> LayerDefines {
+        LayerDefines {
             clearcoat: table.materials.iter().any(|m| m.has_clearcoat()),
             sheen: table.materials.iter().any(|m| m.has_sheen()),
         }
@@ -497,7 +497,7 @@ pub fn material_features(
     if table.materials.iter().any(|m| m.unlit) {
         v.push("unlit");
     }
-    let layers = Layers::of(table);
+    let layers = LayerDefines::of(table);
     if layers.clearcoat {
         v.push("clearcoat");
     }
@@ -628,7 +628,7 @@ impl<'d> PathTracer<'d> {
         // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
         // its texture slots filled below.
         let mut host_exts =
-            (transmission || Layers::of(table).any()).then(|| device_material_exts(table));
+            (transmission || LayerDefines::of(table).any()).then(|| device_material_exts(table));
         // The slots the kernels read: the dielectric ones only where they
         // are compiled in.
         let slots: &[Slot] = if transmission {
@@ -706,7 +706,7 @@ impl<'d> PathTracer<'d> {
             transmission,
             compensation,
             table.materials.iter().any(|m| m.unlit),
-            Layers::of(table),
+            LayerDefines::of(table),
         );
         let kernels = Kernels::build(device, &defines)?;
 
