@@ -287,16 +287,22 @@ inline bool pt_blocks_for_certain(const PtScene* s, PtMaterial m, uint prim, flo
 }
 #endif
 
-#ifndef HAS_TRANSMISSION
-// Whether the segment org + t dir, t in (0, tmax), is blocked (with
-// HAS_TRANSMISSION: pt_shadow_transmittance).
-inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRng rng,
-                        uint bounce TEX_DECL) {
+// The shadow ray of the segment org + t dir, t in (0, tmax).
+inline Ray pt_segment_ray(float3 org, float3 dir, float tmax) {
     Ray r;
     r.org[0] = org.x; r.org[1] = org.y; r.org[2] = org.z;
     r.dir[0] = dir.x; r.dir[1] = dir.y; r.dir[2] = dir.z;
     r.tmin = 0.0f;
     r.tmax = tmax;
+    return r;
+}
+
+#ifndef HAS_TRANSMISSION
+// Whether the segment org + t dir, t in (0, tmax), is blocked (with
+// HAS_TRANSMISSION: pt_shadow_transmittance).
+inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRng rng,
+                        uint bounce TEX_DECL) {
+    Ray r = pt_segment_ray(org, dir, tmax);
 #ifndef TRAVERSAL_STACKLESS
     Hit a = pt_trace_any(s, r);
     if (a.prim == MISS) return false;
@@ -532,11 +538,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         tr = pt_attenuation(pt_medium_sigma(s, medium), tmax * length(dir));
         if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
     }
-    Ray r;
-    r.org[0] = org.x; r.org[1] = org.y; r.org[2] = org.z;
-    r.dir[0] = dir.x; r.dir[1] = dir.y; r.dir[2] = dir.z;
-    r.tmin = 0.0f;
-    r.tmax = tmax;
+    Ray r = pt_segment_ray(org, dir, tmax);
 #ifndef TRAVERSAL_STACKLESS
     Hit a = pt_trace_any(s, r);
     if (a.prim == MISS) return tr;

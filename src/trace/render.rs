@@ -627,8 +627,8 @@ impl<'d> PathTracer<'d> {
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
         // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
         // its texture slots filled below.
-        let mut host_exts =
-            (transmission || LayerDefines::of(table).any()).then(|| device_material_exts(table));
+        let layers = LayerDefines::of(table);
+        let mut host_exts = (transmission || layers.any()).then(|| device_material_exts(table));
         // The slots the kernels read: the dielectric ones only where they
         // are compiled in.
         let slots: &[Slot] = if transmission {
@@ -706,7 +706,7 @@ impl<'d> PathTracer<'d> {
             transmission,
             compensation,
             table.materials.iter().any(|m| m.unlit),
-            LayerDefines::of(table),
+            layers,
         );
         let kernels = Kernels::build(device, &defines)?;
 
