@@ -95,8 +95,17 @@ typedef struct {
     float clearcoat; // KHR_materials_clearcoat clearcoatFactor
     float clearcoat_roughness; // KHR_materials_clearcoat clearcoatRoughnessFactor
     float sheen_roughness; // KHR_materials_sheen sheenRoughnessFactor
-    float pad[2];
+    // Texture bindings (-1: none): clearcoatTexture (R),
+    // clearcoatRoughnessTexture (G).
+    int clearcoat_tex;
+    int clearcoat_roughness_tex;
     float sheen_color[4]; // KHR_materials_sheen sheenColorFactor, rgb
+    // Texture bindings (-1: none): sheenColorTexture (RGB, sRGB),
+    // sheenRoughnessTexture (A), clearcoatNormalTexture; and the latter's scale.
+    int sheen_color_tex;
+    int sheen_roughness_tex;
+    int clearcoat_normal_tex;
+    float clearcoat_normal_scale;
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
@@ -117,6 +126,9 @@ typedef struct {
 #ifdef HAS_CLEARCOAT
     float clearcoat;    // clearcoatFactor (0: no coat)
     float coat_alpha;   // the coat's GGX alpha
+    // The coat's normal in the shading frame: (0, 0, 1) exactly when it is
+    // the base's shading normal (trace::material::Layers::coat_normal).
+    float3 coat_n;
 #endif
 #ifdef HAS_SHEEN
     float3 sheen_color; // sheenColorFactor (black: no sheen)
@@ -553,22 +565,51 @@ inline float coat_weight(BsdfParams p, float cos_o) {
     return clamp(p.clearcoat * (0.04f + 0.96f * schlick_weight(cos_o)), 0.0f, 1.0f);
 }
 
-// The coat's white GGX lobe (0 when smooth: a delta lobe), compensated to
-// albedo 1 with GGX_ENERGY_COMPENSATION.
+// The coat's frame (Rust twin: coat_frame, to_coat, from_coat): false
+// when the coat's normal is the base's, and vectors are used as they are.
+inline bool coat_frame(BsdfParams p, float3* t, float3* b) {
+    if (p.coat_n.x == 0.0f && p.coat_n.y == 0.0f) return false;
+    onb(p.coat_n, t, b);
+    return true;
+}
+
+inline float3 to_coat(BsdfParams p, bool tilted, float3 t, float3 b, float3 v) {
+    return tilted ? to_local(v, t, b, p.coat_n) : v;
+}
+
+inline float3 from_coat(BsdfParams p, bool tilted, float3 t, float3 b, float3 v) {
+    return tilted ? (t * v.x + b * v.y) + p.coat_n * v.z : v;
+}
+
+// The view's cosine with the coat's normal.
+inline float coat_cos(BsdfParams p, float3 wo) {
+    float3 t, b;
+    bool tilted = coat_frame(p, &t, &b);
+    return to_coat(p, tilted, t, b, wo).z;
+}
+
+// The coat's white GGX lobe about its own normal (0 when smooth: a delta
+// lobe), compensated to albedo 1 with GGX_ENERGY_COMPENSATION, and scaled
+// by (coat n.l) / (base n.l) when tilted (see coat_lobe in
+// trace::material).
 inline float coat_lobe(BsdfParams p, float3 wo, float3 wi) {
     if (!(wi.z > 0.0f) || ggx_smooth(p.coat_alpha)) return 0.0f;
-    float3 hv = wo + wi;
+    float3 t, b;
+    bool tilted = coat_frame(p, &t, &b);
+    float3 wi_c = to_coat(p, tilted, t, b, wi);
+    wo = to_coat(p, tilted, t, b, wo);
+    if (!(wo.z > 0.0f) || !(wi_c.z > 0.0f)) return 0.0f;
+    float3 hv = wo + wi_c;
     float hl = length(hv);
     if (hl == 0.0f) return 0.0f;
     float3 h = hv / hl;
     float a = p.coat_alpha;
-    float g2 = 1.0f / ((1.0f + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi.z));
-    float s = (ggx_d(a, h.z) * g2) / ((4.0f * wo.z) * wi.z);
+    float g2 = 1.0f / ((1.0f + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi_c.z));
+    float s = (ggx_d(a, h.z) * g2) / ((4.0f * wo.z) * wi_c.z);
 #ifdef GGX_ENERGY_COMPENSATION
-    return s / ggx_albedo(a, wo.z);
-#else
-    return s;
+    s = s / ggx_albedo(a, wo.z);
 #endif
+    return tilted ? s * (wi_c.z / wi.z) : s;
 }
 
 inline float coat_smooth_reflectance(BsdfParams p, float cos_o) {
@@ -636,7 +677,7 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
             p.sheen_color * sheen_lobe(p.sheen_roughness, wo, wi);
 #endif
 #ifdef HAS_CLEARCOAT
-    float wc = coat_weight(p, wo.z);
+    float wc = coat_weight(p, coat_cos(p, wo));
     return under * (1.0f - wc) + (float3)(wc * coat_lobe(p, wo, wi));
 #else
     return under;
@@ -652,9 +693,13 @@ inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     pdf = psh * sheen + (1.0f - psh) * pdf;
 #endif
 #ifdef HAS_CLEARCOAT
-    float pc = coat_weight(p, wo.z);
-    float coat = wi.z > 0.0f && pc > 0.0f && !ggx_smooth(p.coat_alpha)
-                     ? ggx_vndf_pdf(p.coat_alpha, wo, wi) : 0.0f;
+    float3 t, b;
+    bool tilted = coat_frame(p, &t, &b);
+    float3 wo_c = to_coat(p, tilted, t, b, wo);
+    float3 wi_c = to_coat(p, tilted, t, b, wi);
+    float pc = coat_weight(p, wo_c.z);
+    float coat = wi.z > 0.0f && wi_c.z > 0.0f && pc > 0.0f && !ggx_smooth(p.coat_alpha)
+                     ? ggx_vndf_pdf(p.coat_alpha, wo_c, wi_c) : 0.0f;
     pdf = (1.0f - pc) * pdf + pc * coat;
 #endif
     return pdf;
@@ -670,18 +715,26 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
     float under_weight = 1.0f; // what scales the base's delta lobes
     bool chosen = false;
 #ifdef HAS_CLEARCOAT
-    float pc = coat_weight(p, wo.z);
+    float3 ct, cb;
+    bool tilted = coat_frame(p, &ct, &cb);
+    float3 wo_c = to_coat(p, tilted, ct, cb, wo);
+    float pc = coat_weight(p, wo_c.z);
     if (u < pc) {
+        if (!(wo_c.z > 0.0f)) return false;
         if (ggx_smooth(p.coat_alpha)) {
-            *wi_out = (float3)(-wo.x, -wo.y, wo.z);
-            *f_out = (float3)(coat_smooth_reflectance(p, wo.z) / wo.z);
+            wi = from_coat(p, tilted, ct, cb, (float3)(-wo_c.x, -wo_c.y, wo_c.z));
+            if (!(wi.z > 0.0f)) return false;
+            *wi_out = wi;
+            *f_out = (float3)(coat_smooth_reflectance(p, wo_c.z) / wi.z);
             *pdf_out = pc;
             *delta_out = true;
             return true;
         }
-        float3 h = ggx_sample_vndf(p.coat_alpha, wo, u1, u2);
-        wi = h * (2.0f * dot(wo, h)) - wo;
-        if (!(wi.z > 0.0f)) return false;
+        float3 h = ggx_sample_vndf(p.coat_alpha, wo_c, u1, u2);
+        float3 wi_c = h * (2.0f * dot(wo_c, h)) - wo_c;
+        // Below the coat (its pdf there is 0) or below the surface.
+        wi = from_coat(p, tilted, ct, cb, wi_c);
+        if (!(wi_c.z > 0.0f) || !(wi.z > 0.0f)) return false;
         chosen = true;
     } else {
         u = (u - pc) / (1.0f - pc);
@@ -752,12 +805,14 @@ inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
 #ifdef HAS_TRANSMISSION
 // What a shadow ray crossing a smooth thin-walled surface keeps: the
 // straight-through lobe as bsdf_sample carries it, under the coat and
-// the sheen (for that lobe wi = -wo, so both cosines are c). Rust twin:
+// the sheen (for that lobe wi = -wo, so both cosines are wo.z; the coat's
+// is taken with its own normal). Rust twin:
 // trace::material::shadow_straight_through.
-inline float3 bsdf_shadow_straight_through(BsdfParams p, float c) {
+inline float3 bsdf_shadow_straight_through(BsdfParams p, float3 wo) {
+    float c = wo.z;
     float3 t = bsdf_thin_straight_through(p, c);
 #ifdef HAS_CLEARCOAT
-    t = t * (1.0f - coat_weight(p, c));
+    t = t * (1.0f - coat_weight(p, coat_cos(p, wo)));
 #endif
 #ifdef HAS_SHEEN
     t = t * sheen_scaling(p, c, c);

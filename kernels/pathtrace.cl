@@ -347,9 +347,9 @@ inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_
 // texture's (transformed) uv space, made orthogonal to the front-side
 // shading normal n, the bitangent is n x t, and on a back face all three
 // flip (as the Khronos sample viewer does). Degenerate uvs keep n.
-inline float3 pt_normal_map(const PtScene* s, PtMaterial m, uint prim, float3 n, bool front,
-                            float2 uv TEX_DECL) {
-    TextureBinding b = tex_bindings[m.normal_tex];
+inline float3 pt_normal_map(const PtScene* s, int binding, float scale, uint prim, float3 n,
+                            bool front, float2 uv TEX_DECL) {
+    TextureBinding b = tex_bindings[binding];
     TRI_LOAD(p, s->positions, s->mt, prim);
     const __global float* t = s->uvs + (size_t)prim * 6u;
     float2 t0 = texture_uv(b, (float2)(t[0], t[1]), (float2)(t[0], t[1]));
@@ -369,7 +369,7 @@ inline float3 pt_normal_map(const PtScene* s, PtMaterial m, uint prim, float3 n,
     tg = tg / tl;
     float3 bt = cross(n, tg);
     float4 c = sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
-    float3 tn = (float3)((c.x * 2.0f - 1.0f) * m.normal_scale, (c.y * 2.0f - 1.0f) * m.normal_scale,
+    float3 tn = (float3)((c.x * 2.0f - 1.0f) * scale, (c.y * 2.0f - 1.0f) * scale,
                          c.z * 2.0f - 1.0f);
     float3 mapped = (tg * tn.x + bt * tn.y) + n * tn.z;
     float ml = length(mapped);
@@ -394,6 +394,13 @@ typedef struct {
     uint medium_above;
     uint medium_below;
 #endif
+#ifdef HAS_CLEARCOAT
+    // The interpolated normal before the base's normal map, on the viewer's
+    // side: the clear coat's normal without its own map (the extension
+    // keeps the base's normal map off the coat).
+    float3 n_unmapped;
+    uint prim;
+#endif
 } PtSurface;
 
 inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TEX_DECL) {
@@ -417,10 +424,15 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
             ns = sf.front ? si : -si;
         }
     }
+#ifdef HAS_CLEARCOAT
+    sf.n_unmapped = dot(ns, -dir) <= 0.0f || dot(ns, ng) <= 0.0f ? ng : ns;
+    sf.prim = h.prim;
+#endif
 #ifdef HAS_TEXTURES
     if (m.normal_tex >= 0 && (s->frame.flags & FRAME_CLAY) == 0u &&
         (s->frame.flags & FRAME_UVS) != 0u)
-        ns = pt_normal_map(s, m, h.prim, sf.front ? ns : -ns, sf.front, sf.uv TEX_PASS);
+        ns = pt_normal_map(s, m.normal_tex, m.normal_scale, h.prim, sf.front ? ns : -ns, sf.front,
+                           sf.uv TEX_PASS);
 #endif
     // A shading normal facing away from the viewer would make the surface
     // black; the geometric normal is used there instead.
@@ -458,17 +470,47 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
 }
 
 #ifdef HAS_LAYERS
-// The clear coat and sheen of extension `mx` (clay has neither).
-inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, BsdfParams* bp) {
+// The clear coat and sheen of extension `mx` at surface `sf` seen along
+// `wo_w`, in the shading frame (t, b, sf.ns) (clay has neither). The
+// layers' textures scale their factors: clearcoat by R, its roughness by
+// G, the sheen colour by RGB (sRGB-decoded), its roughness by A. The coat's
+// normal is the unmapped interpolated normal, or clearcoatNormalTexture
+// applied to it.
+inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, float3 wo_w,
+                            float3 t, float3 b, BsdfParams* bp TEX_DECL) {
     bool layered = (s->frame.flags & FRAME_CLAY) == 0u;
 #ifdef HAS_CLEARCOAT
-    bp->clearcoat = layered ? mx.clearcoat : 0.0f;
-    bp->coat_alpha = ggx_alpha(mx.clearcoat_roughness);
+    float clearcoat = mx.clearcoat;
+    float coat_roughness = mx.clearcoat_roughness;
+    float3 nc = sf.n_unmapped;
+#ifdef HAS_TEXTURES
+    if (mx.clearcoat_tex >= 0) clearcoat *= pt_texture(mx.clearcoat_tex, sf.uv TEX_PASS).x;
+    if (mx.clearcoat_roughness_tex >= 0)
+        coat_roughness *= pt_texture(mx.clearcoat_roughness_tex, sf.uv TEX_PASS).y;
+    if (layered && mx.clearcoat_normal_tex >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
+        nc = pt_normal_map(s, mx.clearcoat_normal_tex, mx.clearcoat_normal_scale, sf.prim,
+                           sf.front ? nc : -nc, sf.front, sf.uv TEX_PASS);
+        // As the base's: a coat normal facing away from the viewer would
+        // make the coat black; the geometric normal is used there instead.
+        if (dot(nc, wo_w) <= 0.0f || dot(nc, sf.ng) <= 0.0f) nc = sf.ng;
+    }
+#endif
+    bp->clearcoat = layered ? clearcoat : 0.0f;
+    bp->coat_alpha = ggx_alpha(coat_roughness);
+    bp->coat_n = (float3)(0.0f, 0.0f, 1.0f);
+    if (layered && (nc.x != sf.ns.x || nc.y != sf.ns.y || nc.z != sf.ns.z))
+        bp->coat_n = normalize(to_local(nc, t, b, sf.ns));
 #endif
 #ifdef HAS_SHEEN
-    bp->sheen_color = layered ? (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2])
-                              : (float3)(0.0f);
-    bp->sheen_roughness = mx.sheen_roughness;
+    float3 sheen_color = (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2]);
+    float sheen_roughness = mx.sheen_roughness;
+#ifdef HAS_TEXTURES
+    if (mx.sheen_color_tex >= 0) sheen_color *= pt_texture(mx.sheen_color_tex, sf.uv TEX_PASS).xyz;
+    if (mx.sheen_roughness_tex >= 0)
+        sheen_roughness *= pt_texture(mx.sheen_roughness_tex, sf.uv TEX_PASS).w;
+#endif
+    bp->sheen_color = layered ? sheen_color : (float3)(0.0f);
+    bp->sheen_roughness = sheen_roughness;
 #endif
 }
 #endif
@@ -564,11 +606,13 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
         pt_dielectric_params(s, mx, false, sf.front, n_medium, sf.uv, &bp TEX_PASS);
+        float3 t, b;
+        onb(sf.ns, &t, &b);
 #ifdef HAS_LAYERS
-        pt_layer_params(s, mx, &bp);
+        pt_layer_params(s, mx, sf, -d, t, b, &bp TEX_PASS);
 #endif
         if (!ggx_smooth(bp.alpha)) return (float3)(0.0f);
-        tr = tr * bsdf_shadow_straight_through(bp, dot(-d, sf.ns));
+        tr = tr * bsdf_shadow_straight_through(bp, to_local(-d, t, b, sf.ns));
         if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
         crossings += 1u;
         if (crossings >= MAX_CROSSINGS) return (float3)(0.0f);
@@ -885,7 +929,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         sf.medium_below = volume && sf.front ? mat : other;
 #endif
 #ifdef HAS_LAYERS
-        pt_layer_params(s, mx, &bp);
+        pt_layer_params(s, mx, sf, wo_w, t, b, &bp TEX_PASS);
 #endif
 
         // Next-event estimation: every punctual light when the frame loops

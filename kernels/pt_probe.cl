@@ -93,7 +93,8 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
 
 #ifdef HAS_MATERIAL_EXT
 // Layout of PtMaterialExt: size, offsets of volume, sigma, specular_color,
-// the texture bindings, clearcoat and sheen_color.
+// the texture bindings, clearcoat and sheen_color, the layers' texture
+// bindings and the coat normal's scale.
 __kernel void pt_ext_layout_probe(__global uint* out) {
     out[0] = (uint)sizeof(PtMaterialExt);
     out[1] = (uint)offsetof(PtMaterialExt, volume);
@@ -104,6 +105,12 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[6] = (uint)offsetof(PtMaterialExt, specular_color_tex);
     out[7] = (uint)offsetof(PtMaterialExt, clearcoat);
     out[8] = (uint)offsetof(PtMaterialExt, sheen_color);
+    out[9] = (uint)offsetof(PtMaterialExt, clearcoat_tex);
+    out[10] = (uint)offsetof(PtMaterialExt, clearcoat_roughness_tex);
+    out[11] = (uint)offsetof(PtMaterialExt, sheen_color_tex);
+    out[12] = (uint)offsetof(PtMaterialExt, sheen_roughness_tex);
+    out[13] = (uint)offsetof(PtMaterialExt, clearcoat_normal_tex);
+    out[14] = (uint)offsetof(PtMaterialExt, clearcoat_normal_scale);
 }
 #endif
 
@@ -174,12 +181,12 @@ __kernel void media_eta_probe(__global const float* in, __global float* out, uin
 // As bsdf_ext_probe with the coat and sheen layers: per case params (base
 // rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
 // f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb, 0),
-// wo, wi, u: 32 floats (the dielectric ones read only with
-// HAS_TRANSMISSION). Out as bsdf_probe: 12 floats, plus only-delta: 13.
+// wo, wi, u, (coat normal, 0): 36 floats (the dielectric ones read only
+// with HAS_TRANSMISSION). Out as bsdf_probe: 12 floats, plus only-delta: 13.
 __kernel void bsdf_layer_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    const __global float* c = in + (size_t)i * 32u;
+    const __global float* c = in + (size_t)i * 36u;
     BsdfParams p;
     p.base = (float3)(c[0], c[1], c[2]);
     p.metallic = c[3];
@@ -195,6 +202,7 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
 #ifdef HAS_CLEARCOAT
     p.clearcoat = c[12];
     p.coat_alpha = c[13];
+    p.coat_n = (float3)(c[32], c[33], c[34]);
 #endif
 #ifdef HAS_SHEEN
     p.sheen_roughness = c[14];

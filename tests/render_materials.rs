@@ -51,10 +51,10 @@ fn material_ext_layout_matches() {
         .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
         .unwrap();
     let k = d.kernel(&program, "pt_ext_layout_probe").unwrap();
-    let out = upload(&d, &[0u32; 9]);
+    let out = upload(&d, &[0u32; 15]);
     d.launch("probe", &k, 1, 1, &[Arg::Buf(&out)]).unwrap();
     d.finish().unwrap();
-    let mut got = [0u32; 9];
+    let mut got = [0u32; 15];
     d.read(&out, &mut got).unwrap();
     use std::mem::{offset_of, size_of};
     assert_eq!(
@@ -69,6 +69,12 @@ fn material_ext_layout_matches() {
             offset_of!(DeviceMaterialExt, specular_color_tex) as u32,
             offset_of!(DeviceMaterialExt, clearcoat) as u32,
             offset_of!(DeviceMaterialExt, sheen_color) as u32,
+            offset_of!(DeviceMaterialExt, clearcoat_tex) as u32,
+            offset_of!(DeviceMaterialExt, clearcoat_roughness_tex) as u32,
+            offset_of!(DeviceMaterialExt, sheen_color_tex) as u32,
+            offset_of!(DeviceMaterialExt, sheen_roughness_tex) as u32,
+            offset_of!(DeviceMaterialExt, clearcoat_normal_tex) as u32,
+            offset_of!(DeviceMaterialExt, clearcoat_normal_scale) as u32,
         ]
     );
 }
@@ -770,6 +776,18 @@ fn png_uri(left: [u8; 4], right: [u8; 4]) -> String {
 /// right, with `material` (whose textures, if any, are image 0: `uri`,
 /// nearest-filtered).
 fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::film::Image {
+    render_square(material, uri, None, &["--env-color", "0.5,0.6,0.8"])
+}
+
+/// As `render_textured_square`, lit by a directional light of intensity 3
+/// arriving from `sun` (unit, world; the square faces +z) when given, with
+/// the extra options `args` (the sky's colour among them).
+fn render_square(
+    material: serde_json::Value,
+    uri: &str,
+    sun: Option<Vec3>,
+    args: &[&str],
+) -> soupray::film::Image {
     use serde_json::json;
     let dir = tempfile::tempdir().unwrap();
     let mut b = scene_support::Builder::default();
@@ -782,8 +800,9 @@ fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::fi
     let n = b.floats(&[0.0, 0.0, 1.0].repeat(4), 3);
     let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], 2);
     let ix = b.u32s(&[0, 1, 2, 0, 2, 3]);
-    let root = json!({
-        "extensionsUsed": ["KHR_texture_transform", "KHR_materials_transmission", "KHR_materials_specular"],
+    let mut root = json!({
+        "extensionsUsed": ["KHR_texture_transform", "KHR_materials_transmission", "KHR_materials_specular",
+                           "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_lights_punctual"],
         "scene": 0,
         "scenes": [{"nodes": [0, 1]}],
         "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 0.0, 3.0]}],
@@ -794,6 +813,17 @@ fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::fi
         "samplers": [{"magFilter": 9728, "minFilter": 9728, "wrapS": 33071, "wrapT": 33071}],
         "textures": [{"source": 0, "sampler": 0}],
     });
+    if let Some(sun) = sun {
+        // A directional light shines along its node's -z: turn +z to `sun`.
+        let q = glam::Quat::from_rotation_arc(Vec3::Z, sun);
+        root["extensions"] =
+            json!({"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 3.0}]}});
+        root["nodes"].as_array_mut().unwrap().push(json!({
+            "rotation": [q.x, q.y, q.z, q.w],
+            "extensions": {"KHR_lights_punctual": {"light": 0}}
+        }));
+        root["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    }
     let scene = b.write(root, dir.path(), "square", true);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
         .arg("render")
@@ -801,7 +831,8 @@ fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::fi
         .args([
             "--frame", "0", "--width", "64", "--height", "32", "--spp", "16",
         ])
-        .args(["--seed", "5", "--env-color", "0.5,0.6,0.8", "--quiet"])
+        .args(["--seed", "5", "--quiet"])
+        .args(args)
         .args([
             "--out",
             dir.path().to_str().unwrap(),
@@ -817,8 +848,8 @@ fn render_textured_square(material: serde_json::Value, uri: &str) -> soupray::fi
     );
     let log = std::fs::read_to_string(dir.path().join("sq.0000.json")).unwrap();
     assert!(
-        !log.contains("is not supported"),
-        "an extension texture was reported as ignored: {log}"
+        !log.contains("is not supported") && !log.contains("ignores"),
+        "an extension or texture was reported as ignored: {log}"
     );
     common::read_exr(&dir.path().join("sq.0000.exr"))
 }
@@ -922,4 +953,158 @@ fn extension_textures_scale_their_factors() {
     eprintln!("specular textures: left {l:.2e}, right {r:.2e}");
     assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
     assert!(max_rel_diff(&lf, &rf, left) > 0.05);
+}
+
+#[test]
+fn layer_textures_scale_their_factors() {
+    use serde_json::json;
+    // As extension_textures_scale_their_factors, for the clear coat's and
+    // the sheen's textures: each half must render as the untextured
+    // material whose factors are the factors times that half's texel.
+    let (left, right) = (0..28, 36..64);
+    let byte = |b: u8| b as f32 / 255.0;
+    let srgb = |b: u8| soupray::trace::texture::srgb_to_linear(byte(b));
+    let blank = png_uri([255; 4], [255; 4]);
+    let base = json!({"baseColorFactor": [0.6, 0.2, 0.1, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5});
+
+    // clearcoatTexture (R) and clearcoatRoughnessTexture (G), one image.
+    let coat = |factor: f32, roughness: f32, textured: bool| {
+        let mut cc = json!({"clearcoatFactor": factor, "clearcoatRoughnessFactor": roughness});
+        if textured {
+            cc["clearcoatTexture"] = json!({"index": 0});
+            cc["clearcoatRoughnessTexture"] = json!({"index": 0});
+        }
+        json!({"pbrMetallicRoughness": base, "extensions": {"KHR_materials_clearcoat": cc}})
+    };
+    let textured = render_textured_square(
+        coat(0.9, 0.8, true),
+        &png_uri([200, 60, 0, 255], [40, 230, 0, 255]),
+    );
+    let lf = render_textured_square(coat(0.9 * byte(200), 0.8 * byte(60), false), &blank);
+    let rf = render_textured_square(coat(0.9 * byte(40), 0.8 * byte(230), false), &blank);
+    let (l, r) = (
+        max_rel_diff(&textured, &lf, left.clone()),
+        max_rel_diff(&textured, &rf, right.clone()),
+    );
+    eprintln!("clear coat textures: left {l:.2e}, right {r:.2e}");
+    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
+    assert!(max_rel_diff(&lf, &rf, left.clone()) > 0.05);
+
+    // sheenColorTexture (RGB, sRGB) and sheenRoughnessTexture (A).
+    let sheen = |color: [f32; 3], roughness: f32, textured: bool| {
+        let mut sh = json!({"sheenColorFactor": color, "sheenRoughnessFactor": roughness});
+        if textured {
+            sh["sheenColorTexture"] = json!({"index": 0});
+            sh["sheenRoughnessTexture"] = json!({"index": 0});
+        }
+        json!({"pbrMetallicRoughness": base, "extensions": {"KHR_materials_sheen": sh}})
+    };
+    let textured = render_textured_square(
+        sheen([1.0, 0.8, 0.6], 0.9, true),
+        &png_uri([255, 128, 30, 200], [60, 200, 255, 50]),
+    );
+    let lf = render_textured_square(
+        sheen(
+            [srgb(255), 0.8 * srgb(128), 0.6 * srgb(30)],
+            0.9 * byte(200),
+            false,
+        ),
+        &blank,
+    );
+    let rf = render_textured_square(
+        sheen(
+            [srgb(60), 0.8 * srgb(200), 0.6 * srgb(255)],
+            0.9 * byte(50),
+            false,
+        ),
+        &blank,
+    );
+    let (l, r) = (
+        max_rel_diff(&textured, &lf, left.clone()),
+        max_rel_diff(&textured, &rf, right.clone()),
+    );
+    eprintln!("sheen textures: left {l:.2e}, right {r:.2e}");
+    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
+    assert!(max_rel_diff(&lf, &rf, left) > 0.05);
+}
+
+#[test]
+fn clearcoat_normal_map_tilts_the_coat_and_the_base_normal_map_does_not() {
+    use serde_json::json;
+    use soupray::trace::material::{bsdf_eval, BsdfParams, Layers};
+    // A rough coat (roughness 0.3) over black metal, head-on under a sun
+    // and a black sky: every sample sees only the sun through the coat's
+    // lobe, so the image is f(wo, sun) cos E everywhere, no noise. The
+    // coat normal texel is tilted ~20 degrees and the sun placed at the
+    // mirror of the view about it: the coat's glint. E comes from a
+    // `--clay` render (0.8/pi cos E).
+    let texel = [171u8, 128, 247, 255];
+    let tilted = Vec3::new(
+        texel[0] as f32 / 255.0 * 2.0 - 1.0,
+        texel[1] as f32 / 255.0 * 2.0 - 1.0,
+        texel[2] as f32 / 255.0 * 2.0 - 1.0,
+    )
+    .normalize();
+    let sun = (tilted * (2.0 * tilted.z) - Vec3::Z).normalize();
+    let uri = png_uri(texel, texel);
+    let coat = |coat_map: bool, base_map: bool| {
+        let mut cc = json!({"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.3});
+        if coat_map {
+            cc["clearcoatNormalTexture"] = json!({"index": 0});
+        }
+        let mut m = json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 1.0, "roughnessFactor": 1.0},
+            "extensions": {"KHR_materials_clearcoat": cc}
+        });
+        if base_map {
+            m["normalTexture"] = json!({"index": 0});
+        }
+        m
+    };
+    let black = ["--env-color", "0,0,0"];
+    let mean = |img: &soupray::film::Image| {
+        img.rgba
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+            .sum::<f64>()
+            / img.rgba.len() as f64
+    };
+    let clay = mean(&render_square(
+        coat(false, false),
+        &uri,
+        Some(sun),
+        &["--env-color", "0,0,0", "--clay"],
+    ));
+    let irradiance = clay * std::f64::consts::PI / 0.8; // E cos(sun)
+    let predict = |n: Vec3| {
+        let mut p = BsdfParams::new([0.0; 3], 1.0, 1.0);
+        p.energy_compensation = true;
+        let p = p.with_layers(Layers::new(1.0, 0.3, [0.0; 3], 0.0).with_coat_normal(n));
+        bsdf_eval(&p, Vec3::Z, sun).x as f64 * irradiance
+    };
+    let glint = mean(&render_square(coat(true, false), &uri, Some(sun), &black));
+    let plain = mean(&render_square(coat(false, false), &uri, Some(sun), &black));
+    let base_mapped = mean(&render_square(coat(false, true), &uri, Some(sun), &black));
+    let (want_glint, want_plain) = (predict(tilted), predict(Vec3::Z));
+    eprintln!(
+        "coat normal map: {glint:.5} (reference {want_glint:.5}); none: {plain:.5} (reference {want_plain:.5}); \
+         base normal map only: {base_mapped:.5}"
+    );
+    assert!(
+        (glint - want_glint).abs() < 2e-3 * want_glint,
+        "{glint} vs {want_glint}"
+    );
+    assert!(
+        (plain - want_plain).abs() < 2e-3 * want_plain,
+        "{plain} vs {want_plain}"
+    );
+    assert!(
+        glint > 20.0 * plain,
+        "the tilted coat should catch the sun: {glint} vs {plain}"
+    );
+    // The extension keeps the base's normal map off the coat.
+    assert!(
+        (base_mapped - plain).abs() < 0.01 * plain,
+        "the base's normal map moved the coat: {base_mapped} vs {plain}"
+    );
 }

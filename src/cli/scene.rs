@@ -396,6 +396,33 @@ fn material_extensions(
             tex(&m.specular_color_texture)
         ));
     }
+    if m.has_clearcoat() {
+        let normal = if m.clearcoat_normal_texture.is_some() {
+            format!(
+                ", normal map{} scale {}",
+                tex(&m.clearcoat_normal_texture),
+                m.clearcoat_normal_scale
+            )
+        } else {
+            String::new()
+        };
+        out.push(format!(
+            "clearcoat {}{} roughness {}{}{normal}",
+            m.clearcoat_factor,
+            tex(&m.clearcoat_texture),
+            m.clearcoat_roughness,
+            tex(&m.clearcoat_roughness_texture)
+        ));
+    }
+    if m.has_sheen() {
+        out.push(format!(
+            "sheen colour {:?}{} roughness {}{}",
+            m.sheen_color,
+            tex(&m.sheen_color_texture),
+            m.sheen_roughness,
+            tex(&m.sheen_roughness_texture)
+        ));
+    }
     out
 }
 

@@ -3,8 +3,9 @@
 //! KHR_materials_emissive_strength), alpha mode, double-sidedness,
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
-//! and KHR_materials_specular, with their textures, KHR_materials_clearcoat
-//! and KHR_materials_sheen (factors only), and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
+//! map) and KHR_materials_sheen, with their textures, and
+//! KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -97,6 +98,19 @@ pub struct Material {
     pub sheen_color: [f32; 3],
     /// KHR_materials_sheen `sheenRoughnessFactor` (0 without it).
     pub sheen_roughness: f32,
+    /// KHR_materials_clearcoat `clearcoatTexture` (R scales the factor).
+    pub clearcoat_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat `clearcoatRoughnessTexture` (G scales the factor).
+    pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat `clearcoatNormalTexture`: the coat's own
+    /// normal map (without it the coat takes the unmapped normal).
+    pub clearcoat_normal_texture: Option<TextureRef>,
+    /// `clearcoatNormalTexture.scale` (1 without it).
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen `sheenColorTexture` (sRGB RGB scales the colour).
+    pub sheen_color_texture: Option<TextureRef>,
+    /// KHR_materials_sheen `sheenRoughnessTexture` (A scales the factor).
+    pub sheen_roughness_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -135,6 +149,12 @@ impl Default for Material {
             clearcoat_roughness: 0.0,
             sheen_color: [0.0; 3],
             sheen_roughness: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
+            sheen_color_texture: None,
+            sheen_roughness_texture: None,
         }
     }
 }
@@ -150,6 +170,11 @@ impl Material {
             &self.transmission_texture,
             &self.specular_texture,
             &self.specular_color_texture,
+            &self.clearcoat_texture,
+            &self.clearcoat_roughness_texture,
+            &self.clearcoat_normal_texture,
+            &self.sheen_color_texture,
+            &self.sheen_roughness_texture,
         ]
         .into_iter()
         .flatten()
@@ -220,30 +245,14 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
             continue;
         };
         let name = m.get("name").and_then(|n| n.as_str()).map(str::to_owned);
-        for (ext, body) in exts {
+        for ext in exts.keys() {
             if !ext.starts_with("KHR_materials_") {
                 continue;
             }
             // Supported ones are rendered with their textures (except
             // KHR_materials_volume's thicknessTexture, which a path tracer
-            // does not need: it measures the distance through the mesh),
-            // but for the clear coat's and the sheen's.
+            // does not need: it measures the distance through the mesh).
             if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
-                // The layers' textures are not read yet.
-                for key in [
-                    "clearcoatTexture",
-                    "clearcoatRoughnessTexture",
-                    "clearcoatNormalTexture",
-                    "sheenColorTexture",
-                    "sheenRoughnessTexture",
-                ] {
-                    if body.get(key).is_some() {
-                        warnings.push(format!(
-                            "material {i}{}: {ext} {key} is not supported; the factor alone is used",
-                            name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
-                        ));
-                    }
-                }
                 continue;
             }
             let e = users
@@ -679,6 +688,42 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 material_extension(src, i, "KHR_materials_sheen"),
                 "sheenRoughnessFactor",
                 0.0,
+            ),
+            clearcoat_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_clearcoat",
+                "clearcoatTexture",
+            ),
+            clearcoat_roughness_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_clearcoat",
+                "clearcoatRoughnessTexture",
+            ),
+            clearcoat_normal_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_clearcoat",
+                "clearcoatNormalTexture",
+            ),
+            clearcoat_normal_scale: number(
+                material_extension(src, i, "KHR_materials_clearcoat")
+                    .and_then(|c| c.get("clearcoatNormalTexture")),
+                "scale",
+                1.0,
+            ),
+            sheen_color_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_sheen",
+                "sheenColorTexture",
+            ),
+            sheen_roughness_texture: extension_texture(
+                src,
+                i,
+                "KHR_materials_sheen",
+                "sheenRoughnessTexture",
             ),
         });
     }

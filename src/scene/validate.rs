@@ -700,6 +700,26 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                 "extensions.KHR_materials_specular.specularColorTexture",
                 extension_texture_info(m, "KHR_materials_specular", "specularColorTexture"),
             ),
+            (
+                "extensions.KHR_materials_clearcoat.clearcoatTexture",
+                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatTexture"),
+            ),
+            (
+                "extensions.KHR_materials_clearcoat.clearcoatRoughnessTexture",
+                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
+            ),
+            (
+                "extensions.KHR_materials_clearcoat.clearcoatNormalTexture",
+                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatNormalTexture"),
+            ),
+            (
+                "extensions.KHR_materials_sheen.sheenColorTexture",
+                extension_texture_info(m, "KHR_materials_sheen", "sheenColorTexture"),
+            ),
+            (
+                "extensions.KHR_materials_sheen.sheenRoughnessTexture",
+                extension_texture_info(m, "KHR_materials_sheen", "sheenRoughnessTexture"),
+            ),
         ];
         for (slot, info) in slots {
             let Some(info) = info else { continue };

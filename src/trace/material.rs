@@ -150,12 +150,22 @@ pub struct DeviceMaterialExt {
     pub clearcoat_roughness: f32,
     /// KHR_materials_sheen `sheenRoughnessFactor`.
     pub sheen_roughness: f32,
-    pub pad: [f32; 2],
+    /// Texture binding indices (-1: none) of `clearcoatTexture` (R) and
+    /// `clearcoatRoughnessTexture` (G).
+    pub clearcoat_tex: i32,
+    pub clearcoat_roughness_tex: i32,
     /// KHR_materials_sheen `sheenColorFactor` (rgb, 0).
     pub sheen_color: [f32; 4],
+    /// Texture binding indices (-1: none) of `sheenColorTexture` (RGB,
+    /// sRGB), `sheenRoughnessTexture` (A) and `clearcoatNormalTexture`.
+    pub sheen_color_tex: i32,
+    pub sheen_roughness_tex: i32,
+    pub clearcoat_normal_tex: i32,
+    /// `clearcoatNormalTexture.scale`.
+    pub clearcoat_normal_scale: f32,
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 96);
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 112);
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -188,8 +198,13 @@ impl DeviceMaterialExt {
             clearcoat: m.clearcoat_factor,
             clearcoat_roughness: m.clearcoat_roughness,
             sheen_roughness: m.sheen_roughness,
-            pad: [0.0; 2],
+            clearcoat_tex: -1,
+            clearcoat_roughness_tex: -1,
             sheen_color: [m.sheen_color[0], m.sheen_color[1], m.sheen_color[2], 0.0],
+            sheen_color_tex: -1,
+            sheen_roughness_tex: -1,
+            clearcoat_normal_tex: -1,
+            clearcoat_normal_scale: m.clearcoat_normal_scale,
         }
     }
 }
@@ -303,6 +318,11 @@ pub struct Layers {
     pub sheen_color: Vec3,
     /// `sheenRoughnessFactor`.
     pub sheen_roughness: f32,
+    /// The coat's normal in the base's shading frame (z: the base's
+    /// shading normal): the interpolated vertex normal, or
+    /// `clearcoatNormalTexture` applied to it, since the extension keeps
+    /// the base's normal map off the coat. `Vec3::Z` exactly: the base's.
+    pub coat_normal: Vec3,
 }
 
 impl Layers {
@@ -317,7 +337,44 @@ impl Layers {
             coat_alpha: ggx_alpha(coat_roughness),
             sheen_color: Vec3::from(sheen_color).clamp(Vec3::ZERO, Vec3::ONE),
             sheen_roughness: sheen_roughness.clamp(0.0, 1.0),
+            coat_normal: Vec3::Z,
         }
+    }
+
+    /// With the coat's own normal `n` (unit, in the base's shading frame).
+    pub fn with_coat_normal(self, n: Vec3) -> Layers {
+        Layers {
+            coat_normal: n,
+            ..self
+        }
+    }
+}
+
+/// The coat's frame (`coat_frame` in kernels/bsdf.h): tangents around the
+/// coat normal, `None` when it is the base's (then vectors are used as
+/// they are, so a coat without its own normal is exactly the base frame).
+fn coat_frame(l: &Layers) -> Option<(Vec3, Vec3, Vec3)> {
+    let n = l.coat_normal;
+    if n.x == 0.0 && n.y == 0.0 {
+        return None;
+    }
+    let (t, b) = super::sampling::onb(n);
+    Some((t, b, n))
+}
+
+/// `v` (base frame) in the coat's frame.
+fn to_coat(f: Option<(Vec3, Vec3, Vec3)>, v: Vec3) -> Vec3 {
+    match f {
+        None => v,
+        Some((t, b, n)) => Vec3::new(v.dot(t), v.dot(b), v.dot(n)),
+    }
+}
+
+/// `v` (coat frame) in the base's frame.
+fn from_coat(f: Option<(Vec3, Vec3, Vec3)>, v: Vec3) -> Vec3 {
+    match f {
+        None => v,
+        Some((t, b, n)) => (t * v.x + b * v.y) + n * v.z,
     }
 }
 
@@ -887,27 +944,46 @@ fn coat_weight(l: &Layers, cos_o: f32) -> f32 {
     (l.clearcoat * coat_fresnel(cos_o)).clamp(0.0, 1.0)
 }
 
-/// The coat's white GGX lobe D G2 / (4 |n.l| |n.v|) (0 when smooth: a delta
-/// lobe), energy-compensated to albedo 1 (its Fresnel is outside, in the
-/// mix: F0 = 1 in Turquin's factor) with `GGX_ENERGY_COMPENSATION`.
+/// The coat's white GGX lobe D G2 / (4 |n.l| |n.v|) about the coat's
+/// normal (0 when smooth: a delta lobe), energy-compensated to albedo 1
+/// (its Fresnel is outside, in the mix: F0 = 1 in Turquin's factor) with
+/// `GGX_ENERGY_COMPENSATION`. `wo`, `wi` are in the base's frame; the lobe
+/// is scaled by (coat n.l) / (base n.l), so that with the renderer's
+/// base-frame cosine it reflects as a lobe about its own normal would (and
+/// a tilted coat keeps its albedo but for what falls below the surface).
 fn coat_lobe(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> f32 {
     if !(wi.z > 0.0) || ggx_smooth(l.coat_alpha) {
         return 0.0;
     }
-    let hv = wo + wi;
+    let f = coat_frame(l);
+    let (wo, wi_c) = (to_coat(f, wo), to_coat(f, wi));
+    if !(wo.z > 0.0) || !(wi_c.z > 0.0) {
+        return 0.0;
+    }
+    let hv = wo + wi_c;
     let hl = hv.length();
     if hl == 0.0 {
         return 0.0;
     }
     let h = hv / hl;
     let a = l.coat_alpha;
-    let g2 = 1.0 / ((1.0 + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi.z));
-    let s = (ggx_d(a, h.z) * g2) / ((4.0 * wo.z) * wi.z);
-    if p.energy_compensation {
+    let g2 = 1.0 / ((1.0 + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi_c.z));
+    let s = (ggx_d(a, h.z) * g2) / ((4.0 * wo.z) * wi_c.z);
+    let s = if p.energy_compensation {
         s / ggx_albedo(a, wo.z)
     } else {
         s
+    };
+    if f.is_some() {
+        s * (wi_c.z / wi.z)
+    } else {
+        s
     }
+}
+
+/// The view's cosine with the coat's normal.
+fn coat_cos(l: &Layers, wo: Vec3) -> f32 {
+    to_coat(coat_frame(l), wo).z
 }
 
 /// The smooth coat's reflectance towards the mirror direction (its lobe
@@ -977,7 +1053,7 @@ fn layered_eval(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> Vec3 {
     let base = base_eval(p, wo, wi);
     let under = base * sheen_scaling(l, wo.z, wi.z.abs())
         + l.sheen_color * sheen_lobe(l.sheen_roughness, wo, wi);
-    let wc = coat_weight(l, wo.z);
+    let wc = coat_weight(l, coat_cos(l, wo));
     under * (1.0 - wc) + Vec3::splat(wc * coat_lobe(p, l, wo, wi))
 }
 
@@ -985,11 +1061,13 @@ fn layered_pdf(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> f32 {
     if !(wo.z > 0.0) {
         return 0.0;
     }
-    let pc = coat_weight(l, wo.z);
+    let f = coat_frame(l);
+    let (wo_c, wi_c) = (to_coat(f, wo), to_coat(f, wi));
+    let pc = coat_weight(l, wo_c.z);
     let psh = sheen_probability(l, wo.z);
     let sheen = if wi.z > 0.0 { 0.5 * INV_PI } else { 0.0 };
-    let coat = if wi.z > 0.0 && pc > 0.0 && !ggx_smooth(l.coat_alpha) {
-        ggx_vndf_pdf(l.coat_alpha, wo, wi)
+    let coat = if wi.z > 0.0 && wi_c.z > 0.0 && pc > 0.0 && !ggx_smooth(l.coat_alpha) {
+        ggx_vndf_pdf(l.coat_alpha, wo_c, wi_c)
     } else {
         0.0
     };
@@ -1007,19 +1085,30 @@ fn layered_sample(
     if !(wo.z > 0.0) {
         return None;
     }
-    let pc = coat_weight(l, wo.z);
+    let f = coat_frame(l);
+    let wo_c = to_coat(f, wo);
+    let pc = coat_weight(l, wo_c.z);
     let wi = if lobe_u < pc {
+        if !(wo_c.z > 0.0) {
+            return None;
+        }
         if ggx_smooth(l.coat_alpha) {
+            let wi = from_coat(f, Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
+            if !(wi.z > 0.0) {
+                return None;
+            }
             return Some(BsdfSample {
-                wi: Vec3::new(-wo.x, -wo.y, wo.z),
-                f: Vec3::splat(coat_smooth_reflectance(p, l, wo.z) / wo.z),
+                wi,
+                f: Vec3::splat(coat_smooth_reflectance(p, l, wo_c.z) / wi.z),
                 pdf: pc,
                 delta: true,
             });
         }
-        let h = ggx_sample_vndf(l.coat_alpha, wo, u1, u2);
-        let wi = h * (2.0 * wo.dot(h)) - wo;
-        if !(wi.z > 0.0) {
+        let h = ggx_sample_vndf(l.coat_alpha, wo_c, u1, u2);
+        let wi_c = h * (2.0 * wo_c.dot(h)) - wo_c;
+        // Below the coat (its pdf there is 0) or below the surface.
+        let wi = from_coat(f, wi_c);
+        if !(wi_c.z > 0.0) || !(wi.z > 0.0) {
             return None;
         }
         wi
@@ -1061,11 +1150,13 @@ fn layered_sample(
 /// What a shadow ray crossing a smooth thin-walled surface keeps
 /// (`bsdf_shadow_straight_through` in kernels/bsdf.h): the straight-through
 /// lobe as `bsdf_sample` carries it, under the coat and the sheen (for that
-/// lobe wi = -wo, so both cosines are `c`).
-pub fn shadow_straight_through(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
+/// lobe wi = -wo, so both cosines are `wo.z`; the coat's is taken with its
+/// own normal). `wo`: the ray's reverse direction in the shading frame.
+pub fn shadow_straight_through(p: &BsdfParams, d: &Dielectric, wo: Vec3) -> Vec3 {
+    let c = wo.z;
     let t = thin_straight_through(p, d, c);
     match &p.layers {
-        Some(l) => t * ((1.0 - coat_weight(l, c)) * sheen_scaling(l, c, c)),
+        Some(l) => t * ((1.0 - coat_weight(l, coat_cos(l, wo))) * sheen_scaling(l, c, c)),
         None => t,
     }
 }

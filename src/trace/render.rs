@@ -629,13 +629,19 @@ impl<'d> PathTracer<'d> {
         // its texture slots filled below.
         let layers = LayerDefines::of(table);
         let mut host_exts = (transmission || layers.any()).then(|| device_material_exts(table));
-        // The slots the kernels read: the dielectric ones only where they
-        // are compiled in.
-        let slots: &[Slot] = if transmission {
-            &Slot::SHADED
-        } else {
-            &Slot::BASE
-        };
+        // The slots the kernels read: the extensions' only where their code
+        // is compiled in.
+        let mut slots: Vec<Slot> = Slot::BASE.to_vec();
+        if transmission {
+            slots.extend(Slot::DIELECTRIC);
+        }
+        if layers.clearcoat {
+            slots.extend(Slot::CLEARCOAT);
+        }
+        if layers.sheen {
+            slots.extend(Slot::SHEEN);
+        }
+        let slots = &slots[..];
 
         // Textures: only when some material samples one (and not in clay
         // mode, where only alpha cut-outs would need them: those are kept).
@@ -647,8 +653,9 @@ impl<'d> PathTracer<'d> {
         if textured {
             match TextureSet::with_slots(device, table, slots) {
                 Ok(set) if !set.is_empty() => {
-                    // Four bindings per material (`PtMaterial`), then three
-                    // per material for `PtMaterialExt` when compiled in.
+                    // Four bindings per material (`PtMaterial`), then eight
+                    // per material for `PtMaterialExt` when compiled in
+                    // (those of slots outside `slots` stay -1).
                     let n = table.materials.len();
                     let mut bindings = Vec::with_capacity(slots.len() * n);
                     let mut set1 = false;
@@ -672,10 +679,15 @@ impl<'d> PathTracer<'d> {
                     if let Some(exts) = host_exts.as_mut() {
                         for (i, m) in table.materials.iter().enumerate() {
                             let x = &mut exts[i];
-                            let at = 4 * n + 3 * i;
+                            let at = 4 * n + Slot::EXT.len() * i;
                             x.transmission_tex = bind(m, Slot::Transmission, at);
                             x.specular_tex = bind(m, Slot::Specular, at + 1);
                             x.specular_color_tex = bind(m, Slot::SpecularColor, at + 2);
+                            x.clearcoat_tex = bind(m, Slot::Clearcoat, at + 3);
+                            x.clearcoat_roughness_tex = bind(m, Slot::ClearcoatRoughness, at + 4);
+                            x.clearcoat_normal_tex = bind(m, Slot::ClearcoatNormal, at + 5);
+                            x.sheen_color_tex = bind(m, Slot::SheenColor, at + 6);
+                            x.sheen_roughness_tex = bind(m, Slot::SheenRoughness, at + 7);
                         }
                     }
                     if set1 {

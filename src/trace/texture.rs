@@ -137,10 +137,20 @@ pub enum Slot {
     Specular,
     /// KHR_materials_specular `specularColorTexture`.
     SpecularColor,
+    /// KHR_materials_clearcoat `clearcoatTexture`.
+    Clearcoat,
+    /// KHR_materials_clearcoat `clearcoatRoughnessTexture`.
+    ClearcoatRoughness,
+    /// KHR_materials_clearcoat `clearcoatNormalTexture`.
+    ClearcoatNormal,
+    /// KHR_materials_sheen `sheenColorTexture`.
+    SheenColor,
+    /// KHR_materials_sheen `sheenRoughnessTexture`.
+    SheenRoughness,
 }
 
 impl Slot {
-    pub const ALL: [Slot; 8] = [
+    pub const ALL: [Slot; 13] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -149,9 +159,14 @@ impl Slot {
         Slot::Transmission,
         Slot::Specular,
         Slot::SpecularColor,
+        Slot::Clearcoat,
+        Slot::ClearcoatRoughness,
+        Slot::ClearcoatNormal,
+        Slot::SheenColor,
+        Slot::SheenRoughness,
     ];
     /// The slots a path tracer shades with (issue 4): all but occlusion.
-    pub const SHADED: [Slot; 7] = [
+    pub const SHADED: [Slot; 12] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -159,6 +174,11 @@ impl Slot {
         Slot::Transmission,
         Slot::Specular,
         Slot::SpecularColor,
+        Slot::Clearcoat,
+        Slot::ClearcoatRoughness,
+        Slot::ClearcoatNormal,
+        Slot::SheenColor,
+        Slot::SheenRoughness,
     ];
     /// The slots of `PtMaterial` (four bindings per material).
     pub const BASE: [Slot; 4] = [
@@ -167,9 +187,27 @@ impl Slot {
         Slot::Normal,
         Slot::Emissive,
     ];
-    /// The slots of `PtMaterialExt`, read by `HAS_TRANSMISSION` kernels
-    /// (three bindings per material, after every material's four).
+    /// The slots of `PtMaterialExt` (eight bindings per material, after
+    /// every material's four), in binding order: the dielectric ones, read
+    /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`)
+    /// and the sheen's (`HAS_SHEEN`).
+    pub const EXT: [Slot; 8] = [
+        Slot::Transmission,
+        Slot::Specular,
+        Slot::SpecularColor,
+        Slot::Clearcoat,
+        Slot::ClearcoatRoughness,
+        Slot::ClearcoatNormal,
+        Slot::SheenColor,
+        Slot::SheenRoughness,
+    ];
     pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
+    pub const CLEARCOAT: [Slot; 3] = [
+        Slot::Clearcoat,
+        Slot::ClearcoatRoughness,
+        Slot::ClearcoatNormal,
+    ];
+    pub const SHEEN: [Slot; 2] = [Slot::SheenColor, Slot::SheenRoughness];
 
     /// The glTF property name, for messages.
     pub fn name(self) -> &'static str {
@@ -182,12 +220,20 @@ impl Slot {
             Slot::Transmission => "KHR_materials_transmission transmissionTexture",
             Slot::Specular => "KHR_materials_specular specularTexture",
             Slot::SpecularColor => "KHR_materials_specular specularColorTexture",
+            Slot::Clearcoat => "KHR_materials_clearcoat clearcoatTexture",
+            Slot::ClearcoatRoughness => "KHR_materials_clearcoat clearcoatRoughnessTexture",
+            Slot::ClearcoatNormal => "KHR_materials_clearcoat clearcoatNormalTexture",
+            Slot::SheenColor => "KHR_materials_sheen sheenColorTexture",
+            Slot::SheenRoughness => "KHR_materials_sheen sheenRoughnessTexture",
         }
     }
 
     /// Whether the glTF specification says the slot's RGB is sRGB-encoded.
     pub fn is_srgb(self) -> bool {
-        matches!(self, Slot::BaseColor | Slot::Emissive | Slot::SpecularColor)
+        matches!(
+            self,
+            Slot::BaseColor | Slot::Emissive | Slot::SpecularColor | Slot::SheenColor
+        )
     }
 
     pub fn of(self, m: &Material) -> Option<&TextureRef> {
@@ -200,6 +246,11 @@ impl Slot {
             Slot::Transmission => m.transmission_texture.as_ref(),
             Slot::Specular => m.specular_texture.as_ref(),
             Slot::SpecularColor => m.specular_color_texture.as_ref(),
+            Slot::Clearcoat => m.clearcoat_texture.as_ref(),
+            Slot::ClearcoatRoughness => m.clearcoat_roughness_texture.as_ref(),
+            Slot::ClearcoatNormal => m.clearcoat_normal_texture.as_ref(),
+            Slot::SheenColor => m.sheen_color_texture.as_ref(),
+            Slot::SheenRoughness => m.sheen_roughness_texture.as_ref(),
         }
     }
 }
