@@ -13,6 +13,11 @@
 // the base colour, thin-walled (the reflection lobe mirrored through the
 // surface) or refracting (Walter et al. 2007, as pbrt-v4's DielectricBxDF
 // with its 1/eta^2 radiance scaling); wi may then lie below the surface.
+// With HAS_DIFFUSE_TRANSMISSION (KHR_materials_diffuse_transmission, which
+// implies HAS_TRANSMISSION) the share `diffuse_transmission` of what stays
+// of the diffuse lobe becomes a Lambertian transmission lobe of its own
+// colour, weighted by the Fresnel the diffuse reflection would have at the
+// mirror of wi.
 //
 // With GGX_ENERGY_COMPENSATION (`--energy-compensation`), the GGX
 // reflection lobes are scaled by 1 + F0 (1 / E(mu_o) - 1) (Turquin 2019),
@@ -37,6 +42,9 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "sampling.h"
+#if defined(HAS_DIFFUSE_TRANSMISSION) && !defined(HAS_TRANSMISSION)
+#define HAS_TRANSMISSION
+#endif
 #ifdef GGX_ENERGY_COMPENSATION
 #include "ggx_energy.h"
 #endif
@@ -106,6 +114,14 @@ typedef struct {
     int sheen_roughness_tex;
     int clearcoat_normal_tex;
     float clearcoat_normal_scale;
+    // KHR_materials_diffuse_transmission diffuseTransmissionFactor, and the
+    // texture bindings (-1: none) of diffuseTransmissionTexture (A) and
+    // diffuseTransmissionColorTexture (RGB, sRGB).
+    float diffuse_transmission;
+    int diffuse_transmission_tex;
+    int diffuse_transmission_color_tex;
+    float pad;
+    float diffuse_transmission_color[4]; // diffuseTransmissionColorFactor, rgb
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
@@ -122,6 +138,10 @@ typedef struct {
     float transmission; // share of the diffuse lobe that transmits
     float eta;          // relative index, far side over wo's side (1: thin)
     float thin;         // 1: thin-walled, transmission unbent
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    float diffuse_transmission;       // share of the diffuse lobe transmitted diffusely
+    float3 diffuse_transmission_color; // its colour
+#endif
 #endif
 #ifdef HAS_CLEARCOAT
     float clearcoat;    // clearcoatFactor (0: no coat)
@@ -232,16 +252,52 @@ inline float3 fresnel_dielectric3(float3 f0, float eta, float c) {
 
 inline float max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
 
-// The probabilities of the specular reflection (x) and transmission (y)
-// lobes; the diffuse lobe has the rest.
-inline float2 lobe_probabilities(BsdfParams p, float cos_o) {
+// The probabilities of the specular reflection (x), specular transmission
+// (y) and diffuse transmission (z, 0 without HAS_DIFFUSE_TRANSMISSION)
+// lobes; the diffuse reflection lobe has the rest.
+inline float3 lobe_probabilities(BsdfParams p, float cos_o) {
     float fo = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, cos_o));
     float ws = p.metallic + (1.0f - p.metallic) * fo;
     float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
     float wt = wb * p.transmission;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    float wd = (wb * (1.0f - p.transmission)) * (1.0f - p.diffuse_transmission);
+    float wdt = (((1.0f - p.metallic) * luminance(p.diffuse_transmission_color)) * (1.0f - fo)) *
+                ((1.0f - p.transmission) * p.diffuse_transmission);
+    float sum = ((ws + wt) + wd) + wdt;
+    return sum > 0.0f ? (float3)(ws / sum, wt / sum, wdt / sum) : (float3)(0.0f);
+#else
     float wd = wb * (1.0f - p.transmission);
     float sum = (ws + wt) + wd;
-    return sum > 0.0f ? (float2)(ws / sum, wt / sum) : (float2)(0.0f);
+    return sum > 0.0f ? (float3)(ws / sum, wt / sum, 0.0f) : (float3)(0.0f);
+#endif
+}
+
+// The diffuse reflection lobe's weight after the specular layer's Fresnel
+// `fd`: what neither transmission takes.
+inline float diffuse_share(BsdfParams p, float fd) {
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    return ((1.0f - fd) * (1.0f - p.transmission)) * (1.0f - p.diffuse_transmission);
+#else
+    return (1.0f - fd) * (1.0f - p.transmission);
+#endif
+}
+
+// The diffuse transmission lobe for wi below the surface (0 without
+// HAS_DIFFUSE_TRANSMISSION); mirrors diffuse_transmission_eval.
+inline float3 diffuse_transmission_eval(BsdfParams p, float3 wo, float3 wi) {
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    float weight = ((1.0f - p.metallic) * (1.0f - p.transmission)) * p.diffuse_transmission;
+    if (!(weight > 0.0f)) return (float3)(0.0f);
+    float3 hv = wo + (float3)(wi.x, wi.y, -wi.z);
+    float hl = length(hv);
+    if (hl == 0.0f) return (float3)(0.0f);
+    float voh = fmax(dot(wo, hv / hl), 0.0f);
+    float fd = max3(p.specular * fresnel_dielectric3(p.f0_color, p.eta, voh));
+    return p.diffuse_transmission_color * ((weight * (1.0f - fd)) * PT_INV_PI);
+#else
+    return (float3)(0.0f);
+#endif
 }
 
 // The half vector of a refraction wo -> wi; false when the pair is not a
@@ -279,18 +335,18 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f;
-        float3 dielectric = p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) +
+        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) +
                             (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
 #else
-        float3 dielectric =
-            p.base * (((1.0f - fd) * (1.0f - p.transmission)) * PT_INV_PI) + layer * s;
+        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) + layer * s;
         float3 metal = fm * s;
 #endif
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
     }
+    float3 diffuse = diffuse_transmission_eval(p, wo, wi);
     float weight = (1.0f - p.metallic) * p.transmission;
-    if (!(weight > 0.0f) || ggx_smooth(p.alpha)) return (float3)(0.0f);
+    if (!(weight > 0.0f) || ggx_smooth(p.alpha)) return diffuse;
     if (p.thin != 0.0f) {
         float3 r = (float3)(wi.x, wi.y, -wi.z);
         float3 hv = wo + r;
@@ -302,18 +358,18 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
         float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, voh));
-        return p.base * ((weight * (1.0f - fd)) * s);
+        return p.base * ((weight * (1.0f - fd)) * s) + diffuse;
     }
     float3 h;
     float oh, ih;
-    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return (float3)(0.0f);
+    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
     float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, oh));
     float denom = ih + oh / p.eta;
     float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
     float ft = fabs(((ggx_d(p.alpha, h.z) * (1.0f - fd)) * g2) *
                     ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
                (p.eta * p.eta);
-    return p.base * (weight * ft);
+    return p.base * (weight * ft) + diffuse;
 }
 #endif
 
@@ -360,21 +416,23 @@ inline float ggx_vndf_pdf(float a, float3 wo, float3 wi) {
 #ifdef HAS_TRANSMISSION
 inline float dielectric_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z == 0.0f) return 0.0f;
-    float2 pr = lobe_probabilities(p, wo.z);
-    float ps = pr.x, pt = pr.y;
+    float3 pr = lobe_probabilities(p, wo.z);
+    float ps = pr.x, pt = pr.y, pdt = pr.z;
     if (wi.z > 0.0f) {
         float spec = ps > 0.0f && !ggx_smooth(p.alpha) ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
-        return ps * spec + ((1.0f - ps) - pt) * (wi.z * PT_INV_PI);
+        return ps * spec + (((1.0f - ps) - pt) - pdt) * (wi.z * PT_INV_PI);
     }
-    if (!(pt > 0.0f) || ggx_smooth(p.alpha)) return 0.0f;
-    if (p.thin != 0.0f) return pt * ggx_vndf_pdf(p.alpha, wo, (float3)(wi.x, wi.y, -wi.z));
+    float diffuse = pdt * (-wi.z * PT_INV_PI);
+    if (!(pt > 0.0f) || ggx_smooth(p.alpha)) return diffuse;
+    if (p.thin != 0.0f)
+        return pt * ggx_vndf_pdf(p.alpha, wo, (float3)(wi.x, wi.y, -wi.z)) + diffuse;
     float3 h;
     float oh, ih;
-    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return 0.0f;
+    if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
     float g1 = 1.0f / (1.0f + ggx_lambda(p.alpha, wo.z));
     float pdf_h = ((g1 * ggx_d(p.alpha, h.z)) * oh) / wo.z;
     float denom = ih + oh / p.eta;
-    return pt * (pdf_h * (-ih / (denom * denom)));
+    return pt * (pdf_h * (-ih / (denom * denom))) + diffuse;
 }
 #endif
 
@@ -442,11 +500,22 @@ inline bool base_only_delta(BsdfParams p) {
     if (p.metallic >= 1.0f) return true;
 #ifdef HAS_TRANSMISSION
     if (p.transmission >= 1.0f) return true;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    if (p.diffuse_transmission > 0.0f && max3(p.diffuse_transmission_color) > 0.0f) return false;
+#endif
 #endif
     return !(p.base.x > 0.0f || p.base.y > 0.0f || p.base.z > 0.0f);
 }
 
 #ifdef HAS_TRANSMISSION
+// Whether some lobe may carry light below the surface.
+inline bool bsdf_transmits(BsdfParams p) {
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    if (p.diffuse_transmission > 0.0f) return true;
+#endif
+    return p.transmission > 0.0f;
+}
+
 // The smooth thin-walled transmission lobe's reflectance (straight
 // through, unbent) at outgoing cosine c: what bsdf_sample's delta lobe
 // carries, and what a shadow ray crossing such a surface keeps.
@@ -466,8 +535,8 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
     if (wo.z <= 0.0f) return false;
 #ifdef HAS_TRANSMISSION
     {
-        float2 pr = lobe_probabilities(p, wo.z);
-        float ps = pr.x, pt = pr.y;
+        float3 pr = lobe_probabilities(p, wo.z);
+        float ps = pr.x, pt = pr.y, pdt = pr.z;
         float3 wi;
         if (ggx_smooth(p.alpha) && lobe_u < ps + pt) {
             float3 value;
@@ -516,6 +585,11 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
                 wi = -wo / p.eta + h * (c / p.eta - ct);
             }
             if (wi.z >= 0.0f) return false;
+        } else if (lobe_u < (ps + pt) + pdt) {
+            // Diffuse transmission: the cosine hemisphere below.
+            wi = sample_cosine_hemisphere(u1, u2);
+            if (wi.z <= 0.0f) return false;
+            wi.z = -wi.z;
         } else {
             wi = sample_cosine_hemisphere(u1, u2);
             if (wi.z <= 0.0f) return false;

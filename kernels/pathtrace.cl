@@ -19,7 +19,9 @@
 // material is textured, MOTION_BLUR for frames that move within the
 // shutter (each camera sample's path sees the soup, camera and lights at
 // its own time: trace_common.h, motion.h), HAS_TRANSMISSION when some material uses
-// KHR_materials_transmission, _ior or _volume, and HAS_UNLIT when some
+// KHR_materials_transmission, _ior, _volume, _specular or
+// _diffuse_transmission (the last also HAS_DIFFUSE_TRANSMISSION: the
+// Lambertian transmission lobe, bsdf.h), and HAS_UNLIT when some
 // material is KHR_materials_unlit: such a surface returns its base colour
 // (factor times texture) to any ray that reaches it, camera or bounce, and
 // ends the path; light sampling does not aim at it.
@@ -530,12 +532,22 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
         bp->transmission = 0.0f;
         bp->eta = 1.0f;
         bp->thin = 1.0f;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+        bp->diffuse_transmission = 0.0f;
+        bp->diffuse_transmission_color = (float3)(1.0f);
+#endif
         return;
     }
     float3 specular_color =
         (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
     float specular = mx.specular;
     float transmission = mx.transmission;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    float diffuse_transmission = mx.diffuse_transmission;
+    float3 diffuse_transmission_color =
+        (float3)(mx.diffuse_transmission_color[0], mx.diffuse_transmission_color[1],
+                 mx.diffuse_transmission_color[2]);
+#endif
 #ifdef HAS_TEXTURES
     // The extensions' textures scale their factors: transmission by R,
     // specular by A, the specular colour by RGB (sRGB-decoded).
@@ -543,6 +555,13 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, uv TEX_PASS).w;
     if (mx.specular_color_tex >= 0)
         specular_color *= pt_texture(mx.specular_color_tex, uv TEX_PASS).xyz;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    // Diffuse transmission by A, its colour by RGB (sRGB-decoded).
+    if (mx.diffuse_transmission_tex >= 0)
+        diffuse_transmission *= pt_texture(mx.diffuse_transmission_tex, uv TEX_PASS).w;
+    if (mx.diffuse_transmission_color_tex >= 0)
+        diffuse_transmission_color *= pt_texture(mx.diffuse_transmission_color_tex, uv TEX_PASS).xyz;
+#endif
 #endif
     bp->f0 = media_f0(mx.ior, n_other);
     bp->f0_color = fmin((float3)(bp->f0) * specular_color, (float3)(1.0f));
@@ -550,6 +569,10 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     bp->transmission = clamp(transmission, 0.0f, 1.0f);
     bp->eta = volume ? media_eta(mx.ior, n_other, front) : 1.0f;
     bp->thin = volume ? 0.0f : 1.0f;
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    bp->diffuse_transmission = clamp(diffuse_transmission, 0.0f, 1.0f);
+    bp->diffuse_transmission_color = diffuse_transmission_color;
+#endif
 }
 
 // Whether a shadow ray may cross `prim` (material `m`): thin-walled,
@@ -638,7 +661,7 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     // Below the surface: only through a transmissive material, and the
     // shadow ray starts below it (towards the same point for finite lights).
     bool reflected = dot(wi_w, sf.ng) > 0.0f;
-    if (!reflected && !(bp.transmission > 0.0f && dot(wi_w, sf.ng) < 0.0f)) return (float3)(0.0f);
+    if (!reflected && !(bsdf_transmits(bp) && dot(wi_w, sf.ng) < 0.0f)) return (float3)(0.0f);
     float3 wi = to_local(wi_w, t, b, sf.ns);
     if (reflected ? !(wi.z > 0.0f) : !(wi.z < 0.0f)) return (float3)(0.0f);
     float cos_i = fabs(wi.z);

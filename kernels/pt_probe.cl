@@ -111,6 +111,10 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[12] = (uint)offsetof(PtMaterialExt, sheen_roughness_tex);
     out[13] = (uint)offsetof(PtMaterialExt, clearcoat_normal_tex);
     out[14] = (uint)offsetof(PtMaterialExt, clearcoat_normal_scale);
+    out[15] = (uint)offsetof(PtMaterialExt, diffuse_transmission);
+    out[16] = (uint)offsetof(PtMaterialExt, diffuse_transmission_tex);
+    out[17] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color_tex);
+    out[18] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color);
 }
 #endif
 
@@ -119,11 +123,17 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,
 // metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
 // f0 blue: the coloured F0 is (f0, green, blue)), wo,
-// wi, u: 24 floats. Out as bsdf_probe: 12 floats.
+// wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION then (diffuse
+// transmission, its colour rgb): 28. Out as bsdf_probe: 12 floats.
+#ifdef HAS_DIFFUSE_TRANSMISSION
+#define BSDF_EXT_PROBE_STRIDE 28u
+#else
+#define BSDF_EXT_PROBE_STRIDE 24u
+#endif
 __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    const __global float* c = in + (size_t)i * 24u;
+    const __global float* c = in + (size_t)i * BSDF_EXT_PROBE_STRIDE;
     BsdfParams p;
     p.base = (float3)(c[0], c[1], c[2]);
     p.metallic = c[3];
@@ -134,6 +144,10 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     p.eta = c[8];
     p.thin = c[9];
     p.f0_color = (float3)(c[6], c[10], c[11]);
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    p.diffuse_transmission = c[24];
+    p.diffuse_transmission_color = (float3)(c[25], c[26], c[27]);
+#endif
     float3 wo = (float3)(c[12], c[13], c[14]);
     float3 wi = (float3)(c[16], c[17], c[18]);
     __global float* o = out + (size_t)i * 12u;
@@ -198,6 +212,10 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
     p.eta = c[8];
     p.thin = c[9];
     p.f0_color = (float3)(c[6], c[10], c[11]);
+#ifdef HAS_DIFFUSE_TRANSMISSION
+    p.diffuse_transmission = 0.0f;
+    p.diffuse_transmission_color = (float3)(1.0f);
+#endif
 #endif
 #ifdef HAS_CLEARCOAT
     p.clearcoat = c[12];

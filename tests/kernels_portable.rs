@@ -178,6 +178,7 @@ fn variants() -> Vec<Variant> {
                             LayerDefines {
                                 clearcoat: compensation,
                                 sheen: compensation,
+                                diffuse_transmission: compensation && transmission,
                             },
                         );
                         v.push(Variant {
@@ -250,10 +251,22 @@ fn variants() -> Vec<Variant> {
         codegen: true,
     });
     // Each layer alone, with and without the dielectric extensions (the
-    // kernels read only the fields their defines declare).
-    for (clearcoat, sheen) in [(true, false), (false, true)] {
+    // kernels read only the fields their defines declare), and diffuse
+    // transmission alone (it comes with the dielectric extensions).
+    for (clearcoat, sheen, diffuse_transmission) in [
+        (true, false, false),
+        (false, true, false),
+        (false, false, true),
+    ] {
         for transmission in [false, true] {
-            let layers = LayerDefines { clearcoat, sheen };
+            if diffuse_transmission && !transmission {
+                continue;
+            }
+            let layers = LayerDefines {
+                clearcoat,
+                sheen,
+                diffuse_transmission,
+            };
             v.push(Variant {
                 entry: "pathtrace.cl",
                 defines: pathtrace_defines(
@@ -267,15 +280,19 @@ fn variants() -> Vec<Variant> {
                 ),
                 codegen: true,
             });
+            // HAS_DIFFUSE_TRANSMISSION alone: bsdf.h defines
+            // HAS_TRANSMISSION with it.
             let mut probe = vec![(
                 if clearcoat {
                     "HAS_CLEARCOAT"
-                } else {
+                } else if sheen {
                     "HAS_SHEEN"
+                } else {
+                    "HAS_DIFFUSE_TRANSMISSION"
                 },
                 "1".to_owned(),
             )];
-            if transmission {
+            if transmission && !diffuse_transmission {
                 probe.push(("HAS_TRANSMISSION", "1".to_owned()));
             }
             v.push(Variant {
@@ -291,6 +308,7 @@ fn variants() -> Vec<Variant> {
             ("HAS_CLEARCOAT", "1".to_owned()),
             ("HAS_SHEEN", "1".to_owned()),
             ("HAS_TRANSMISSION", "1".to_owned()),
+            ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
             ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
         ],
         codegen: true,

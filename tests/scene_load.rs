@@ -495,7 +495,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     let path = b.write(
         json!({
             "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_iridescence"],
+                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_iridescence",
+                               "KHR_materials_diffuse_transmission"],
             "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "materials": [
@@ -510,7 +511,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
                                                 "KHR_materials_ior": {"ior": 0.5}}},
                 {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
-                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}}
+                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}},
+                {"name": "wax", "extensions": {
+                    "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.4,
+                        "diffuseTransmissionColorFactor": [1.0, 0.5, 0.2], "diffuseTransmissionColorTexture": {"index": 0}},
+                    "KHR_materials_volume": {"thicknessFactor": 1.0}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
             "textures": [{"source": 0}],
@@ -564,7 +569,26 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         w.iter().any(|w| w.contains("sheenColorFactor.b 2")),
         "{w:?}"
     );
-    for ext in ["KHR_materials_clearcoat", "KHR_materials_sheen"] {
+    // Diffuse transmission: factor, colour and colour texture; with
+    // KHR_materials_volume the mesh bounds a volume.
+    assert_eq!(
+        (m[5].diffuse_transmission, m[5].diffuse_transmission_color),
+        (0.4, [1.0, 0.5, 0.2])
+    );
+    assert_eq!(
+        m[5].diffuse_transmission_color_texture
+            .as_ref()
+            .map(|t| t.texture),
+        Some(0)
+    );
+    assert!(m[5].diffuse_transmission_texture.is_none());
+    assert!(m[5].has_diffuse_transmission() && m[5].needs_transmission() && m[5].has_volume());
+    assert!(!m[4].has_diffuse_transmission());
+    for ext in [
+        "KHR_materials_clearcoat",
+        "KHR_materials_sheen",
+        "KHR_materials_diffuse_transmission",
+    ] {
         assert!(
             !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
             "{ext} is rendered: {w:?}"

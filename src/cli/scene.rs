@@ -380,8 +380,17 @@ fn material_extensions(
             "volume (attenuation colour {:?}{distance})",
             m.attenuation_color
         ));
-    } else if m.transmission_factor > 0.0 {
+    } else if m.transmission_factor > 0.0 || m.has_diffuse_transmission() {
         out.push("thin-walled".to_owned());
+    }
+    if m.has_diffuse_transmission() {
+        out.push(format!(
+            "diffuse transmission {}{} colour {:?}{}",
+            m.diffuse_transmission,
+            tex(&m.diffuse_transmission_texture),
+            m.diffuse_transmission_color,
+            tex(&m.diffuse_transmission_color_texture)
+        ));
     }
     if m.specular_factor != 1.0
         || m.specular_color != [1.0; 3]

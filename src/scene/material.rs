@@ -4,8 +4,8 @@
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
-//! map) and KHR_materials_sheen, with their textures, and
-//! KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! map), KHR_materials_sheen and KHR_materials_diffuse_transmission, with
+//! their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -111,6 +111,15 @@ pub struct Material {
     pub sheen_color_texture: Option<TextureRef>,
     /// KHR_materials_sheen `sheenRoughnessTexture` (A scales the factor).
     pub sheen_roughness_texture: Option<TextureRef>,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionFactor` (0
+    /// without it): the share of the diffuse lobe transmitted diffusely.
+    pub diffuse_transmission: f32,
+    /// `diffuseTransmissionTexture` (A scales the factor).
+    pub diffuse_transmission_texture: Option<TextureRef>,
+    /// `diffuseTransmissionColorFactor` (white without it).
+    pub diffuse_transmission_color: [f32; 3],
+    /// `diffuseTransmissionColorTexture` (sRGB RGB scales the colour).
+    pub diffuse_transmission_color_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -155,6 +164,10 @@ impl Default for Material {
             clearcoat_normal_scale: 1.0,
             sheen_color_texture: None,
             sheen_roughness_texture: None,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_texture: None,
+            diffuse_transmission_color: [1.0; 3],
+            diffuse_transmission_color_texture: None,
         }
     }
 }
@@ -175,6 +188,8 @@ impl Material {
             &self.clearcoat_normal_texture,
             &self.sheen_color_texture,
             &self.sheen_roughness_texture,
+            &self.diffuse_transmission_texture,
+            &self.diffuse_transmission_color_texture,
         ]
         .into_iter()
         .flatten()
@@ -188,15 +203,23 @@ impl Material {
     /// (`HAS_TRANSMISSION`): some transmission, or an ior other than the
     /// default 1.5 (the default's 4 % Fresnel is the base model's), or a
     /// specular layer other than the default (a factor, a colour or one of
-    /// their textures). A transmission texture alone changes nothing: it
-    /// scales a factor of 0.
+    /// their textures), or diffuse transmission. A transmission texture
+    /// alone changes nothing: it scales a factor of 0.
     pub fn needs_transmission(&self) -> bool {
         self.transmission_factor > 0.0
+            || self.has_diffuse_transmission()
             || self.ior != 1.5
             || self.specular_factor != 1.0
             || self.specular_color != [1.0; 3]
             || self.specular_texture.is_some()
             || self.specular_color_texture.is_some()
+    }
+
+    /// Whether the material transmits diffusely
+    /// (`HAS_DIFFUSE_TRANSMISSION`): a factor above 0 (its texture only
+    /// scales it).
+    pub fn has_diffuse_transmission(&self) -> bool {
+        self.diffuse_transmission > 0.0
     }
 
     /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
@@ -210,10 +233,12 @@ impl Material {
         self.sheen_color.iter().any(|&c| c > 0.0)
     }
 
-    /// Transmissive with a volume: refraction and Beer-Lambert attenuation
-    /// inside the mesh, rather than thin-walled straight-through.
+    /// Transmissive (specularly or diffusely) with a volume: the mesh
+    /// bounds a medium (refraction and Beer-Lambert attenuation inside),
+    /// rather than being thin-walled.
     pub fn has_volume(&self) -> bool {
-        self.transmission_factor > 0.0 && self.thickness_factor > 0.0
+        (self.transmission_factor > 0.0 || self.has_diffuse_transmission())
+            && self.thickness_factor > 0.0
     }
 }
 
@@ -229,6 +254,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_variants",
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
+    "KHR_materials_diffuse_transmission",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -337,6 +363,8 @@ pub(crate) fn variant_material(
         }
     })
 }
+
+const DIFFUSE_TRANSMISSION: &str = "KHR_materials_diffuse_transmission";
 
 /// The material's `extensions.NAME` object in the raw JSON.
 fn material_extension<'j>(
@@ -724,6 +752,34 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 i,
                 "KHR_materials_sheen",
                 "sheenRoughnessTexture",
+            ),
+            diffuse_transmission: number(
+                material_extension(src, i, DIFFUSE_TRANSMISSION),
+                "diffuseTransmissionFactor",
+                0.0,
+            ),
+            diffuse_transmission_texture: extension_texture(
+                src,
+                i,
+                DIFFUSE_TRANSMISSION,
+                "diffuseTransmissionTexture",
+            ),
+            diffuse_transmission_color: {
+                let v = material_extension(src, i, DIFFUSE_TRANSMISSION)
+                    .and_then(|v| v.get("diffuseTransmissionColorFactor"))
+                    .and_then(|a| a.as_array());
+                let c = |k: usize| {
+                    v.and_then(|a| a.get(k))
+                        .and_then(|x| x.as_f64())
+                        .map_or(1.0, |x| x as f32)
+                };
+                [c(0), c(1), c(2)]
+            },
+            diffuse_transmission_color_texture: extension_texture(
+                src,
+                i,
+                DIFFUSE_TRANSMISSION,
+                "diffuseTransmissionColorTexture",
             ),
         });
     }

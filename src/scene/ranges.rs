@@ -324,6 +324,22 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     ]) {
         clamp(w, &what, name, c, 0.0, 1.0, 0.0);
     }
+    clamp(
+        w,
+        &what,
+        "KHR_materials_diffuse_transmission diffuseTransmissionFactor",
+        &mut m.diffuse_transmission,
+        0.0,
+        1.0,
+        0.0,
+    );
+    for (c, name) in m.diffuse_transmission_color.iter_mut().zip([
+        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.r",
+        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.g",
+        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.b",
+    ]) {
+        clamp(w, &what, name, c, 0.0, 1.0, 1.0);
+    }
     if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
         w.push(format!(
             "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",

@@ -720,6 +720,22 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                 "extensions.KHR_materials_sheen.sheenRoughnessTexture",
                 extension_texture_info(m, "KHR_materials_sheen", "sheenRoughnessTexture"),
             ),
+            (
+                "extensions.KHR_materials_diffuse_transmission.diffuseTransmissionTexture",
+                extension_texture_info(
+                    m,
+                    "KHR_materials_diffuse_transmission",
+                    "diffuseTransmissionTexture",
+                ),
+            ),
+            (
+                "extensions.KHR_materials_diffuse_transmission.diffuseTransmissionColorTexture",
+                extension_texture_info(
+                    m,
+                    "KHR_materials_diffuse_transmission",
+                    "diffuseTransmissionColorTexture",
+                ),
+            ),
         ];
         for (slot, info) in slots {
             let Some(info) = info else { continue };

@@ -18,6 +18,10 @@
 //! refracting (Walter et al. 2007, as pbrt-v4's `DielectricBxDF`, including
 //! its 1/eta^2 radiance scaling). Fresnel stays Schlick's, taken on the
 //! optically thinner side and 1 under total internal reflection.
+//! KHR_materials_diffuse_transmission (the kernels' `HAS_DIFFUSE_TRANSMISSION`)
+//! moves the share `diffuse_transmission` of what stays of the diffuse lobe
+//! to a Lambertian transmission lobe of its own colour, weighted by the
+//! Fresnel the diffuse reflection would have at the mirror of wi.
 
 // `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -163,9 +167,19 @@ pub struct DeviceMaterialExt {
     pub clearcoat_normal_tex: i32,
     /// `clearcoatNormalTexture.scale`.
     pub clearcoat_normal_scale: f32,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
+    pub diffuse_transmission: f32,
+    /// Texture binding indices (-1: none) of `diffuseTransmissionTexture`
+    /// (A) and `diffuseTransmissionColorTexture` (RGB, sRGB).
+    pub diffuse_transmission_tex: i32,
+    pub diffuse_transmission_color_tex: i32,
+    pub pad: f32,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
+    /// (rgb, 0).
+    pub diffuse_transmission_color: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 112);
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 144);
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -205,6 +219,16 @@ impl DeviceMaterialExt {
             sheen_roughness_tex: -1,
             clearcoat_normal_tex: -1,
             clearcoat_normal_scale: m.clearcoat_normal_scale,
+            diffuse_transmission: m.diffuse_transmission,
+            diffuse_transmission_tex: -1,
+            diffuse_transmission_color_tex: -1,
+            pad: 0.0,
+            diffuse_transmission_color: [
+                m.diffuse_transmission_color[0],
+                m.diffuse_transmission_color[1],
+                m.diffuse_transmission_color[2],
+                0.0,
+            ],
         }
     }
 }
@@ -234,6 +258,11 @@ pub struct Dielectric {
     pub eta: f32,
     /// Thin-walled: transmission goes straight through, unbent.
     pub thin: bool,
+    /// KHR_materials_diffuse_transmission: the share of the (untransmitted)
+    /// diffuse lobe that is transmitted diffusely, 0 without it.
+    pub diffuse_transmission: f32,
+    /// The diffusely transmitted light's colour (white without it).
+    pub diffuse_transmission_color: Vec3,
 }
 
 impl Dielectric {
@@ -267,6 +296,8 @@ impl Dielectric {
             transmission: transmission.clamp(0.0, 1.0),
             eta,
             thin: !volume,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Vec3::ONE,
         }
     }
 }
@@ -279,6 +310,20 @@ impl Dielectric {
             f0_color: (Vec3::splat(self.f0) * Vec3::from(color)).min(Vec3::ONE),
             ..self
         }
+    }
+
+    /// With KHR_materials_diffuse_transmission's factor and colour.
+    pub fn with_diffuse_transmission(self, factor: f32, color: [f32; 3]) -> Dielectric {
+        Dielectric {
+            diffuse_transmission: factor.clamp(0.0, 1.0),
+            diffuse_transmission_color: Vec3::from(color),
+            ..self
+        }
+    }
+
+    /// Whether the diffuse transmission lobe can carry light.
+    fn transmits_diffusely(&self) -> bool {
+        self.diffuse_transmission > 0.0 && self.diffuse_transmission_color.max_element() > 0.0
     }
 }
 
@@ -490,20 +535,43 @@ fn max3(v: Vec3) -> f32 {
     v.x.max(v.y).max(v.z)
 }
 
-/// The probabilities of the specular reflection and the transmission
-/// lobes (the diffuse lobe has the rest), with the dielectric extensions.
-pub fn lobe_probabilities(p: &BsdfParams, d: &Dielectric, cos_o: f32) -> (f32, f32) {
+/// The probabilities of the specular reflection, the specular
+/// transmission and the diffuse transmission lobes (the diffuse reflection
+/// lobe has the rest), with the dielectric extensions.
+pub fn lobe_probabilities(p: &BsdfParams, d: &Dielectric, cos_o: f32) -> (f32, f32, f32) {
     let fo = p.specular * max3(fresnel_dielectric3(d.f0_color, d.eta, cos_o));
     let ws = p.metallic + (1.0 - p.metallic) * fo;
     let wb = ((1.0 - p.metallic) * luminance(p.base)) * (1.0 - fo);
     let wt = wb * d.transmission;
-    let wd = wb * (1.0 - d.transmission);
-    let sum = (ws + wt) + wd;
+    let wd = (wb * (1.0 - d.transmission)) * (1.0 - d.diffuse_transmission);
+    let wdt = (((1.0 - p.metallic) * luminance(d.diffuse_transmission_color)) * (1.0 - fo))
+        * ((1.0 - d.transmission) * d.diffuse_transmission);
+    let sum = ((ws + wt) + wd) + wdt;
     if sum > 0.0 {
-        (ws / sum, wt / sum)
+        (ws / sum, wt / sum, wdt / sum)
     } else {
-        (0.0, 0.0)
+        (0.0, 0.0, 0.0)
     }
+}
+
+/// The diffuse transmission lobe (KHR_materials_diffuse_transmission) for
+/// wi below the surface: Lambertian, of the extension's colour, weighted by
+/// one minus the Fresnel the diffuse reflection lobe has at the mirror of
+/// wi, so that moving the diffuse lobe's share across the surface moves
+/// its energy exactly.
+fn diffuse_transmission_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
+    let weight = ((1.0 - p.metallic) * (1.0 - d.transmission)) * d.diffuse_transmission;
+    if !(weight > 0.0) {
+        return Vec3::ZERO;
+    }
+    let hv = wo + Vec3::new(wi.x, wi.y, -wi.z);
+    let hl = hv.length();
+    if hl == 0.0 {
+        return Vec3::ZERO;
+    }
+    let voh = wo.dot(hv / hl).max(0.0);
+    let fd = max3(p.specular * fresnel_dielectric3(d.f0_color, d.eta, voh));
+    d.diffuse_transmission_color * ((weight * (1.0 - fd)) * INV_PI)
 }
 
 /// The half vector of a refraction from wo (z > 0) to wi (z < 0) with
@@ -552,18 +620,19 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let fm = p.base + (Vec3::ONE - p.base) * w;
         if p.energy_compensation {
             let ms = 1.0 / ggx_albedo(p.alpha, wo.z) - 1.0;
-            let dielectric = p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI)
+            let dielectric = p.base * (diffuse_share(d, fd) * INV_PI)
                 + (layer * s) * (Vec3::ONE + d.f0_color * ms);
             let metal = fm * s * (Vec3::ONE + p.base * ms);
             return dielectric * (1.0 - p.metallic) + metal * p.metallic;
         }
-        let dielectric = p.base * (((1.0 - fd) * (1.0 - d.transmission)) * INV_PI) + layer * s;
+        let dielectric = p.base * (diffuse_share(d, fd) * INV_PI) + layer * s;
         let metal = fm * s;
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
+    let diffuse = diffuse_transmission_eval(p, d, wo, wi);
     let weight = (1.0 - p.metallic) * d.transmission;
     if !(weight > 0.0) || ggx_smooth(p.alpha) {
-        return Vec3::ZERO;
+        return diffuse;
     }
     if d.thin {
         // The reflection lobe mirrored through the surface.
@@ -579,10 +648,10 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         let g2 = 1.0 / ((1.0 + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
         let s = (dd * g2) / ((4.0 * wo.z) * r.z);
         let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, 1.0, voh));
-        return p.base * ((weight * (1.0 - fd)) * s);
+        return p.base * ((weight * (1.0 - fd)) * s) + diffuse;
     }
     let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
-        return Vec3::ZERO;
+        return diffuse;
     };
     let fd = p.specular * max3(fresnel_dielectric3(d.f0_color, d.eta, oh));
     let denom = ih + oh / d.eta;
@@ -591,35 +660,42 @@ fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
         * ((ih * oh) / (((denom * denom) * wi.z) * wo.z)))
         .abs()
         / (d.eta * d.eta);
-    p.base * (weight * ft)
+    p.base * (weight * ft) + diffuse
+}
+
+/// The diffuse reflection lobe's weight after the specular layer's
+/// Fresnel `fd`: what neither transmission takes.
+fn diffuse_share(d: &Dielectric, fd: f32) -> f32 {
+    ((1.0 - fd) * (1.0 - d.transmission)) * (1.0 - d.diffuse_transmission)
 }
 
 fn dielectric_pdf(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> f32 {
     if wo.z <= 0.0 || wi.z == 0.0 {
         return 0.0;
     }
-    let (ps, pt) = lobe_probabilities(p, d, wo.z);
+    let (ps, pt, pdt) = lobe_probabilities(p, d, wo.z);
     if wi.z > 0.0 {
         let spec = if ps > 0.0 && !ggx_smooth(p.alpha) {
             ggx_vndf_pdf(p.alpha, wo, wi)
         } else {
             0.0
         };
-        return ps * spec + ((1.0 - ps) - pt) * (wi.z * INV_PI);
+        return ps * spec + (((1.0 - ps) - pt) - pdt) * (wi.z * INV_PI);
     }
+    let diffuse = pdt * (-wi.z * INV_PI);
     if !(pt > 0.0) || ggx_smooth(p.alpha) {
-        return 0.0;
+        return diffuse;
     }
     if d.thin {
-        return pt * ggx_vndf_pdf(p.alpha, wo, Vec3::new(wi.x, wi.y, -wi.z));
+        return pt * ggx_vndf_pdf(p.alpha, wo, Vec3::new(wi.x, wi.y, -wi.z)) + diffuse;
     }
     let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
-        return 0.0;
+        return diffuse;
     };
     let g1 = 1.0 / (1.0 + ggx_lambda(p.alpha, wo.z));
     let pdf_h = ((g1 * ggx_d(p.alpha, h.z)) * oh) / wo.z;
     let denom = ih + oh / d.eta;
-    pt * (pdf_h * (-ih / (denom * denom)))
+    pt * (pdf_h * (-ih / (denom * denom))) + diffuse
 }
 
 fn dielectric_sample(
@@ -633,7 +709,7 @@ fn dielectric_sample(
     if wo.z <= 0.0 {
         return None;
     }
-    let (ps, pt) = lobe_probabilities(p, d, wo.z);
+    let (ps, pt, pdt) = lobe_probabilities(p, d, wo.z);
     if ggx_smooth(p.alpha) && lobe_u < ps + pt {
         let (wi, value, pdf) = if lobe_u < ps {
             (
@@ -699,6 +775,13 @@ fn dielectric_sample(
             return None;
         }
         wi
+    } else if lobe_u < (ps + pt) + pdt {
+        // Diffuse transmission: the cosine hemisphere below.
+        let wi = sample_cosine_hemisphere(u1, u2);
+        if wi.z <= 0.0 {
+            return None;
+        }
+        Vec3::new(wi.x, wi.y, -wi.z)
     } else {
         let wi = sample_cosine_hemisphere(u1, u2);
         if wi.z <= 0.0 {
@@ -874,6 +957,9 @@ fn base_only_delta(p: &BsdfParams) -> bool {
     if let Some(d) = &p.dielectric {
         if d.transmission >= 1.0 {
             return true;
+        }
+        if d.transmits_diffusely() {
+            return false;
         }
     }
     !(p.base.x > 0.0 || p.base.y > 0.0 || p.base.z > 0.0)

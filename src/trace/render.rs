@@ -427,26 +427,35 @@ pub fn pathtrace_defines(
     if layers.sheen {
         defines.push(("HAS_SHEEN", "1".to_owned()));
     }
+    if layers.diffuse_transmission {
+        defines.push(("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()));
+    }
     defines
 }
 
-/// Which layers over the BSDF a program compiles (`HAS_CLEARCOAT`,
-/// `HAS_SHEEN`).
+/// Which lobes beyond the dielectric's a program compiles: the layers over
+/// the BSDF (`HAS_CLEARCOAT`, `HAS_SHEEN`) and the diffuse transmission lobe
+/// under it (`HAS_DIFFUSE_TRANSMISSION`, which the kernels compile with
+/// `HAS_TRANSMISSION`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LayerDefines {
     pub clearcoat: bool,
     pub sheen: bool,
+    pub diffuse_transmission: bool,
 }
 
 impl LayerDefines {
-    /// The layers some material of `table` has.
+    /// The lobes some material of `table` has.
     pub fn of(table: &MaterialTable) -> LayerDefines {
         LayerDefines {
             clearcoat: table.materials.iter().any(|m| m.has_clearcoat()),
             sheen: table.materials.iter().any(|m| m.has_sheen()),
+            diffuse_transmission: table.materials.iter().any(|m| m.has_diffuse_transmission()),
         }
     }
 
+    /// Whether a layer over the BSDF is compiled (diffuse transmission
+    /// needs `HAS_TRANSMISSION`, which binds the extension table anyway).
     fn any(self) -> bool {
         self.clearcoat || self.sheen
     }
@@ -503,6 +512,9 @@ pub fn material_features(
     }
     if layers.sheen {
         v.push("sheen");
+    }
+    if layers.diffuse_transmission {
+        v.push("diffuse_transmission");
     }
     v
 }
@@ -641,6 +653,9 @@ impl<'d> PathTracer<'d> {
         if layers.sheen {
             slots.extend(Slot::SHEEN);
         }
+        if layers.diffuse_transmission {
+            slots.extend(Slot::DIFFUSE_TRANSMISSION);
+        }
         let slots = &slots[..];
 
         // Textures: only when some material samples one (and not in clay
@@ -653,7 +668,7 @@ impl<'d> PathTracer<'d> {
         if textured {
             match TextureSet::with_slots(device, table, slots) {
                 Ok(set) if !set.is_empty() => {
-                    // Four bindings per material (`PtMaterial`), then eight
+                    // Four bindings per material (`PtMaterial`), then ten
                     // per material for `PtMaterialExt` when compiled in
                     // (those of slots outside `slots` stay -1).
                     let n = table.materials.len();
@@ -688,6 +703,9 @@ impl<'d> PathTracer<'d> {
                             x.clearcoat_normal_tex = bind(m, Slot::ClearcoatNormal, at + 5);
                             x.sheen_color_tex = bind(m, Slot::SheenColor, at + 6);
                             x.sheen_roughness_tex = bind(m, Slot::SheenRoughness, at + 7);
+                            x.diffuse_transmission_tex = bind(m, Slot::DiffuseTransmission, at + 8);
+                            x.diffuse_transmission_color_tex =
+                                bind(m, Slot::DiffuseTransmissionColor, at + 9);
                         }
                     }
                     if set1 {

@@ -147,10 +147,14 @@ pub enum Slot {
     SheenColor,
     /// KHR_materials_sheen `sheenRoughnessTexture`.
     SheenRoughness,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionTexture`.
+    DiffuseTransmission,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionColorTexture`.
+    DiffuseTransmissionColor,
 }
 
 impl Slot {
-    pub const ALL: [Slot; 13] = [
+    pub const ALL: [Slot; 15] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -164,9 +168,11 @@ impl Slot {
         Slot::ClearcoatNormal,
         Slot::SheenColor,
         Slot::SheenRoughness,
+        Slot::DiffuseTransmission,
+        Slot::DiffuseTransmissionColor,
     ];
     /// The slots a path tracer shades with (issue 4): all but occlusion.
-    pub const SHADED: [Slot; 12] = [
+    pub const SHADED: [Slot; 14] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -179,6 +185,8 @@ impl Slot {
         Slot::ClearcoatNormal,
         Slot::SheenColor,
         Slot::SheenRoughness,
+        Slot::DiffuseTransmission,
+        Slot::DiffuseTransmissionColor,
     ];
     /// The slots of `PtMaterial` (four bindings per material).
     pub const BASE: [Slot; 4] = [
@@ -187,11 +195,12 @@ impl Slot {
         Slot::Normal,
         Slot::Emissive,
     ];
-    /// The slots of `PtMaterialExt` (eight bindings per material, after
+    /// The slots of `PtMaterialExt` (ten bindings per material, after
     /// every material's four), in binding order: the dielectric ones, read
-    /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`)
-    /// and the sheen's (`HAS_SHEEN`).
-    pub const EXT: [Slot; 8] = [
+    /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`),
+    /// the sheen's (`HAS_SHEEN`) and diffuse transmission's
+    /// (`HAS_DIFFUSE_TRANSMISSION`).
+    pub const EXT: [Slot; 10] = [
         Slot::Transmission,
         Slot::Specular,
         Slot::SpecularColor,
@@ -200,6 +209,8 @@ impl Slot {
         Slot::ClearcoatNormal,
         Slot::SheenColor,
         Slot::SheenRoughness,
+        Slot::DiffuseTransmission,
+        Slot::DiffuseTransmissionColor,
     ];
     pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
     pub const CLEARCOAT: [Slot; 3] = [
@@ -208,6 +219,8 @@ impl Slot {
         Slot::ClearcoatNormal,
     ];
     pub const SHEEN: [Slot; 2] = [Slot::SheenColor, Slot::SheenRoughness];
+    pub const DIFFUSE_TRANSMISSION: [Slot; 2] =
+        [Slot::DiffuseTransmission, Slot::DiffuseTransmissionColor];
 
     /// The glTF property name, for messages.
     pub fn name(self) -> &'static str {
@@ -225,6 +238,12 @@ impl Slot {
             Slot::ClearcoatNormal => "KHR_materials_clearcoat clearcoatNormalTexture",
             Slot::SheenColor => "KHR_materials_sheen sheenColorTexture",
             Slot::SheenRoughness => "KHR_materials_sheen sheenRoughnessTexture",
+            Slot::DiffuseTransmission => {
+                "KHR_materials_diffuse_transmission diffuseTransmissionTexture"
+            }
+            Slot::DiffuseTransmissionColor => {
+                "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture"
+            }
         }
     }
 
@@ -232,7 +251,11 @@ impl Slot {
     pub fn is_srgb(self) -> bool {
         matches!(
             self,
-            Slot::BaseColor | Slot::Emissive | Slot::SpecularColor | Slot::SheenColor
+            Slot::BaseColor
+                | Slot::Emissive
+                | Slot::SpecularColor
+                | Slot::SheenColor
+                | Slot::DiffuseTransmissionColor
         )
     }
 
@@ -251,6 +274,8 @@ impl Slot {
             Slot::ClearcoatNormal => m.clearcoat_normal_texture.as_ref(),
             Slot::SheenColor => m.sheen_color_texture.as_ref(),
             Slot::SheenRoughness => m.sheen_roughness_texture.as_ref(),
+            Slot::DiffuseTransmission => m.diffuse_transmission_texture.as_ref(),
+            Slot::DiffuseTransmissionColor => m.diffuse_transmission_color_texture.as_ref(),
         }
     }
 }
