@@ -17,7 +17,9 @@
 // implies HAS_TRANSMISSION) the share `diffuse_transmission` of what stays
 // of the diffuse lobe becomes a Lambertian transmission lobe of its own
 // colour, weighted by the Fresnel the diffuse reflection would have at the
-// mirror of wi.
+// mirror of wi. With HAS_IRIDESCENCE (KHR_materials_iridescence, which also
+// implies HAS_TRANSMISSION) every Fresnel of the dielectric layer and of the
+// metal is mixed towards a thin film's (thin_film_fresnel).
 //
 // With GGX_ENERGY_COMPENSATION (`--energy-compensation`), the GGX
 // reflection lobes are scaled by 1 + F0 (1 / E(mu_o) - 1) (Turquin 2019),
@@ -42,7 +44,7 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "sampling.h"
-#if defined(HAS_DIFFUSE_TRANSMISSION) && !defined(HAS_TRANSMISSION)
+#if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE)) && !defined(HAS_TRANSMISSION)
 #define HAS_TRANSMISSION
 #endif
 #ifdef GGX_ENERGY_COMPENSATION
@@ -122,6 +124,16 @@ typedef struct {
     int diffuse_transmission_color_tex;
     float pad;
     float diffuse_transmission_color[4]; // diffuseTransmissionColorFactor, rgb
+    // KHR_materials_iridescence: iridescenceFactor, iridescenceIor, the
+    // thickness range in nm, and the texture bindings (-1: none) of
+    // iridescenceTexture (R) and iridescenceThicknessTexture (G).
+    float iridescence;
+    float iridescence_ior;
+    float iridescence_thickness_min;
+    float iridescence_thickness_max;
+    int iridescence_tex;
+    int iridescence_thickness_tex;
+    float pad2[2];
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
@@ -141,6 +153,11 @@ typedef struct {
 #ifdef HAS_DIFFUSE_TRANSMISSION
     float diffuse_transmission;       // share of the diffuse lobe transmitted diffusely
     float3 diffuse_transmission_color; // its colour
+#endif
+#ifdef HAS_IRIDESCENCE
+    float iridescence;           // the thin film's weight (0: none)
+    float iridescence_ior;       // its index
+    float iridescence_thickness; // its thickness, nm
 #endif
 #endif
 #ifdef HAS_CLEARCOAT
@@ -252,11 +269,103 @@ inline float3 fresnel_dielectric3(float3 f0, float eta, float c) {
 
 inline float max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
 
+#ifdef HAS_IRIDESCENCE
+// The Fourier transform of the sRGB primaries' spectral sensitivities at
+// optical path difference `opd` (nm) with phase shifts `shift` (Belcour and
+// Barla 2017); mirrors trace::material::film_sensitivity.
+inline float film_gauss(float v, float p, float s, float sh, float phase) {
+    return ((v * sqrt((2.0f * PT_PI) * s)) * cos(p * phase + sh)) * exp(-(phase * phase) * s);
+}
+
+inline float3 film_sensitivity(float opd, float3 shift) {
+    float phase = ((2.0f * PT_PI) * opd) * 1.0e-9f;
+    float3 xyz = (float3)(film_gauss(5.4856e-13f, 1.6810e6f, 4.3278e9f, shift.x, phase),
+                          film_gauss(4.4201e-13f, 1.7953e6f, 9.3046e9f, shift.y, phase),
+                          film_gauss(5.2481e-13f, 2.2084e6f, 6.6121e9f, shift.z, phase));
+    xyz.x += film_gauss(9.7470e-14f, 2.2399e6f, 4.5282e9f, shift.x, phase);
+    xyz = xyz / 1.0685e-7f;
+    return (float3)((3.2404542f * xyz.x - 1.5371385f * xyz.y) - 0.4985314f * xyz.z,
+                    (-0.9692660f * xyz.x + 1.8760108f * xyz.y) + 0.0415560f * xyz.z,
+                    (0.0556434f * xyz.x - 0.2040259f * xyz.y) + 1.0572252f * xyz.z);
+}
+
+// The reflectance of a thin film of index `film_ior`, `thickness` nm thick,
+// in air over a base of normal reflectance `f0`, at cosine `cos1` in air;
+// mirrors trace::material::thin_film_fresnel (which says where it departs
+// from the extension's listing, and why).
+inline float3 thin_film_fresnel(float film_ior, float cos1, float thickness, float3 f0) {
+    float x = clamp(thickness / 0.03f, 0.0f, 1.0f);
+    float n2 = 1.0f + (film_ior - 1.0f) * ((x * x) * (3.0f - 2.0f * x));
+    float sin2_sq = (1.0f / (n2 * n2)) * (1.0f - cos1 * cos1);
+    float cos2_sq = 1.0f - sin2_sq;
+    if (cos2_sq < 0.0f) return (float3)(1.0f);
+    float cos2 = sqrt(cos2_sq);
+    float rs_12 = (cos1 - n2 * cos2) / (cos1 + n2 * cos2);
+    float rp_12 = (n2 * cos1 - cos2) / (n2 * cos1 + cos2);
+    float r12 = 0.5f * (rs_12 * rs_12 + rp_12 * rp_12);
+    float t121 = 1.0f - r12;
+    float phi12 = n2 < 1.0f ? PT_PI : 0.0f;
+    float phi21 = PT_PI - phi12;
+    float3 sf0 = sqrt(clamp(f0, (float3)(0.0f), (float3)(0.9999f)));
+    float3 base_ior = ((float3)(1.0f) + sf0) / ((float3)(1.0f) - sf0);
+    float3 q = (base_ior - (float3)(n2)) / (base_ior + (float3)(n2));
+    float3 r1 = q * q;
+    float3 r23 = r1 + ((float3)(1.0f) - r1) * schlick_weight(cos2);
+    float3 phi23 = (float3)(base_ior.x < n2 ? PT_PI : 0.0f, base_ior.y < n2 ? PT_PI : 0.0f,
+                            base_ior.z < n2 ? PT_PI : 0.0f);
+    float opd = ((2.0f * n2) * thickness) * cos2;
+    float3 phi = (float3)(phi21) + phi23;
+    float3 r123 = clamp(r12 * r23, (float3)(0.0f), (float3)(0.9999f));
+    float3 r123_sqrt = sqrt(r123);
+    float3 rs = ((t121 * t121) * r23) / ((float3)(1.0f) - r123);
+    float3 sum = r12 + rs;
+    float3 cm = rs - (float3)(t121);
+    for (int m = 1; m <= 2; ++m) {
+        cm = cm * r123_sqrt;
+        float3 sm = film_sensitivity((float)m * opd, phi * (float)m) * 2.0f;
+        sum = sum + cm * sm;
+    }
+    return clamp(sum, (float3)(0.0f), (float3)(1.0f));
+}
+#endif
+
+// The dielectric layer's Fresnel at cosine `c` on wo's side, mixed towards
+// the thin film's with HAS_IRIDESCENCE; mirrors layer_fresnel.
+inline float3 layer_fresnel(BsdfParams p, float c) {
+    float3 f = fresnel_dielectric3(p.f0_color, p.eta, c);
+#ifdef HAS_IRIDESCENCE
+    if (!(p.iridescence > 0.0f)) return f;
+    float ct = c;
+    if (p.eta < 1.0f) {
+        float s2t = fmax(1.0f - c * c, 0.0f) / (p.eta * p.eta);
+        if (s2t >= 1.0f) return (float3)(1.0f);
+        ct = sqrt(1.0f - s2t);
+    }
+    float3 film = thin_film_fresnel(p.iridescence_ior, ct, p.iridescence_thickness, p.f0_color);
+    return f + (film - f) * p.iridescence;
+#else
+    return f;
+#endif
+}
+
+// The metal's Fresnel at cosine `c` (Schlick's from the base colour),
+// mixed towards the thin film's with HAS_IRIDESCENCE; mirrors metal_fresnel.
+inline float3 metal_fresnel(BsdfParams p, float c) {
+    float3 f = p.base + ((float3)(1.0f) - p.base) * schlick_weight(c);
+#ifdef HAS_IRIDESCENCE
+    if (!(p.iridescence > 0.0f)) return f;
+    float3 film = thin_film_fresnel(p.iridescence_ior, c, p.iridescence_thickness, p.base);
+    return f + (film - f) * p.iridescence;
+#else
+    return f;
+#endif
+}
+
 // The probabilities of the specular reflection (x), specular transmission
 // (y) and diffuse transmission (z, 0 without HAS_DIFFUSE_TRANSMISSION)
 // lobes; the diffuse reflection lobe has the rest.
 inline float3 lobe_probabilities(BsdfParams p, float cos_o) {
-    float fo = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, cos_o));
+    float fo = p.specular * max3(layer_fresnel(p, cos_o));
     float ws = p.metallic + (1.0f - p.metallic) * fo;
     float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
     float wt = wb * p.transmission;
@@ -293,7 +402,7 @@ inline float3 diffuse_transmission_eval(BsdfParams p, float3 wo, float3 wi) {
     float hl = length(hv);
     if (hl == 0.0f) return (float3)(0.0f);
     float voh = fmax(dot(wo, hv / hl), 0.0f);
-    float fd = max3(p.specular * fresnel_dielectric3(p.f0_color, p.eta, voh));
+    float fd = max3(p.specular * layer_fresnel(p, voh));
     return p.diffuse_transmission_color * ((weight * (1.0f - fd)) * PT_INV_PI);
 #else
     return (float3)(0.0f);
@@ -329,10 +438,9 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float d = ggx_d(p.alpha, h.z);
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
         float s = ggx_smooth(p.alpha) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
-        float w = schlick_weight(voh);
-        float3 layer = p.specular * fresnel_dielectric3(p.f0_color, p.eta, voh);
+        float3 layer = p.specular * layer_fresnel(p, voh);
         float fd = max3(layer);
-        float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+        float3 fm = metal_fresnel(p, voh);
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f;
         float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) +
@@ -357,13 +465,14 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float d = ggx_d(p.alpha, h.z);
         float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
-        float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, voh));
+        // Thin-walled: eta is 1.
+        float fd = p.specular * max3(layer_fresnel(p, voh));
         return p.base * ((weight * (1.0f - fd)) * s) + diffuse;
     }
     float3 h;
     float oh, ih;
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
-    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, oh));
+    float fd = p.specular * max3(layer_fresnel(p, oh));
     float denom = ih + oh / p.eta;
     float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
     float ft = fabs(((ggx_d(p.alpha, h.z) * (1.0f - fd)) * g2) *
@@ -471,7 +580,8 @@ inline float3 smooth_reflectance(BsdfParams p, float c) {
     float w = schlick_weight(c);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
 #ifdef HAS_TRANSMISSION
-    float3 layer = p.specular * fresnel_dielectric3(p.f0_color, p.eta, c);
+    float3 layer = p.specular * layer_fresnel(p, c);
+    fm = metal_fresnel(p, c);
 #ifdef GGX_ENERGY_COMPENSATION
     float ms = 1.0f / ggx_albedo(p.alpha, c) - 1.0f;
     float3 dielectric = layer * ((float3)(1.0f) + p.f0_color * ms);
@@ -521,7 +631,7 @@ inline bool bsdf_transmits(BsdfParams p) {
 // carries, and what a shadow ray crossing such a surface keeps.
 inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
     float weight = (1.0f - p.metallic) * p.transmission;
-    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, 1.0f, c));
+    float fd = p.specular * max3(layer_fresnel(p, c));
     return p.base * (weight * (1.0f - fd));
 }
 #endif
@@ -555,7 +665,7 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
                     if (s2t >= 1.0f) return false;
                     float ct = sqrt(1.0f - s2t);
                     wi = -wo / p.eta + (float3)(0.0f, 0.0f, 1.0f) * (c / p.eta - ct);
-                    float fd = p.specular * max3(fresnel_dielectric3(p.f0_color, p.eta, c));
+                    float fd = p.specular * max3(layer_fresnel(p, c));
                     value = p.base * (weight * ((1.0f - fd) / (p.eta * p.eta)));
                 }
                 if (wi.z >= 0.0f) return false;

@@ -20,8 +20,9 @@
 // shutter (each camera sample's path sees the soup, camera and lights at
 // its own time: trace_common.h, motion.h), HAS_TRANSMISSION when some material uses
 // KHR_materials_transmission, _ior, _volume, _specular or
-// _diffuse_transmission (the last also HAS_DIFFUSE_TRANSMISSION: the
-// Lambertian transmission lobe, bsdf.h), and HAS_UNLIT when some
+// _diffuse_transmission or _iridescence (the last two also
+// HAS_DIFFUSE_TRANSMISSION, the Lambertian transmission lobe, and
+// HAS_IRIDESCENCE, the thin film: bsdf.h), and HAS_UNLIT when some
 // material is KHR_materials_unlit: such a surface returns its base colour
 // (factor times texture) to any ray that reaches it, camera or bounce, and
 // ends the path; light sampling does not aim at it.
@@ -536,12 +537,20 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
         bp->diffuse_transmission = 0.0f;
         bp->diffuse_transmission_color = (float3)(1.0f);
 #endif
+#ifdef HAS_IRIDESCENCE
+        bp->iridescence = 0.0f;
+#endif
         return;
     }
     float3 specular_color =
         (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
     float specular = mx.specular;
     float transmission = mx.transmission;
+#ifdef HAS_IRIDESCENCE
+    // Without a thickness texture the film is the range's maximum thick.
+    float iridescence = mx.iridescence;
+    float thickness = mx.iridescence_thickness_max;
+#endif
 #ifdef HAS_DIFFUSE_TRANSMISSION
     float diffuse_transmission = mx.diffuse_transmission;
     float3 diffuse_transmission_color =
@@ -562,6 +571,15 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     if (mx.diffuse_transmission_color_tex >= 0)
         diffuse_transmission_color *= pt_texture(mx.diffuse_transmission_color_tex, uv TEX_PASS).xyz;
 #endif
+#ifdef HAS_IRIDESCENCE
+    // Iridescence by R; the thickness between its minimum and maximum by G.
+    if (mx.iridescence_tex >= 0) iridescence *= pt_texture(mx.iridescence_tex, uv TEX_PASS).x;
+    if (mx.iridescence_thickness_tex >= 0) {
+        float g = pt_texture(mx.iridescence_thickness_tex, uv TEX_PASS).y;
+        thickness = mx.iridescence_thickness_min +
+                    (mx.iridescence_thickness_max - mx.iridescence_thickness_min) * g;
+    }
+#endif
 #endif
     bp->f0 = media_f0(mx.ior, n_other);
     bp->f0_color = fmin((float3)(bp->f0) * specular_color, (float3)(1.0f));
@@ -572,6 +590,11 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #ifdef HAS_DIFFUSE_TRANSMISSION
     bp->diffuse_transmission = clamp(diffuse_transmission, 0.0f, 1.0f);
     bp->diffuse_transmission_color = diffuse_transmission_color;
+#endif
+#ifdef HAS_IRIDESCENCE
+    bp->iridescence = clamp(iridescence, 0.0f, 1.0f);
+    bp->iridescence_ior = mx.iridescence_ior;
+    bp->iridescence_thickness = thickness;
 #endif
 }
 

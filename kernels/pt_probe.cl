@@ -115,6 +115,11 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[16] = (uint)offsetof(PtMaterialExt, diffuse_transmission_tex);
     out[17] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color_tex);
     out[18] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color);
+    out[19] = (uint)offsetof(PtMaterialExt, iridescence);
+    out[20] = (uint)offsetof(PtMaterialExt, iridescence_thickness_max);
+    out[21] = (uint)offsetof(PtMaterialExt, iridescence_tex);
+    out[22] = (uint)offsetof(PtMaterialExt, iridescence_thickness_tex);
+    out[23] = (uint)sizeof(PtMaterialExt);
 }
 #endif
 
@@ -123,10 +128,11 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,
 // metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
 // f0 blue: the coloured F0 is (f0, green, blue)), wo,
-// wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION then (diffuse
-// transmission, its colour rgb): 28. Out as bsdf_probe: 12 floats.
-#ifdef HAS_DIFFUSE_TRANSMISSION
-#define BSDF_EXT_PROBE_STRIDE 28u
+// wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION or HAS_IRIDESCENCE then
+// (diffuse transmission, its colour rgb), (iridescence, film ior, film
+// thickness nm, 0): 32. Out as bsdf_probe: 12 floats.
+#if defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE)
+#define BSDF_EXT_PROBE_STRIDE 32u
 #else
 #define BSDF_EXT_PROBE_STRIDE 24u
 #endif
@@ -147,6 +153,11 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
 #ifdef HAS_DIFFUSE_TRANSMISSION
     p.diffuse_transmission = c[24];
     p.diffuse_transmission_color = (float3)(c[25], c[26], c[27]);
+#endif
+#ifdef HAS_IRIDESCENCE
+    p.iridescence = c[28];
+    p.iridescence_ior = c[29];
+    p.iridescence_thickness = c[30];
 #endif
     float3 wo = (float3)(c[12], c[13], c[14]);
     float3 wi = (float3)(c[16], c[17], c[18]);
@@ -215,6 +226,9 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
 #ifdef HAS_DIFFUSE_TRANSMISSION
     p.diffuse_transmission = 0.0f;
     p.diffuse_transmission_color = (float3)(1.0f);
+#endif
+#ifdef HAS_IRIDESCENCE
+    p.iridescence = 0.0f;
 #endif
 #endif
 #ifdef HAS_CLEARCOAT

@@ -610,6 +610,71 @@ fn clearcoat_over_paint_and_metal() {
 }
 
 #[test]
+fn iridescent_films() {
+    // KHR_materials_iridescence: a coating (index 1.9, 300 nm) on a
+    // glossy black dielectric (a film of the base's own index, 1.5, would
+    // show nothing: its lower interface would not reflect), a film (index 1.8, 500 nm) on rough white
+    // metal, and a soap bubble (a smooth thin-walled transmissive ball with
+    // a 380 nm film of index 1.33), beside the same black ball without a
+    // film, under a sky and a point light.
+    let dir = tempfile::tempdir().unwrap();
+    let film = |base: serde_json::Value, ior: f32, nm: f32, extra: serde_json::Value| {
+        let mut exts = json!({"KHR_materials_iridescence": {
+            "iridescenceFactor": 1.0, "iridescenceIor": ior, "iridescenceThicknessMaximum": nm}});
+        if let (Some(e), Some(x)) = (exts.as_object_mut(), extra.as_object()) {
+            e.extend(x.clone());
+        }
+        json!({"pbrMetallicRoughness": base, "extensions": exts})
+    };
+    let black = json!({"baseColorFactor": [0.02, 0.02, 0.02, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.15});
+    let white_metal = json!({"baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.3});
+    let clear = json!({"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0});
+    let scene = scene_file(
+        dir.path(),
+        "iridescence",
+        vec![
+            MeshSpec {
+                geometry: plane(0.0, 3.0),
+                material: diffuse([0.6, 0.6, 0.6]),
+            },
+            MeshSpec {
+                geometry: sphere([-1.05, 0.35, 0.0], 0.35, 32),
+                material: json!({"pbrMetallicRoughness": black.clone()}),
+            },
+            MeshSpec {
+                geometry: sphere([-0.35, 0.35, 0.0], 0.35, 32),
+                material: film(black, 1.9, 300.0, json!({})),
+            },
+            MeshSpec {
+                geometry: sphere([0.35, 0.35, 0.0], 0.35, 32),
+                material: film(white_metal, 1.8, 500.0, json!({})),
+            },
+            MeshSpec {
+                geometry: sphere([1.05, 0.35, 0.0], 0.35, 32),
+                material: film(
+                    clear,
+                    1.33,
+                    380.0,
+                    json!({"KHR_materials_transmission": {"transmissionFactor": 1.0}}),
+                ),
+            },
+        ],
+        [0.0, 1.2, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 15.0}),
+            json!({"translation": [1.5, 3.0, 2.0]}),
+        )],
+    );
+    check(
+        "iridescent_films",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.5,0.6,0.8"],
+    );
+}
+
+#[test]
 fn sheen_over_fabric() {
     // KHR_materials_sheen: a dark blue velvet (white sheen, low sheen
     // roughness), a rough sheen over pink cloth, and the same cloth without

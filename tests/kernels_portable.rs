@@ -179,6 +179,7 @@ fn variants() -> Vec<Variant> {
                                 clearcoat: compensation,
                                 sheen: compensation,
                                 diffuse_transmission: compensation && transmission,
+                                iridescence: compensation && transmission,
                             },
                         );
                         v.push(Variant {
@@ -253,19 +254,22 @@ fn variants() -> Vec<Variant> {
     // Each layer alone, with and without the dielectric extensions (the
     // kernels read only the fields their defines declare), and diffuse
     // transmission alone (it comes with the dielectric extensions).
-    for (clearcoat, sheen, diffuse_transmission) in [
-        (true, false, false),
-        (false, true, false),
-        (false, false, true),
+    for (clearcoat, sheen, diffuse_transmission, iridescence) in [
+        (true, false, false, false),
+        (false, true, false, false),
+        (false, false, true, false),
+        (false, false, false, true),
     ] {
+        let needs_transmission = diffuse_transmission || iridescence;
         for transmission in [false, true] {
-            if diffuse_transmission && !transmission {
+            if needs_transmission && !transmission {
                 continue;
             }
             let layers = LayerDefines {
                 clearcoat,
                 sheen,
                 diffuse_transmission,
+                iridescence,
             };
             v.push(Variant {
                 entry: "pathtrace.cl",
@@ -280,19 +284,21 @@ fn variants() -> Vec<Variant> {
                 ),
                 codegen: true,
             });
-            // HAS_DIFFUSE_TRANSMISSION alone: bsdf.h defines
-            // HAS_TRANSMISSION with it.
+            // HAS_DIFFUSE_TRANSMISSION or HAS_IRIDESCENCE alone: bsdf.h
+            // defines HAS_TRANSMISSION with them.
             let mut probe = vec![(
                 if clearcoat {
                     "HAS_CLEARCOAT"
                 } else if sheen {
                     "HAS_SHEEN"
-                } else {
+                } else if diffuse_transmission {
                     "HAS_DIFFUSE_TRANSMISSION"
+                } else {
+                    "HAS_IRIDESCENCE"
                 },
                 "1".to_owned(),
             )];
-            if transmission && !diffuse_transmission {
+            if transmission && !needs_transmission {
                 probe.push(("HAS_TRANSMISSION", "1".to_owned()));
             }
             v.push(Variant {
@@ -309,6 +315,7 @@ fn variants() -> Vec<Variant> {
             ("HAS_SHEEN", "1".to_owned()),
             ("HAS_TRANSMISSION", "1".to_owned()),
             ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
+            ("HAS_IRIDESCENCE", "1".to_owned()),
             ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
         ],
         codegen: true,

@@ -495,7 +495,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     let path = b.write(
         json!({
             "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_iridescence",
+                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
+                               "KHR_materials_iridescence",
                                "KHR_materials_diffuse_transmission"],
             "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
@@ -515,7 +516,10 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                 {"name": "wax", "extensions": {
                     "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.4,
                         "diffuseTransmissionColorFactor": [1.0, 0.5, 0.2], "diffuseTransmissionColorTexture": {"index": 0}},
-                    "KHR_materials_volume": {"thicknessFactor": 1.0}}}
+                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
+                {"name": "bubble", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 0.8,
+                    "iridescenceIor": 1.33, "iridescenceThicknessMaximum": 600,
+                    "iridescenceThicknessTexture": {"index": 0}}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
             "textures": [{"source": 0}],
@@ -584,10 +588,29 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert!(m[5].diffuse_transmission_texture.is_none());
     assert!(m[5].has_diffuse_transmission() && m[5].needs_transmission() && m[5].has_volume());
     assert!(!m[4].has_diffuse_transmission());
+    // Iridescence: factor, film index, thickness range (the minimum at its
+    // default) and texture; it needs the dielectric code.
+    assert_eq!(
+        (
+            m[6].iridescence,
+            m[6].iridescence_ior,
+            m[6].iridescence_thickness_min,
+            m[6].iridescence_thickness_max
+        ),
+        (0.8, 1.33, 100.0, 600.0)
+    );
+    assert_eq!(
+        m[6].iridescence_thickness_texture
+            .as_ref()
+            .map(|t| t.texture),
+        Some(0)
+    );
+    assert!(m[6].has_iridescence() && m[6].needs_transmission() && !m[5].has_iridescence());
     for ext in [
         "KHR_materials_clearcoat",
         "KHR_materials_sheen",
         "KHR_materials_diffuse_transmission",
+        "KHR_materials_iridescence",
     ] {
         assert!(
             !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
@@ -595,7 +618,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         );
     }
     {
-        let (ext, first) = ("KHR_materials_iridescence", "extensionsUsed");
+        let (ext, first) = ("KHR_materials_dispersion", "extensionsUsed");
         let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
         assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
         assert!(

@@ -383,6 +383,24 @@ fn material_extensions(
     } else if m.transmission_factor > 0.0 || m.has_diffuse_transmission() {
         out.push("thin-walled".to_owned());
     }
+    if m.has_iridescence() {
+        let thickness = if m.iridescence_thickness_texture.is_some() {
+            format!(
+                "{}-{} nm{}",
+                m.iridescence_thickness_min,
+                m.iridescence_thickness_max,
+                tex(&m.iridescence_thickness_texture)
+            )
+        } else {
+            format!("{} nm", m.iridescence_thickness_max)
+        };
+        out.push(format!(
+            "iridescence {}{} ior {} thickness {thickness}",
+            m.iridescence,
+            tex(&m.iridescence_texture),
+            m.iridescence_ior
+        ));
+    }
     if m.has_diffuse_transmission() {
         out.push(format!(
             "diffuse transmission {}{} colour {:?}{}",

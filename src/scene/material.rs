@@ -4,8 +4,8 @@
 //! KHR_texture_transform, and the dielectric extensions
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
-//! map), KHR_materials_sheen and KHR_materials_diffuse_transmission, with
-//! their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! map), KHR_materials_sheen, KHR_materials_diffuse_transmission and
+//! KHR_materials_iridescence, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -120,6 +120,19 @@ pub struct Material {
     pub diffuse_transmission_color: [f32; 3],
     /// `diffuseTransmissionColorTexture` (sRGB RGB scales the colour).
     pub diffuse_transmission_color_texture: Option<TextureRef>,
+    /// KHR_materials_iridescence `iridescenceFactor` (0 without it: no film).
+    pub iridescence: f32,
+    /// `iridescenceTexture` (R scales the factor).
+    pub iridescence_texture: Option<TextureRef>,
+    /// `iridescenceIor`: the film's index (1.3 by default).
+    pub iridescence_ior: f32,
+    /// `iridescenceThicknessMinimum` and `iridescenceThicknessMaximum`, nm
+    /// (100 and 400 by default).
+    pub iridescence_thickness_min: f32,
+    pub iridescence_thickness_max: f32,
+    /// `iridescenceThicknessTexture` (G picks the thickness between the
+    /// two; without it the film is the maximum thick).
+    pub iridescence_thickness_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -168,6 +181,12 @@ impl Default for Material {
             diffuse_transmission_texture: None,
             diffuse_transmission_color: [1.0; 3],
             diffuse_transmission_color_texture: None,
+            iridescence: 0.0,
+            iridescence_texture: None,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness_max: 400.0,
+            iridescence_thickness_texture: None,
         }
     }
 }
@@ -190,6 +209,8 @@ impl Material {
             &self.sheen_roughness_texture,
             &self.diffuse_transmission_texture,
             &self.diffuse_transmission_color_texture,
+            &self.iridescence_texture,
+            &self.iridescence_thickness_texture,
         ]
         .into_iter()
         .flatten()
@@ -208,6 +229,7 @@ impl Material {
     pub fn needs_transmission(&self) -> bool {
         self.transmission_factor > 0.0
             || self.has_diffuse_transmission()
+            || self.has_iridescence()
             || self.ior != 1.5
             || self.specular_factor != 1.0
             || self.specular_color != [1.0; 3]
@@ -220,6 +242,12 @@ impl Material {
     /// scales it).
     pub fn has_diffuse_transmission(&self) -> bool {
         self.diffuse_transmission > 0.0
+    }
+
+    /// Whether the material has a thin film (`HAS_IRIDESCENCE`): a factor
+    /// above 0 (its texture only scales it).
+    pub fn has_iridescence(&self) -> bool {
+        self.iridescence > 0.0
     }
 
     /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
@@ -255,6 +283,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_materials_diffuse_transmission",
+    "KHR_materials_iridescence",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -365,6 +394,7 @@ pub(crate) fn variant_material(
 }
 
 const DIFFUSE_TRANSMISSION: &str = "KHR_materials_diffuse_transmission";
+const IRIDESCENCE: &str = "KHR_materials_iridescence";
 
 /// The material's `extensions.NAME` object in the raw JSON.
 fn material_extension<'j>(
@@ -780,6 +810,33 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 i,
                 DIFFUSE_TRANSMISSION,
                 "diffuseTransmissionColorTexture",
+            ),
+            iridescence: number(
+                material_extension(src, i, IRIDESCENCE),
+                "iridescenceFactor",
+                0.0,
+            ),
+            iridescence_texture: extension_texture(src, i, IRIDESCENCE, "iridescenceTexture"),
+            iridescence_ior: number(
+                material_extension(src, i, IRIDESCENCE),
+                "iridescenceIor",
+                1.3,
+            ),
+            iridescence_thickness_min: number(
+                material_extension(src, i, IRIDESCENCE),
+                "iridescenceThicknessMinimum",
+                100.0,
+            ),
+            iridescence_thickness_max: number(
+                material_extension(src, i, IRIDESCENCE),
+                "iridescenceThicknessMaximum",
+                400.0,
+            ),
+            iridescence_thickness_texture: extension_texture(
+                src,
+                i,
+                IRIDESCENCE,
+                "iridescenceThicknessTexture",
             ),
         });
     }

@@ -340,6 +340,44 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     ]) {
         clamp(w, &what, name, c, 0.0, 1.0, 1.0);
     }
+    clamp(
+        w,
+        &what,
+        "KHR_materials_iridescence iridescenceFactor",
+        &mut m.iridescence,
+        0.0,
+        1.0,
+        0.0,
+    );
+    clamp(
+        w,
+        &what,
+        "KHR_materials_iridescence iridescenceIor",
+        &mut m.iridescence_ior,
+        1.0,
+        f32::MAX,
+        1.3,
+    );
+    // Films are nanometres thick: anything above 100 µm is a mistake, and
+    // the interference terms vanish long before.
+    clamp(
+        w,
+        &what,
+        "KHR_materials_iridescence iridescenceThicknessMinimum",
+        &mut m.iridescence_thickness_min,
+        0.0,
+        1.0e5,
+        100.0,
+    );
+    clamp(
+        w,
+        &what,
+        "KHR_materials_iridescence iridescenceThicknessMaximum",
+        &mut m.iridescence_thickness_max,
+        0.0,
+        1.0e5,
+        400.0,
+    );
     if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
         w.push(format!(
             "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",

@@ -736,6 +736,18 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                     "diffuseTransmissionColorTexture",
                 ),
             ),
+            (
+                "extensions.KHR_materials_iridescence.iridescenceTexture",
+                extension_texture_info(m, "KHR_materials_iridescence", "iridescenceTexture"),
+            ),
+            (
+                "extensions.KHR_materials_iridescence.iridescenceThicknessTexture",
+                extension_texture_info(
+                    m,
+                    "KHR_materials_iridescence",
+                    "iridescenceThicknessTexture",
+                ),
+            ),
         ];
         for (slot, info) in slots {
             let Some(info) = info else { continue };

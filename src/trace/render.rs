@@ -430,18 +430,22 @@ pub fn pathtrace_defines(
     if layers.diffuse_transmission {
         defines.push(("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()));
     }
+    if layers.iridescence {
+        defines.push(("HAS_IRIDESCENCE", "1".to_owned()));
+    }
     defines
 }
 
 /// Which lobes beyond the dielectric's a program compiles: the layers over
-/// the BSDF (`HAS_CLEARCOAT`, `HAS_SHEEN`) and the diffuse transmission lobe
-/// under it (`HAS_DIFFUSE_TRANSMISSION`, which the kernels compile with
-/// `HAS_TRANSMISSION`).
+/// the BSDF (`HAS_CLEARCOAT`, `HAS_SHEEN`), the diffuse transmission lobe
+/// under it (`HAS_DIFFUSE_TRANSMISSION`) and the thin film on its Fresnel
+/// (`HAS_IRIDESCENCE`), the last two compiled with `HAS_TRANSMISSION`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LayerDefines {
     pub clearcoat: bool,
     pub sheen: bool,
     pub diffuse_transmission: bool,
+    pub iridescence: bool,
 }
 
 impl LayerDefines {
@@ -451,6 +455,7 @@ impl LayerDefines {
             clearcoat: table.materials.iter().any(|m| m.has_clearcoat()),
             sheen: table.materials.iter().any(|m| m.has_sheen()),
             diffuse_transmission: table.materials.iter().any(|m| m.has_diffuse_transmission()),
+            iridescence: table.materials.iter().any(|m| m.has_iridescence()),
         }
     }
 
@@ -515,6 +520,9 @@ pub fn material_features(
     }
     if layers.diffuse_transmission {
         v.push("diffuse_transmission");
+    }
+    if layers.iridescence {
+        v.push("iridescence");
     }
     v
 }
@@ -656,6 +664,9 @@ impl<'d> PathTracer<'d> {
         if layers.diffuse_transmission {
             slots.extend(Slot::DIFFUSE_TRANSMISSION);
         }
+        if layers.iridescence {
+            slots.extend(Slot::IRIDESCENCE);
+        }
         let slots = &slots[..];
 
         // Textures: only when some material samples one (and not in clay
@@ -668,7 +679,7 @@ impl<'d> PathTracer<'d> {
         if textured {
             match TextureSet::with_slots(device, table, slots) {
                 Ok(set) if !set.is_empty() => {
-                    // Four bindings per material (`PtMaterial`), then ten
+                    // Four bindings per material (`PtMaterial`), then twelve
                     // per material for `PtMaterialExt` when compiled in
                     // (those of slots outside `slots` stay -1).
                     let n = table.materials.len();
@@ -706,6 +717,9 @@ impl<'d> PathTracer<'d> {
                             x.diffuse_transmission_tex = bind(m, Slot::DiffuseTransmission, at + 8);
                             x.diffuse_transmission_color_tex =
                                 bind(m, Slot::DiffuseTransmissionColor, at + 9);
+                            x.iridescence_tex = bind(m, Slot::Iridescence, at + 10);
+                            x.iridescence_thickness_tex =
+                                bind(m, Slot::IridescenceThickness, at + 11);
                         }
                     }
                     if set1 {

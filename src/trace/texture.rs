@@ -151,10 +151,14 @@ pub enum Slot {
     DiffuseTransmission,
     /// KHR_materials_diffuse_transmission `diffuseTransmissionColorTexture`.
     DiffuseTransmissionColor,
+    /// KHR_materials_iridescence `iridescenceTexture`.
+    Iridescence,
+    /// KHR_materials_iridescence `iridescenceThicknessTexture`.
+    IridescenceThickness,
 }
 
 impl Slot {
-    pub const ALL: [Slot; 15] = [
+    pub const ALL: [Slot; 17] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -170,9 +174,11 @@ impl Slot {
         Slot::SheenRoughness,
         Slot::DiffuseTransmission,
         Slot::DiffuseTransmissionColor,
+        Slot::Iridescence,
+        Slot::IridescenceThickness,
     ];
     /// The slots a path tracer shades with (issue 4): all but occlusion.
-    pub const SHADED: [Slot; 14] = [
+    pub const SHADED: [Slot; 16] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -187,6 +193,8 @@ impl Slot {
         Slot::SheenRoughness,
         Slot::DiffuseTransmission,
         Slot::DiffuseTransmissionColor,
+        Slot::Iridescence,
+        Slot::IridescenceThickness,
     ];
     /// The slots of `PtMaterial` (four bindings per material).
     pub const BASE: [Slot; 4] = [
@@ -195,12 +203,12 @@ impl Slot {
         Slot::Normal,
         Slot::Emissive,
     ];
-    /// The slots of `PtMaterialExt` (ten bindings per material, after
+    /// The slots of `PtMaterialExt` (twelve bindings per material, after
     /// every material's four), in binding order: the dielectric ones, read
     /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`),
-    /// the sheen's (`HAS_SHEEN`) and diffuse transmission's
-    /// (`HAS_DIFFUSE_TRANSMISSION`).
-    pub const EXT: [Slot; 10] = [
+    /// the sheen's (`HAS_SHEEN`), diffuse transmission's
+    /// (`HAS_DIFFUSE_TRANSMISSION`) and the thin film's (`HAS_IRIDESCENCE`).
+    pub const EXT: [Slot; 12] = [
         Slot::Transmission,
         Slot::Specular,
         Slot::SpecularColor,
@@ -211,6 +219,8 @@ impl Slot {
         Slot::SheenRoughness,
         Slot::DiffuseTransmission,
         Slot::DiffuseTransmissionColor,
+        Slot::Iridescence,
+        Slot::IridescenceThickness,
     ];
     pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
     pub const CLEARCOAT: [Slot; 3] = [
@@ -221,6 +231,7 @@ impl Slot {
     pub const SHEEN: [Slot; 2] = [Slot::SheenColor, Slot::SheenRoughness];
     pub const DIFFUSE_TRANSMISSION: [Slot; 2] =
         [Slot::DiffuseTransmission, Slot::DiffuseTransmissionColor];
+    pub const IRIDESCENCE: [Slot; 2] = [Slot::Iridescence, Slot::IridescenceThickness];
 
     /// The glTF property name, for messages.
     pub fn name(self) -> &'static str {
@@ -244,6 +255,8 @@ impl Slot {
             Slot::DiffuseTransmissionColor => {
                 "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture"
             }
+            Slot::Iridescence => "KHR_materials_iridescence iridescenceTexture",
+            Slot::IridescenceThickness => "KHR_materials_iridescence iridescenceThicknessTexture",
         }
     }
 
@@ -276,6 +289,8 @@ impl Slot {
             Slot::SheenRoughness => m.sheen_roughness_texture.as_ref(),
             Slot::DiffuseTransmission => m.diffuse_transmission_texture.as_ref(),
             Slot::DiffuseTransmissionColor => m.diffuse_transmission_color_texture.as_ref(),
+            Slot::Iridescence => m.iridescence_texture.as_ref(),
+            Slot::IridescenceThickness => m.iridescence_thickness_texture.as_ref(),
         }
     }
 }
