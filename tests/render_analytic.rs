@@ -26,15 +26,6 @@ fn sphere_scene() -> Soup {
     s
 }
 
-/// Pixels fully covered (alpha exactly 1) and their grey values.
-fn covered(img: &soupray::film::Image) -> Vec<f64> {
-    img.rgba
-        .iter()
-        .filter(|p| p[3] == 1.0)
-        .map(|p| grey(*p))
-        .collect()
-}
-
 #[test]
 fn furnace_clay_sphere_returns_albedo_times_environment() {
     let d = common::device();

@@ -175,13 +175,7 @@ fn clay_overrides_every_material() {
     st.spp = 64;
     let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
     let out = render_soup(&d, &one, &t, &cam, &[], &st, 0).unwrap();
-    let v: Vec<f64> = out
-        .image
-        .rgba
-        .iter()
-        .filter(|p| p[3] == 1.0)
-        .map(|p| grey(*p))
-        .collect();
+    let v = covered(&out.image);
     let (m, se) = mean_se(&v);
     assert!((m - 1.6).abs() < 4.0 * se + 2e-3, "{m} ± {se}");
 }

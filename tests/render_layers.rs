@@ -183,21 +183,7 @@ fn layered_bsdf_matches_the_reference() {
                 wi.z = wi.z.abs();
             }
             let u = [rng.f32(), rng.f32(), rng.f32()];
-            let thin = if dl.thin { 1.0 } else { 0.0 };
-            input.extend_from_slice(&[
-                p.base.x,
-                p.base.y,
-                p.base.z,
-                p.metallic,
-                p.alpha,
-                p.specular,
-                dl.f0_color.x,
-                dl.transmission,
-                dl.eta,
-                thin,
-                dl.f0_color.y,
-                dl.f0_color.z,
-            ]);
+            input.extend_from_slice(&common::dielectric_probe_params(&p, &dl));
             input.extend_from_slice(&[l.clearcoat, l.coat_alpha, l.sheen_roughness, 0.0]);
             input.extend_from_slice(&[l.sheen_color.x, l.sheen_color.y, l.sheen_color.z, 0.0]);
             input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
@@ -378,22 +364,10 @@ fn rough_tilted_coat_samples_what_it_evaluates() {
     }
 }
 
-/// The directional albedo of `p` by midpoint quadrature of bsdf_eval over
-/// the upper hemisphere (no delta lobes), in f64.
+/// The albedo over the upper hemisphere by quadrature of the reference's
+/// eval (`common::sphere_albedo`).
 fn quadrature_albedo(p: &BsdfParams, mu: f32) -> f64 {
-    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-    let (nc, np) = (256, 128);
-    let mut sum = 0.0f64;
-    for i in 0..nc {
-        let c = (i as f64 + 0.5) / nc as f64;
-        let s = (1.0 - c * c).sqrt();
-        for j in 0..np {
-            let ph = std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-            let wi = Vec3::new((s * ph.cos()) as f32, (s * ph.sin()) as f32, c as f32);
-            sum += bsdf_eval(p, wo, wi).x as f64 * c;
-        }
-    }
-    sum * 2.0 * std::f64::consts::PI / (nc * np) as f64
+    common::sphere_albedo(p, mu).0
 }
 
 #[test]

@@ -9,7 +9,9 @@ mod common;
 mod render_support;
 mod scene_support;
 
-use common::{albedo, check_bsdf_probe, close, run_probe, upload, BsdfProbeTally, Rng};
+use common::{
+    albedo, check_bsdf_probe, close, run_probe, sphere_albedo, upload, BsdfProbeTally, Rng,
+};
 use glam::Vec3;
 use render_support::*;
 use soupray::device::Arg;
@@ -32,6 +34,67 @@ fn random_dir(rng: &mut Rng) -> Vec3 {
             return v / l;
         }
     }
+}
+
+/// A random outgoing direction above the surface, a random direction
+/// anywhere, and the sampler's three random numbers.
+fn random_case(rng: &mut Rng) -> (Vec3, Vec3, [f32; 3]) {
+    let mut wo = random_dir(rng);
+    wo.z = wo.z.abs().max(0.02);
+    let wi = random_dir(rng);
+    (wo.normalize(), wi, [rng.f32(), rng.f32(), rng.f32()])
+}
+
+/// Runs `bsdf_ext_probe` (built with `defines`) on `cases` (parameters with
+/// the dielectric extensions, wo, wi, random numbers) and holds each to
+/// the Rust reference within `rel`. The kernel reads the parameters (12
+/// floats), wo, wi and u (12), and with the diffuse transmission or
+/// iridescence defines the diffuse transmission and its colour and the
+/// film's weight, index and thickness (8).
+fn check_ext_probe(
+    d: &soupray::device::Device,
+    defines: &[&'static str],
+    cases: &[(BsdfParams, Vec3, Vec3, [f32; 3])],
+    rel: f32,
+) -> BsdfProbeTally {
+    let extended = defines.len() > 1;
+    let mut input = Vec::new();
+    for (p, wo, wi, u) in cases {
+        let dl = p.dielectric.unwrap();
+        input.extend_from_slice(&common::dielectric_probe_params(p, &dl));
+        input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
+        input.extend_from_slice(&[u[0], u[1], u[2], 0.0]);
+        if extended {
+            let c = dl.diffuse_transmission_color;
+            input.extend_from_slice(&[dl.diffuse_transmission, c.x, c.y, c.z]);
+            input.extend_from_slice(&[
+                dl.iridescence,
+                dl.iridescence_ior,
+                dl.iridescence_thickness,
+                0.0,
+            ]);
+        }
+    }
+    let defines: Vec<(&str, String)> = defines.iter().map(|&k| (k, "1".to_owned())).collect();
+    let program = d.build_program("pt_probe.cl", &defines).unwrap();
+    let k = d.kernel(&program, "bsdf_ext_probe").unwrap();
+    let n = cases.len();
+    let got: Vec<f32> = run_probe(d, &k, &input, n, 12 * n);
+    let mut tally = BsdfProbeTally::default();
+    for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
+        let what = format!("case {i} {p:?} wo {wo} wi {wi}");
+        check_bsdf_probe(
+            &got[12 * i..12 * i + 12],
+            p,
+            *wo,
+            *wi,
+            *u,
+            rel,
+            &what,
+            &mut tally,
+        );
+    }
+    tally
 }
 
 fn glass(transmission: f32, ior: f32, volume: bool) -> Material {
@@ -93,7 +156,6 @@ fn dielectric_bsdf_matches_the_reference() {
     let d = common::device();
     let mut rng = Rng::new(13);
     let n = 4000;
-    let mut input = Vec::new();
     let mut cases = Vec::new();
     for i in 0..n {
         let ior = 1.0 + 1.5 * rng.f32();
@@ -112,42 +174,10 @@ fn dielectric_bsdf_matches_the_reference() {
         if i % 7 == 1 {
             p.specular = rng.f32();
         }
-        let mut wo = random_dir(&mut rng);
-        wo.z = wo.z.abs().max(0.02);
-        let wo = wo.normalize();
-        let wi = random_dir(&mut rng);
-        let u = [rng.f32(), rng.f32(), rng.f32()];
-        input.extend_from_slice(&[
-            p.base.x,
-            p.base.y,
-            p.base.z,
-            p.metallic,
-            p.alpha,
-            p.specular,
-            dl.f0_color.x,
-            dl.transmission,
-        ]);
-        input.extend_from_slice(&[
-            dl.eta,
-            if dl.thin { 1.0 } else { 0.0 },
-            dl.f0_color.y,
-            dl.f0_color.z,
-        ]);
-        input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
-        input.extend_from_slice(&[u[0], u[1], u[2], 0.0]);
+        let (wo, wi, u) = random_case(&mut rng);
         cases.push((p, wo, wi, u));
     }
-    let program = d
-        .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
-        .unwrap();
-    let k = d.kernel(&program, "bsdf_ext_probe").unwrap();
-    let got: Vec<f32> = run_probe(&d, &k, &input, n, 12 * n);
-    let mut tally = BsdfProbeTally::default();
-    for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
-        let what = format!("case {i} {p:?} wo {wo} wi {wi}");
-        let o = &got[12 * i..12 * i + 12];
-        check_bsdf_probe(o, p, *wo, *wi, *u, 5e-4, &what, &mut tally);
-    }
+    let tally = check_ext_probe(&d, &["HAS_TRANSMISSION"], &cases, 5e-4);
     let BsdfProbeTally {
         sampled,
         transmitted,
@@ -215,27 +245,26 @@ fn rough_transmission_pdf_integrates_to_the_lobe_probability() {
     );
 }
 
-#[test]
-fn glass_in_a_white_furnace_is_invisible() {
+/// A unit ball of `m` in a white furnace (24x24, 64 spp, 24 bounces): the
+/// mean and standard error of the pixels it covers.
+fn ball_in_white_furnace(m: Material) -> (f64, f64) {
     let d = common::device();
     let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
+    let mut st = settings(24, 64);
+    st.max_depth = 24;
+    st.environment = Environment::Color([1.0, 1.0, 1.0]);
+    let mut s = Soup::default();
+    sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
+    let out = render_soup(&d, &s, &table(vec![m]), &cam, &[], &st, 0).unwrap();
+    let v = covered(&out.image);
+    assert!(v.len() > 150, "the ball covers {} pixels", v.len());
+    mean_se(&v)
+}
+
+#[test]
+fn glass_in_a_white_furnace_is_invisible() {
     for volume in [true, false] {
-        let mut st = settings(24, 64);
-        st.max_depth = 24;
-        st.environment = Environment::Color([1.0, 1.0, 1.0]);
-        let mut s = Soup::default();
-        sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
-        let t = table(vec![glass(1.0, 1.5, volume)]);
-        let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
-        let v: Vec<f64> = out
-            .image
-            .rgba
-            .iter()
-            .filter(|p| p[3] == 1.0)
-            .map(|p| grey(*p))
-            .collect();
-        assert!(v.len() > 150, "sphere covers {} pixels", v.len());
-        let (m, se) = mean_se(&v);
+        let (m, se) = ball_in_white_furnace(glass(1.0, 1.5, volume));
         eprintln!("glass furnace, volume {volume}: {m} ± {se}");
         // Paths cut by the depth limit inside the ball lose a little.
         assert!(
@@ -423,13 +452,7 @@ fn energy_compensated_white_metal_returns_what_it_receives() {
         st.environment = Environment::Color([1.0, 1.0, 1.0]);
         st.energy_compensation = compensate;
         let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
-        let v: Vec<f64> = out
-            .image
-            .rgba
-            .iter()
-            .filter(|p| p[3] == 1.0)
-            .map(|p| grey(*p))
-            .collect();
+        let v = covered(&out.image);
         let (m, se) = mean_se(&v);
         eprintln!("rough white metal furnace, compensation {compensate}: {m} ± {se}");
         means.push((m, se));
@@ -490,21 +513,12 @@ fn energy_compensated_bsdf_matches_the_reference() {
             let dl = p
                 .dielectric
                 .unwrap_or(Dielectric::new(1.5, 0.0, false, true));
-            let head = [
-                p.base.x, p.base.y, p.base.z, p.metallic, p.alpha, p.specular,
-            ];
+            let params = common::dielectric_probe_params(p, &dl);
             if with_ext {
-                input.extend_from_slice(&head);
-                input.extend_from_slice(&[
-                    dl.f0_color.x,
-                    dl.transmission,
-                    dl.eta,
-                    if dl.thin { 1.0 } else { 0.0 },
-                    dl.f0_color.y,
-                    dl.f0_color.z,
-                ]);
+                input.extend_from_slice(&params);
             } else {
-                input.extend_from_slice(&head);
+                // bsdf_probe: the first six, padded to eight.
+                input.extend_from_slice(&params[..6]);
                 input.extend_from_slice(&[0.0, 0.0]);
             }
             input.extend_from_slice(&[
@@ -675,13 +689,7 @@ fn smooth_white_metal_in_a_white_furnace_returns_what_it_receives() {
     st.environment = Environment::Color([1.0, 1.0, 1.0]);
     st.energy_compensation = true;
     let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
-    let v: Vec<f64> = out
-        .image
-        .rgba
-        .iter()
-        .filter(|p| p[3] == 1.0)
-        .map(|p| grey(*p))
-        .collect();
+    let v = covered(&out.image);
     assert!(v.len() > 150, "sphere covers {} pixels", v.len());
     let (m, se) = mean_se(&v);
     eprintln!("smooth white metal furnace: {m} ± {se}");
@@ -886,6 +894,25 @@ fn max_rel_diff(
     worst
 }
 
+/// Each half of `textured` (columns 0-27 and 36-63: the pixel filter
+/// reaches 4 pixels across the seam) renders as the factor-only render of
+/// that half's texel (`lf`, `rf`), and those two differ.
+fn assert_halves_match(
+    what: &str,
+    textured: &soupray::film::Image,
+    lf: &soupray::film::Image,
+    rf: &soupray::film::Image,
+) {
+    let (left, right) = (0..28, 36..64);
+    let (l, r) = (
+        max_rel_diff(textured, lf, left.clone()),
+        max_rel_diff(textured, rf, right),
+    );
+    eprintln!("{what} textures: left {l:.2e}, right {r:.2e}");
+    assert!(l < 1e-5 && r < 1e-5, "{what}: left {l}, right {r}");
+    assert!(max_rel_diff(lf, rf, left) > 0.05);
+}
+
 #[test]
 fn extension_textures_scale_their_factors() {
     use serde_json::json;
@@ -956,13 +983,7 @@ fn extension_textures_scale_their_factors() {
         coat(0.8 * byte(100), [0.0, 0.9, 0.7 * srgb(128)], false),
         &blank,
     );
-    let (l, r) = (
-        max_rel_diff(&textured, &lf, left.clone()),
-        max_rel_diff(&textured, &rf, right.clone()),
-    );
-    eprintln!("specular textures: left {l:.2e}, right {r:.2e}");
-    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
-    assert!(max_rel_diff(&lf, &rf, left) > 0.05);
+    assert_halves_match("specular", &textured, &lf, &rf);
 }
 
 #[test]
@@ -971,7 +992,6 @@ fn layer_textures_scale_their_factors() {
     // As extension_textures_scale_their_factors, for the clear coat's and
     // the sheen's textures: each half must render as the untextured
     // material whose factors are the factors times that half's texel.
-    let (left, right) = (0..28, 36..64);
     let byte = |b: u8| b as f32 / 255.0;
     let srgb = |b: u8| soupray::trace::texture::srgb_to_linear(byte(b));
     let blank = png_uri([255; 4], [255; 4]);
@@ -992,13 +1012,7 @@ fn layer_textures_scale_their_factors() {
     );
     let lf = render_textured_square(coat(0.9 * byte(200), 0.8 * byte(60), false), &blank);
     let rf = render_textured_square(coat(0.9 * byte(40), 0.8 * byte(230), false), &blank);
-    let (l, r) = (
-        max_rel_diff(&textured, &lf, left.clone()),
-        max_rel_diff(&textured, &rf, right.clone()),
-    );
-    eprintln!("clear coat textures: left {l:.2e}, right {r:.2e}");
-    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
-    assert!(max_rel_diff(&lf, &rf, left.clone()) > 0.05);
+    assert_halves_match("clear coat", &textured, &lf, &rf);
 
     // sheenColorTexture (RGB, sRGB) and sheenRoughnessTexture (A).
     let sheen = |color: [f32; 3], roughness: f32, textured: bool| {
@@ -1029,13 +1043,7 @@ fn layer_textures_scale_their_factors() {
         ),
         &blank,
     );
-    let (l, r) = (
-        max_rel_diff(&textured, &lf, left.clone()),
-        max_rel_diff(&textured, &rf, right.clone()),
-    );
-    eprintln!("sheen textures: left {l:.2e}, right {r:.2e}");
-    assert!(l < 1e-5 && r < 1e-5, "left {l}, right {r}");
-    assert!(max_rel_diff(&lf, &rf, left) > 0.05);
+    assert_halves_match("sheen", &textured, &lf, &rf);
 }
 
 #[test]
@@ -1119,33 +1127,11 @@ fn clearcoat_normal_map_tilts_the_coat_and_the_base_normal_map_does_not() {
     );
 }
 
-/// The full-sphere albedo of the Rust reference at outgoing cosine `mu`, by
-/// midpoint quadrature of eval times |cos| over both hemispheres: (above,
-/// below).
-fn sphere_albedo(p: &BsdfParams, mu: f32) -> (f64, f64) {
-    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-    let (nc, np) = (256, 256);
-    let (mut up, mut down) = (0.0f64, 0.0f64);
-    for i in 0..nc {
-        let c = (i as f64 + 0.5) / nc as f64;
-        let s = (1.0 - c * c).sqrt();
-        for j in 0..np {
-            let ph = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
-            let (x, y) = ((s * ph.cos()) as f32, (s * ph.sin()) as f32);
-            up += bsdf_eval(p, wo, Vec3::new(x, y, c as f32)).x as f64 * c;
-            down += bsdf_eval(p, wo, Vec3::new(x, y, -c as f32)).x as f64 * c;
-        }
-    }
-    let k = 2.0 * std::f64::consts::PI / (nc * np) as f64;
-    (up * k, down * k)
-}
-
 #[test]
 fn diffuse_transmission_bsdf_matches_the_reference() {
     let d = common::device();
     let mut rng = Rng::new(29);
     let n = 4000;
-    let mut input = Vec::new();
     let mut cases = Vec::new();
     let mut smooth_transmitted = 0;
     for i in 0..n {
@@ -1166,29 +1152,7 @@ fn diffuse_transmission_bsdf_matches_the_reference() {
         if i % 7 == 1 {
             p.specular = rng.f32();
         }
-        let mut wo = random_dir(&mut rng);
-        wo.z = wo.z.abs().max(0.02);
-        let wo = wo.normalize();
-        let wi = random_dir(&mut rng);
-        let u = [rng.f32(), rng.f32(), rng.f32()];
-        input.extend_from_slice(&[
-            p.base.x,
-            p.base.y,
-            p.base.z,
-            p.metallic,
-            p.alpha,
-            p.specular,
-            dl.f0_color.x,
-            dl.transmission,
-            dl.eta,
-            if dl.thin { 1.0 } else { 0.0 },
-            dl.f0_color.y,
-            dl.f0_color.z,
-        ]);
-        input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
-        input.extend_from_slice(&[u[0], u[1], u[2], 0.0]);
-        input.extend_from_slice(&[dl.diffuse_transmission, color[0], color[1], color[2]]);
-        input.extend_from_slice(&[0.0; 4]);
+        let (wo, wi, u) = random_case(&mut rng);
         // A smooth surface transmits off the delta direction only through
         // the diffuse transmission lobe.
         if let Some(s) = bsdf_sample(&p, wo, u[0], u[1], u[2]) {
@@ -1198,31 +1162,12 @@ fn diffuse_transmission_bsdf_matches_the_reference() {
         }
         cases.push((p, wo, wi, u));
     }
-    let program = d
-        .build_program(
-            "pt_probe.cl",
-            &[
-                ("HAS_TRANSMISSION", "1".to_owned()),
-                ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
-            ],
-        )
-        .unwrap();
-    let k = d.kernel(&program, "bsdf_ext_probe").unwrap();
-    let got: Vec<f32> = run_probe(&d, &k, &input, n, 12 * n);
-    let mut tally = BsdfProbeTally::default();
-    for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
-        let what = format!("case {i} {p:?} wo {wo} wi {wi}");
-        check_bsdf_probe(
-            &got[12 * i..12 * i + 12],
-            p,
-            *wo,
-            *wi,
-            *u,
-            5e-4,
-            &what,
-            &mut tally,
-        );
-    }
+    let tally = check_ext_probe(
+        &d,
+        &["HAS_TRANSMISSION", "HAS_DIFFUSE_TRANSMISSION"],
+        &cases,
+        5e-4,
+    );
     eprintln!(
         "diffuse transmission probe: {} sampled, {} transmitted, {smooth_transmitted} diffusely through smooth surfaces",
         tally.sampled, tally.transmitted
@@ -1295,14 +1240,7 @@ fn white_diffuse_transmitter_in_a_white_furnace_is_invisible() {
     // A white Lambertian (specularFactor 0) that transmits half its light
     // diffusely reflects and transmits all of it: a closed ball of it in a
     // white furnace disappears, thin-walled or with a volume.
-    let d = common::device();
-    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
     for volume in [false, true] {
-        let mut st = settings(24, 64);
-        st.max_depth = 24;
-        st.environment = Environment::Color([1.0, 1.0, 1.0]);
-        let mut s = Soup::default();
-        sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
         let m = Material {
             specular_factor: 0.0,
             diffuse_transmission: 0.5,
@@ -1310,16 +1248,7 @@ fn white_diffuse_transmitter_in_a_white_furnace_is_invisible() {
             double_sided: true,
             ..material([1.0; 4], 0.0, 0.5)
         };
-        let out = render_soup(&d, &s, &table(vec![m]), &cam, &[], &st, 0).unwrap();
-        let v: Vec<f64> = out
-            .image
-            .rgba
-            .iter()
-            .filter(|p| p[3] == 1.0)
-            .map(|p| grey(*p))
-            .collect();
-        assert!(v.len() > 150, "sphere covers {} pixels", v.len());
-        let (m, se) = mean_se(&v);
+        let (m, se) = ball_in_white_furnace(m);
         eprintln!("diffuse transmission furnace, volume {volume}: {m} ± {se}");
         assert!(
             (m - 1.0).abs() < 4.0 * se + 0.01,
@@ -1404,7 +1333,6 @@ fn iridescent_bsdf_matches_the_reference() {
     let d = common::device();
     let mut rng = Rng::new(31);
     let n = 4000;
-    let mut input = Vec::new();
     let mut cases = Vec::new();
     for i in 0..n {
         let volume = i % 2 == 0;
@@ -1432,57 +1360,19 @@ fn iridescent_bsdf_matches_the_reference() {
             dl = dl.with_specular_color([2.0 * rng.f32(), 2.0 * rng.f32(), 2.0 * rng.f32()]);
         }
         let p = BsdfParams::new(base, metallic, rough).with_dielectric(dl);
-        let mut wo = random_dir(&mut rng);
-        wo.z = wo.z.abs().max(0.02);
-        let wo = wo.normalize();
-        let wi = random_dir(&mut rng);
-        let u = [rng.f32(), rng.f32(), rng.f32()];
-        input.extend_from_slice(&[
-            p.base.x,
-            p.base.y,
-            p.base.z,
-            p.metallic,
-            p.alpha,
-            p.specular,
-            dl.f0_color.x,
-            dl.transmission,
-            dl.eta,
-            if dl.thin { 1.0 } else { 0.0 },
-            dl.f0_color.y,
-            dl.f0_color.z,
-        ]);
-        input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
-        input.extend_from_slice(&[u[0], u[1], u[2], 0.0]);
-        input.extend_from_slice(&[dt, 1.0, 0.8, 0.6]);
-        input.extend_from_slice(&[dl.iridescence, film_ior, thickness, 0.0]);
+        let (wo, wi, u) = random_case(&mut rng);
         cases.push((p, wo, wi, u));
     }
-    let program = d
-        .build_program(
-            "pt_probe.cl",
-            &[
-                ("HAS_TRANSMISSION", "1".to_owned()),
-                ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
-                ("HAS_IRIDESCENCE", "1".to_owned()),
-            ],
-        )
-        .unwrap();
-    let k = d.kernel(&program, "bsdf_ext_probe").unwrap();
-    let got: Vec<f32> = run_probe(&d, &k, &input, n, 12 * n);
-    let mut tally = BsdfProbeTally::default();
-    for (i, (p, wo, wi, u)) in cases.iter().enumerate() {
-        let what = format!("case {i} {p:?} wo {wo} wi {wi}");
-        check_bsdf_probe(
-            &got[12 * i..12 * i + 12],
-            p,
-            *wo,
-            *wi,
-            *u,
-            1e-3,
-            &what,
-            &mut tally,
-        );
-    }
+    let tally = check_ext_probe(
+        &d,
+        &[
+            "HAS_TRANSMISSION",
+            "HAS_DIFFUSE_TRANSMISSION",
+            "HAS_IRIDESCENCE",
+        ],
+        &cases,
+        1e-3,
+    );
     eprintln!(
         "iridescence probe: {} sampled, {} transmitted, {} from delta lobes",
         tally.sampled, tally.transmitted, tally.deltas

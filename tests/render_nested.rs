@@ -467,13 +467,7 @@ fn nested_glass_in_a_white_furnace_is_invisible() {
         st.environment = Environment::Color([1.0, 1.0, 1.0]);
         let t = table(vec![volume(1.33), volume(1.5)]);
         let out = render_soup(&d, &s, &t, &cam, &[], &st, 0).unwrap();
-        let v: Vec<f64> = out
-            .image
-            .rgba
-            .iter()
-            .filter(|p| p[3] == 1.0)
-            .map(|p| grey(*p))
-            .collect();
+        let v = covered(&out.image);
         assert!(v.len() > 150, "{name}: covers {} pixels", v.len());
         let (m, se) = mean_se(&v);
         eprintln!("{name} in a white furnace: {m} ± {se}");

@@ -213,3 +213,49 @@ pub fn albedo(p: &soupray::trace::material::BsdfParams, mu: f32, scale_t: f32) -
     }
     sum / (n * n * n) as f64
 }
+
+/// The full-sphere albedo of the Rust reference at outgoing cosine `mu`, by
+/// midpoint quadrature of eval times |cos| over both hemispheres: (above,
+/// below).
+pub fn sphere_albedo(p: &soupray::trace::material::BsdfParams, mu: f32) -> (f64, f64) {
+    use glam::Vec3;
+    use soupray::trace::material::bsdf_eval;
+    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+    let (nc, np) = (256, 256);
+    let (mut up, mut down) = (0.0f64, 0.0f64);
+    for i in 0..nc {
+        let c = (i as f64 + 0.5) / nc as f64;
+        let s = (1.0 - c * c).sqrt();
+        for j in 0..np {
+            let ph = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+            let (x, y) = ((s * ph.cos()) as f32, (s * ph.sin()) as f32);
+            up += bsdf_eval(p, wo, Vec3::new(x, y, c as f32)).x as f64 * c;
+            down += bsdf_eval(p, wo, Vec3::new(x, y, -c as f32)).x as f64 * c;
+        }
+    }
+    let k = 2.0 * std::f64::consts::PI / (nc * np) as f64;
+    (up * k, down * k)
+}
+
+/// The first twelve floats of the dielectric BSDF probes (`bsdf_ext_probe`,
+/// `bsdf_layer_probe`): base rgb, metallic, alpha, specular, F0 red,
+/// transmission, eta, thin (1 or 0), F0 green, F0 blue.
+pub fn dielectric_probe_params(
+    p: &soupray::trace::material::BsdfParams,
+    dl: &soupray::trace::material::Dielectric,
+) -> [f32; 12] {
+    [
+        p.base.x,
+        p.base.y,
+        p.base.z,
+        p.metallic,
+        p.alpha,
+        p.specular,
+        dl.f0_color.x,
+        dl.transmission,
+        dl.eta,
+        if dl.thin { 1.0 } else { 0.0 },
+        dl.f0_color.y,
+        dl.f0_color.z,
+    ]
+}

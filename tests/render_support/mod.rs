@@ -196,6 +196,15 @@ pub fn grey(p: [f32; 4]) -> f64 {
     (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0
 }
 
+/// The grey values of the pixels an object covers fully (alpha exactly 1).
+pub fn covered(img: &Image) -> Vec<f64> {
+    img.rgba
+        .iter()
+        .filter(|p| p[3] == 1.0)
+        .map(|p| grey(*p))
+        .collect()
+}
+
 /// A sphere on a plane, lit by a point light, an emissive quad and a sky:
 /// every light path of the integrator is used.
 pub fn busy_scene() -> (
