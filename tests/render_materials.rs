@@ -1432,6 +1432,18 @@ fn thin_film_has_the_limits_of_its_physics() {
             .any(|w| (w[0] - w[1]).abs().max_element() > 0.2),
         "the film's colour should change with its thickness: {hues:?}"
     );
+    // The ends of the ranges a file may give stay finite and in 0..1.
+    for (ior, t) in [(1.0f32, 0.0f32), (100.0, 0.0), (100.0, 1.0e5), (1.0, 1.0e5)] {
+        for &c in &[1.0f32, 0.01] {
+            for f0 in [Vec3::ZERO, Vec3::ONE, Vec3::splat(0.5)] {
+                let r = thin_film_fresnel(ior, c, t, f0);
+                assert!(
+                    r.is_finite() && r.min_element() >= 0.0 && r.max_element() <= 1.0,
+                    "ior {ior} thickness {t} cos {c} f0 {f0}: {r}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

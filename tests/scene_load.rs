@@ -510,7 +510,9 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                                                       "clearcoatRoughnessFactor": 0.25, "clearcoatTexture": {"index": 0}},
                                                   "KHR_materials_sheen": {"sheenColorFactor": [1, 0.5, 2], "sheenRoughnessFactor": 0.4}}},
                 {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
-                                                "KHR_materials_ior": {"ior": 0.5}}},
+                                                "KHR_materials_ior": {"ior": 0.5},
+                                                "KHR_materials_iridescence": {"iridescenceFactor": 0.5,
+                                                    "iridescenceIor": 1e30, "iridescenceThicknessMaximum": -5}}},
                 {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
                 {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}},
                 {"name": "wax", "extensions": {
@@ -606,6 +608,22 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         Some(0)
     );
     assert!(m[6].has_iridescence() && m[6].needs_transmission() && !m[5].has_iridescence());
+    // Out of range: the film's index bounded (its optical path stays
+    // finite), a negative thickness raised to 0, each with a warning.
+    assert_eq!(
+        (m[2].iridescence_ior, m[2].iridescence_thickness_max),
+        (100.0, 0.0)
+    );
+    assert!(
+        w.iter()
+            .any(|w| w.contains("iridescenceIor") && w.contains("100 is used")),
+        "{w:?}"
+    );
+    assert!(
+        w.iter()
+            .any(|w| w.contains("iridescenceThicknessMaximum -5") && w.contains("0 is used")),
+        "{w:?}"
+    );
     for ext in [
         "KHR_materials_clearcoat",
         "KHR_materials_sheen",

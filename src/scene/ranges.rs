@@ -349,13 +349,15 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         1.0,
         0.0,
     );
+    // Real films have indices of 1 to about 4; the bound keeps the film's
+    // optical path (index times thickness) finite.
     clamp(
         w,
         &what,
         "KHR_materials_iridescence iridescenceIor",
         &mut m.iridescence_ior,
         1.0,
-        f32::MAX,
+        100.0,
         1.3,
     );
     // Films are nanometres thick: anything above 100 µm is a mistake, and
