@@ -247,24 +247,32 @@ inline float f0_of_ior(float ior) {
 
 // Schlick's Fresnel on the optically thinner side; 1 under total internal
 // reflection.
-inline float fresnel_dielectric(float f0, float eta, float c) {
+// The cosine on the optically thinner side of an interface of relative
+// index `eta` for cosine `c` on wo's side (c itself when wo's side is the
+// thinner one); false under total internal reflection. Mirrors
+// trace::material::thinner_side_cos.
+inline bool thinner_side_cos(float eta, float c, float* ct) {
+    *ct = c;
     if (eta < 1.0f) {
         float s2t = fmax(1.0f - c * c, 0.0f) / (eta * eta);
-        if (s2t >= 1.0f) return 1.0f;
-        c = sqrt(1.0f - s2t);
+        if (s2t >= 1.0f) return false;
+        *ct = sqrt(1.0f - s2t);
     }
-    return f0 + (1.0f - f0) * schlick_weight(c);
+    return true;
+}
+
+inline float fresnel_dielectric(float f0, float eta, float c) {
+    float ct;
+    if (!thinner_side_cos(eta, c, &ct)) return 1.0f;
+    return f0 + (1.0f - f0) * schlick_weight(ct);
 }
 
 // The coloured Fresnel (KHR_materials_specular's fresnel_mix layer) with
 // the cosine on the thinner side; 1 under total internal reflection.
 inline float3 fresnel_dielectric3(float3 f0, float eta, float c) {
-    if (eta < 1.0f) {
-        float s2t = fmax(1.0f - c * c, 0.0f) / (eta * eta);
-        if (s2t >= 1.0f) return (float3)(1.0f);
-        c = sqrt(1.0f - s2t);
-    }
-    return f0 + ((float3)(1.0f) - f0) * schlick_weight(c);
+    float ct;
+    if (!thinner_side_cos(eta, c, &ct)) return (float3)(1.0f);
+    return f0 + ((float3)(1.0f) - f0) * schlick_weight(ct);
 }
 
 inline float max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
@@ -332,15 +340,11 @@ inline float3 thin_film_fresnel(float film_ior, float cos1, float thickness, flo
 // The dielectric layer's Fresnel at cosine `c` on wo's side, mixed towards
 // the thin film's with HAS_IRIDESCENCE; mirrors layer_fresnel.
 inline float3 layer_fresnel(BsdfParams p, float c) {
-    float3 f = fresnel_dielectric3(p.f0_color, p.eta, c);
+    float ct;
+    if (!thinner_side_cos(p.eta, c, &ct)) return (float3)(1.0f);
+    float3 f = p.f0_color + ((float3)(1.0f) - p.f0_color) * schlick_weight(ct);
 #ifdef HAS_IRIDESCENCE
     if (!(p.iridescence > 0.0f)) return f;
-    float ct = c;
-    if (p.eta < 1.0f) {
-        float s2t = fmax(1.0f - c * c, 0.0f) / (p.eta * p.eta);
-        if (s2t >= 1.0f) return (float3)(1.0f);
-        ct = sqrt(1.0f - s2t);
-    }
     float3 film = thin_film_fresnel(p.iridescence_ior, ct, p.iridescence_thickness, p.f0_color);
     return f + (film - f) * p.iridescence;
 #else

@@ -406,6 +406,13 @@ typedef struct {
 #endif
 } PtSurface;
 
+// A shading normal `n` facing away from the viewer (direction `wo`) or
+// from the geometric normal `ng` would make the surface black: `ng` is used
+// there instead (for the base's normal and the clear coat's alike).
+inline float3 pt_facing(float3 n, float3 wo, float3 ng) {
+    return dot(n, wo) <= 0.0f || dot(n, ng) <= 0.0f ? ng : n;
+}
+
 inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TEX_DECL) {
     PtSurface sf;
     sf.p = hit_point(SGEOM(s), h.prim, h.u, h.v);
@@ -428,7 +435,7 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
         }
     }
 #ifdef HAS_CLEARCOAT
-    sf.n_unmapped = dot(ns, -dir) <= 0.0f || dot(ns, ng) <= 0.0f ? ng : ns;
+    sf.n_unmapped = pt_facing(ns, -dir, ng);
     sf.prim = h.prim;
 #endif
 #ifdef HAS_TEXTURES
@@ -437,10 +444,7 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
         ns = pt_normal_map(s, m.normal_tex, m.normal_scale, h.prim, sf.front ? ns : -ns, sf.front,
                            sf.uv TEX_PASS);
 #endif
-    // A shading normal facing away from the viewer would make the surface
-    // black; the geometric normal is used there instead.
-    if (dot(ns, -dir) <= 0.0f || dot(ns, ng) <= 0.0f) ns = ng;
-    sf.ns = ns;
+    sf.ns = pt_facing(ns, -dir, ng);
     return sf;
 }
 
@@ -493,9 +497,7 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     if (layered && mx.clearcoat_normal_tex >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
         nc = pt_normal_map(s, mx.clearcoat_normal_tex, mx.clearcoat_normal_scale, sf.prim,
                            sf.front ? nc : -nc, sf.front, sf.uv TEX_PASS);
-        // As the base's: a coat normal facing away from the viewer would
-        // make the coat black; the geometric normal is used there instead.
-        if (dot(nc, wo_w) <= 0.0f || dot(nc, sf.ng) <= 0.0f) nc = sf.ng;
+        nc = pt_facing(nc, wo_w, sf.ng);
     }
 #endif
     bp->clearcoat = layered ? clearcoat : 0.0f;

@@ -286,6 +286,23 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
 ];
 
+/// Every texture the supported material extensions read, as (extension,
+/// property): what `validate` checks beside the core material's textures.
+pub(crate) const EXTENSION_TEXTURES: &[(&str, &str)] = &[
+    ("KHR_materials_transmission", "transmissionTexture"),
+    ("KHR_materials_specular", "specularTexture"),
+    ("KHR_materials_specular", "specularColorTexture"),
+    ("KHR_materials_clearcoat", "clearcoatTexture"),
+    ("KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
+    ("KHR_materials_clearcoat", "clearcoatNormalTexture"),
+    ("KHR_materials_sheen", "sheenColorTexture"),
+    ("KHR_materials_sheen", "sheenRoughnessTexture"),
+    (DIFFUSE_TRANSMISSION, "diffuseTransmissionTexture"),
+    (DIFFUSE_TRANSMISSION, "diffuseTransmissionColorTexture"),
+    (IRIDESCENCE, "iridescenceTexture"),
+    (IRIDESCENCE, "iridescenceThicknessTexture"),
+];
+
 /// One warning per `KHR_materials_*` extension the file uses (on a
 /// material, or in `extensionsUsed`) that soupray does not render, naming
 /// it and the first material using it.
@@ -422,6 +439,18 @@ fn extension_texture(src: &Source, material: usize, ext: &str, key: &str) -> Opt
         info.get("extensions")
             .and_then(|e| e.get("KHR_texture_transform")),
     ))
+}
+
+/// A colour factor `key` of extension object `v` (three numbers), each
+/// component `default` where absent.
+fn rgb(v: Option<&serde_json::Value>, key: &str, default: f32) -> [f32; 3] {
+    let a = v.and_then(|v| v.get(key)).and_then(|a| a.as_array());
+    let c = |k: usize| {
+        a.and_then(|a| a.get(k))
+            .and_then(|x| x.as_f64())
+            .map_or(default, |x| x as f32)
+    };
+    [c(0), c(1), c(2)]
 }
 
 fn number(v: Option<&serde_json::Value>, key: &str, default: f32) -> f32 {
@@ -670,17 +699,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 "thicknessFactor",
                 0.0,
             ),
-            attenuation_color: {
-                let v = material_extension(src, i, "KHR_materials_volume")
-                    .and_then(|v| v.get("attenuationColor"))
-                    .and_then(|a| a.as_array());
-                let c = |k: usize| {
-                    v.and_then(|a| a.get(k))
-                        .and_then(|x| x.as_f64())
-                        .map_or(1.0, |x| x as f32)
-                };
-                [c(0), c(1), c(2)]
-            },
+            attenuation_color: rgb(
+                material_extension(src, i, "KHR_materials_volume"),
+                "attenuationColor",
+                1.0,
+            ),
             attenuation_distance: number(
                 material_extension(src, i, "KHR_materials_volume"),
                 "attenuationDistance",
@@ -692,17 +715,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 "specularFactor",
                 1.0,
             ),
-            specular_color: {
-                let v = material_extension(src, i, "KHR_materials_specular")
-                    .and_then(|v| v.get("specularColorFactor"))
-                    .and_then(|a| a.as_array());
-                let c = |k: usize| {
-                    v.and_then(|a| a.get(k))
-                        .and_then(|x| x.as_f64())
-                        .map_or(1.0, |x| x as f32)
-                };
-                [c(0), c(1), c(2)]
-            },
+            specular_color: rgb(
+                material_extension(src, i, "KHR_materials_specular"),
+                "specularColorFactor",
+                1.0,
+            ),
             transmission_texture: extension_texture(
                 src,
                 i,
@@ -731,17 +748,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 "clearcoatRoughnessFactor",
                 0.0,
             ),
-            sheen_color: {
-                let v = material_extension(src, i, "KHR_materials_sheen")
-                    .and_then(|v| v.get("sheenColorFactor"))
-                    .and_then(|a| a.as_array());
-                let c = |k: usize| {
-                    v.and_then(|a| a.get(k))
-                        .and_then(|x| x.as_f64())
-                        .map_or(0.0, |x| x as f32)
-                };
-                [c(0), c(1), c(2)]
-            },
+            sheen_color: rgb(
+                material_extension(src, i, "KHR_materials_sheen"),
+                "sheenColorFactor",
+                0.0,
+            ),
             sheen_roughness: number(
                 material_extension(src, i, "KHR_materials_sheen"),
                 "sheenRoughnessFactor",
@@ -794,17 +805,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 DIFFUSE_TRANSMISSION,
                 "diffuseTransmissionTexture",
             ),
-            diffuse_transmission_color: {
-                let v = material_extension(src, i, DIFFUSE_TRANSMISSION)
-                    .and_then(|v| v.get("diffuseTransmissionColorFactor"))
-                    .and_then(|a| a.as_array());
-                let c = |k: usize| {
-                    v.and_then(|a| a.get(k))
-                        .and_then(|x| x.as_f64())
-                        .map_or(1.0, |x| x as f32)
-                };
-                [c(0), c(1), c(2)]
-            },
+            diffuse_transmission_color: rgb(
+                material_extension(src, i, DIFFUSE_TRANSMISSION),
+                "diffuseTransmissionColorFactor",
+                1.0,
+            ),
             diffuse_transmission_color_texture: extension_texture(
                 src,
                 i,

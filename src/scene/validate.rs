@@ -676,79 +676,29 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
     // Materials: every texture reference and its texCoord.
     for (i, m) in items(file, root, "materials")?.iter().enumerate() {
         let pbr = m.get("pbrMetallicRoughness").and_then(Value::as_object);
-        let slots = [
+        let mut slots: Vec<(String, Option<&Value>)> = vec![
             (
-                "pbrMetallicRoughness.baseColorTexture",
+                "pbrMetallicRoughness.baseColorTexture".to_owned(),
                 pbr.and_then(|p| p.get("baseColorTexture")),
             ),
             (
-                "pbrMetallicRoughness.metallicRoughnessTexture",
+                "pbrMetallicRoughness.metallicRoughnessTexture".to_owned(),
                 pbr.and_then(|p| p.get("metallicRoughnessTexture")),
             ),
-            ("normalTexture", m.get("normalTexture")),
-            ("occlusionTexture", m.get("occlusionTexture")),
-            ("emissiveTexture", m.get("emissiveTexture")),
-            (
-                "extensions.KHR_materials_transmission.transmissionTexture",
-                extension_texture_info(m, "KHR_materials_transmission", "transmissionTexture"),
-            ),
-            (
-                "extensions.KHR_materials_specular.specularTexture",
-                extension_texture_info(m, "KHR_materials_specular", "specularTexture"),
-            ),
-            (
-                "extensions.KHR_materials_specular.specularColorTexture",
-                extension_texture_info(m, "KHR_materials_specular", "specularColorTexture"),
-            ),
-            (
-                "extensions.KHR_materials_clearcoat.clearcoatTexture",
-                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatTexture"),
-            ),
-            (
-                "extensions.KHR_materials_clearcoat.clearcoatRoughnessTexture",
-                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
-            ),
-            (
-                "extensions.KHR_materials_clearcoat.clearcoatNormalTexture",
-                extension_texture_info(m, "KHR_materials_clearcoat", "clearcoatNormalTexture"),
-            ),
-            (
-                "extensions.KHR_materials_sheen.sheenColorTexture",
-                extension_texture_info(m, "KHR_materials_sheen", "sheenColorTexture"),
-            ),
-            (
-                "extensions.KHR_materials_sheen.sheenRoughnessTexture",
-                extension_texture_info(m, "KHR_materials_sheen", "sheenRoughnessTexture"),
-            ),
-            (
-                "extensions.KHR_materials_diffuse_transmission.diffuseTransmissionTexture",
-                extension_texture_info(
-                    m,
-                    "KHR_materials_diffuse_transmission",
-                    "diffuseTransmissionTexture",
-                ),
-            ),
-            (
-                "extensions.KHR_materials_diffuse_transmission.diffuseTransmissionColorTexture",
-                extension_texture_info(
-                    m,
-                    "KHR_materials_diffuse_transmission",
-                    "diffuseTransmissionColorTexture",
-                ),
-            ),
-            (
-                "extensions.KHR_materials_iridescence.iridescenceTexture",
-                extension_texture_info(m, "KHR_materials_iridescence", "iridescenceTexture"),
-            ),
-            (
-                "extensions.KHR_materials_iridescence.iridescenceThicknessTexture",
-                extension_texture_info(
-                    m,
-                    "KHR_materials_iridescence",
-                    "iridescenceThicknessTexture",
-                ),
-            ),
+            ("normalTexture".to_owned(), m.get("normalTexture")),
+            ("occlusionTexture".to_owned(), m.get("occlusionTexture")),
+            ("emissiveTexture".to_owned(), m.get("emissiveTexture")),
         ];
+        slots.extend(
+            crate::scene::material::EXTENSION_TEXTURES
+                .iter()
+                .map(|&(ext, key)| {
+                    (
+                        format!("extensions.{ext}.{key}"),
+                        extension_texture_info(m, ext, key),
+                    )
+                }),
+        );
         for (slot, info) in slots {
             let Some(info) = info else { continue };
             let at = || format!("material {i} {slot}");

@@ -547,28 +547,33 @@ fn schlick_weight(c: f32) -> f32 {
 /// relative index `eta` at cosine `c` on wo's side: taken with the cosine
 /// on the optically thinner side, 1 under total internal reflection.
 pub fn fresnel_dielectric(f0: f32, eta: f32, c: f32) -> f32 {
-    let mut c = c;
+    match thinner_side_cos(eta, c) {
+        Some(c) => f0 + (1.0 - f0) * schlick_weight(c),
+        None => 1.0,
+    }
+}
+
+/// The cosine on the optically thinner side of an interface of relative
+/// index `eta` (the far side's over wo's) for cosine `c` on wo's side:
+/// `c` itself when wo's side is the thinner one, else the refracted
+/// cosine; `None` under total internal reflection.
+fn thinner_side_cos(eta: f32, c: f32) -> Option<f32> {
     if eta < 1.0 {
         let s2t = (1.0 - c * c).max(0.0) / (eta * eta);
         if s2t >= 1.0 {
-            return 1.0;
+            return None;
         }
-        c = (1.0 - s2t).sqrt();
+        return Some((1.0 - s2t).sqrt());
     }
-    f0 + (1.0 - f0) * schlick_weight(c)
+    Some(c)
 }
 
 /// `fresnel_dielectric` per channel of a coloured F0.
 pub fn fresnel_dielectric3(f0: Vec3, eta: f32, c: f32) -> Vec3 {
-    let mut c = c;
-    if eta < 1.0 {
-        let s2t = (1.0 - c * c).max(0.0) / (eta * eta);
-        if s2t >= 1.0 {
-            return Vec3::ONE;
-        }
-        c = (1.0 - s2t).sqrt();
+    match thinner_side_cos(eta, c) {
+        Some(c) => f0 + (Vec3::ONE - f0) * schlick_weight(c),
+        None => Vec3::ONE,
     }
-    f0 + (Vec3::ONE - f0) * schlick_weight(c)
 }
 
 fn max3(v: Vec3) -> f32 {
@@ -668,17 +673,12 @@ fn film_sensitivity(opd: f32, shift: Vec3) -> Vec3 {
 /// iridescence weight (the film taken at the cosine on the thinner side,
 /// 1 under total internal reflection).
 fn layer_fresnel(d: &Dielectric, c: f32) -> Vec3 {
-    let f = fresnel_dielectric3(d.f0_color, d.eta, c);
+    let Some(ct) = thinner_side_cos(d.eta, c) else {
+        return Vec3::ONE;
+    };
+    let f = d.f0_color + (Vec3::ONE - d.f0_color) * schlick_weight(ct);
     if !(d.iridescence > 0.0) {
         return f;
-    }
-    let mut ct = c;
-    if d.eta < 1.0 {
-        let s2t = (1.0 - c * c).max(0.0) / (d.eta * d.eta);
-        if s2t >= 1.0 {
-            return Vec3::ONE;
-        }
-        ct = (1.0 - s2t).sqrt();
     }
     let film = thin_film_fresnel(d.iridescence_ior, ct, d.iridescence_thickness, d.f0_color);
     f + (film - f) * d.iridescence
