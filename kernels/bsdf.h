@@ -19,7 +19,13 @@
 // colour, weighted by the Fresnel the diffuse reflection would have at the
 // mirror of wi. With HAS_IRIDESCENCE (KHR_materials_iridescence, which also
 // implies HAS_TRANSMISSION) every Fresnel of the dielectric layer and of the
-// metal is mixed towards a thin film's (thin_film_fresnel).
+// metal is mixed towards a thin film's (thin_film_fresnel). With
+// HAS_ANISOTROPY (KHR_materials_anisotropy, which implies HAS_TRANSMISSION)
+// the base's GGX lobes (reflection, metal, transmission) have alpha_t along
+// the local frame's x axis, which pathtrace.cl turns to the anisotropy
+// direction, and alpha along y (Heitz 2014's anisotropic GGX and Smith
+// masking, the visible-normal sampling stretched by both alphas); equal
+// alphas take the isotropic formulas (spec_*).
 //
 // With GGX_ENERGY_COMPENSATION (`--energy-compensation`), the GGX
 // reflection lobes are scaled by 1 + F0 (1 / E(mu_o) - 1) (Turquin 2019),
@@ -44,7 +50,8 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "sampling.h"
-#if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE)) && !defined(HAS_TRANSMISSION)
+#if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE) || defined(HAS_ANISOTROPY)) && \
+    !defined(HAS_TRANSMISSION)
 #define HAS_TRANSMISSION
 #endif
 #ifdef GGX_ENERGY_COMPENSATION
@@ -133,14 +140,27 @@ typedef struct {
     float iridescence_thickness_max;
     int iridescence_tex;
     int iridescence_thickness_tex;
-    float pad2[2];
+    // KHR_materials_anisotropy: anisotropyStrength, anisotropyRotation
+    // (radians, counter-clockwise from the tangent), and the texture binding
+    // (-1: none) of anisotropyTexture (RG: direction, B: strength).
+    float anisotropy_strength;
+    float anisotropy_rotation;
+    int anisotropy_tex;
+    float pad2[3];
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
 typedef struct {
     float3 base;
     float metallic;
-    float alpha; // GGX alpha = roughness^2, clamped away from 0
+    float alpha; // GGX alpha = roughness^2, clamped away from 0 (along y)
+#ifdef HAS_ANISOTROPY
+    // The base's GGX alpha along the local frame's x axis (alpha: isotropic).
+    float alpha_t;
+    // The anisotropy direction in the mesh's tangent space, for the frame
+    // pathtrace.cl builds (the BSDF does not read it).
+    float2 anisotropy_dir;
+#endif
     // Scales the dielectric's Fresnel reflectance: 1 for glTF materials,
     // 0 for the pure Lambertian of --clay.
     float specular;
@@ -227,6 +247,67 @@ inline float lut_bilinear(__constant const float* t, float x01, float y01) {
 // The white single-scattering albedo E(alpha, mu), bilinear in (roughness,
 // cosine); mirrors trace::energy::ggx_albedo.
 inline float ggx_albedo(float a, float mu) { return lut_bilinear(GGX_ALBEDO, sqrt(a), mu); }
+#endif
+
+// Anisotropic GGX (Heitz 2014, eq. 85): alpha ax along x, ay along y, at
+// the unit half vector h (Rust twin: ggx_d_aniso).
+inline float ggx_d_aniso(float ax, float ay, float3 h) {
+    float x = h.x / ax;
+    float y = h.y / ay;
+    float k = (x * x + y * y) + h.z * h.z;
+    return 1.0f / (((PT_PI * ax) * ay) * (k * k));
+}
+
+// Smith's Lambda of anisotropic GGX at the unit direction w.
+inline float ggx_lambda_aniso(float ax, float ay, float3 w) {
+    float x = ax * w.x;
+    float y = ay * w.y;
+    float t2 = (x * x + y * y) / (w.z * w.z);
+    return (sqrt(1.0f + t2) - 1.0f) * 0.5f;
+}
+
+// KHR_materials_anisotropy's alphaT, mix(alpha, 1, strength^2); strength 0
+// returns alpha itself (Rust twin: anisotropic_alpha).
+inline float anisotropic_alpha(float a, float strength) {
+    float s = clamp(strength, 0.0f, 1.0f);
+    return s > 0.0f ? a + (1.0f - a) * (s * s) : a;
+}
+
+// The base's specular microfacet lobe (Rust twins: spec_*): anisotropic
+// when HAS_ANISOTROPY and alpha_t differs from alpha, else the isotropic
+// formulas, bit for bit.
+inline bool spec_smooth(BsdfParams p) {
+#ifdef HAS_ANISOTROPY
+    return ggx_smooth(fmax(p.alpha, p.alpha_t));
+#else
+    return ggx_smooth(p.alpha);
+#endif
+}
+
+inline float spec_d(BsdfParams p, float3 h) {
+#ifdef HAS_ANISOTROPY
+    if (p.alpha_t != p.alpha) return ggx_d_aniso(p.alpha_t, p.alpha, h);
+#endif
+    return ggx_d(p.alpha, h.z);
+}
+
+inline float spec_lambda(BsdfParams p, float3 w) {
+#ifdef HAS_ANISOTROPY
+    if (p.alpha_t != p.alpha) return ggx_lambda_aniso(p.alpha_t, p.alpha, w);
+#endif
+    return ggx_lambda(p.alpha, w.z);
+}
+
+#ifdef GGX_ENERGY_COMPENSATION
+// The white single-scattering albedo of the base's specular lobe at wo;
+// anisotropic: the isotropic table at the root-mean-square alpha.
+inline float spec_albedo(BsdfParams p, float3 wo) {
+#ifdef HAS_ANISOTROPY
+    if (p.alpha_t != p.alpha)
+        return ggx_albedo(sqrt((p.alpha_t * p.alpha_t + p.alpha * p.alpha) * 0.5f), wo.z);
+#endif
+    return ggx_albedo(p.alpha, wo.z);
+}
 #endif
 
 // The probability of sampling the specular lobe, for outgoing cosine `cos_o`.
@@ -439,14 +520,14 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         if (hl == 0.0f) return (float3)(0.0f);
         float3 h = hv / hl;
         float voh = fmax(dot(wo, h), 0.0f);
-        float d = ggx_d(p.alpha, h.z);
-        float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-        float s = ggx_smooth(p.alpha) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
+        float d = spec_d(p, h);
+        float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
+        float s = spec_smooth(p) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
         float3 layer = p.specular * layer_fresnel(p, voh);
         float fd = max3(layer);
         float3 fm = metal_fresnel(p, voh);
 #ifdef GGX_ENERGY_COMPENSATION
-        float ms = 1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f;
+        float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
         float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) +
                             (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
@@ -458,7 +539,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
     }
     float3 diffuse = diffuse_transmission_eval(p, wo, wi);
     float weight = (1.0f - p.metallic) * p.transmission;
-    if (!(weight > 0.0f) || ggx_smooth(p.alpha)) return diffuse;
+    if (!(weight > 0.0f) || spec_smooth(p)) return diffuse;
     if (p.thin != 0.0f) {
         float3 r = (float3)(wi.x, wi.y, -wi.z);
         float3 hv = wo + r;
@@ -466,8 +547,8 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         if (hl == 0.0f) return (float3)(0.0f);
         float3 h = hv / hl;
         float voh = fmax(dot(wo, h), 0.0f);
-        float d = ggx_d(p.alpha, h.z);
-        float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, r.z));
+        float d = spec_d(p, h);
+        float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, r));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
         // Thin-walled: eta is 1.
         float fd = p.specular * max3(layer_fresnel(p, voh));
@@ -478,8 +559,8 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
     float fd = p.specular * max3(layer_fresnel(p, oh));
     float denom = ih + oh / p.eta;
-    float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-    float ft = fabs(((ggx_d(p.alpha, h.z) * (1.0f - fd)) * g2) *
+    float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
+    float ft = fabs(((spec_d(p, h) * (1.0f - fd)) * g2) *
                     ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
                (p.eta * p.eta);
     return p.base * (weight * ft) + diffuse;
@@ -499,15 +580,15 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     if (hl == 0.0f) return (float3)(0.0f);
     float3 h = hv / hl;
     float voh = fmax(dot(wo, h), 0.0f);
-    float d = ggx_d(p.alpha, h.z);
-    float g2 = 1.0f / ((1.0f + ggx_lambda(p.alpha, wo.z)) + ggx_lambda(p.alpha, wi.z));
-    float s = ggx_smooth(p.alpha) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
+    float d = spec_d(p, h);
+    float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
+    float s = spec_smooth(p) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
 #ifdef GGX_ENERGY_COMPENSATION
-    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f));
-    float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / ggx_albedo(p.alpha, wo.z) - 1.0f));
+    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
+    float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / spec_albedo(p, wo) - 1.0f));
 #else
     float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s);
     float3 metal = fm * s;
@@ -526,24 +607,37 @@ inline float ggx_vndf_pdf(float a, float3 wo, float3 wi) {
     return (g1 * ggx_d(a, h.z)) / (4.0f * wo.z);
 }
 
+inline float spec_vndf_pdf(BsdfParams p, float3 wo, float3 wi) {
+#ifdef HAS_ANISOTROPY
+    if (p.alpha_t != p.alpha) {
+        float3 hv = wo + wi;
+        float hl = length(hv);
+        if (hl == 0.0f) return 0.0f;
+        float3 h = hv / hl;
+        return (spec_d(p, h) / (1.0f + spec_lambda(p, wo))) / (4.0f * wo.z);
+    }
+#endif
+    return ggx_vndf_pdf(p.alpha, wo, wi);
+}
+
 #ifdef HAS_TRANSMISSION
 inline float dielectric_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z == 0.0f) return 0.0f;
     float3 pr = lobe_probabilities(p, wo.z);
     float ps = pr.x, pt = pr.y, pdt = pr.z;
     if (wi.z > 0.0f) {
-        float spec = ps > 0.0f && !ggx_smooth(p.alpha) ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+        float spec = ps > 0.0f && !spec_smooth(p) ? spec_vndf_pdf(p, wo, wi) : 0.0f;
         return ps * spec + (((1.0f - ps) - pt) - pdt) * (wi.z * PT_INV_PI);
     }
     float diffuse = pdt * (-wi.z * PT_INV_PI);
-    if (!(pt > 0.0f) || ggx_smooth(p.alpha)) return diffuse;
+    if (!(pt > 0.0f) || spec_smooth(p)) return diffuse;
     if (p.thin != 0.0f)
-        return pt * ggx_vndf_pdf(p.alpha, wo, (float3)(wi.x, wi.y, -wi.z)) + diffuse;
+        return pt * spec_vndf_pdf(p, wo, (float3)(wi.x, wi.y, -wi.z)) + diffuse;
     float3 h;
     float oh, ih;
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
-    float g1 = 1.0f / (1.0f + ggx_lambda(p.alpha, wo.z));
-    float pdf_h = ((g1 * ggx_d(p.alpha, h.z)) * oh) / wo.z;
+    float g1 = 1.0f / (1.0f + spec_lambda(p, wo));
+    float pdf_h = ((g1 * spec_d(p, h)) * oh) / wo.z;
     float denom = ih + oh / p.eta;
     return pt * (pdf_h * (-ih / (denom * denom))) + diffuse;
 }
@@ -556,13 +650,14 @@ inline float base_bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
     if (p.specular == 0.0f && p.metallic == 0.0f) return wi.z * PT_INV_PI;
     float ps = bsdf_spec_probability(p, wo.z);
-    float spec = ps > 0.0f && !ggx_smooth(p.alpha) ? ggx_vndf_pdf(p.alpha, wo, wi) : 0.0f;
+    float spec = ps > 0.0f && !spec_smooth(p) ? spec_vndf_pdf(p, wo, wi) : 0.0f;
     return ps * spec + (1.0f - ps) * (wi.z * PT_INV_PI);
 }
 
-// Heitz, "Sampling the GGX Distribution of Visible Normals" (JCGT 2018).
-inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
-    float3 vh = normalize((float3)(a * wo.x, a * wo.y, wo.z));
+// Heitz, "Sampling the GGX Distribution of Visible Normals" (JCGT 2018),
+// for alpha ax along x and ay along y.
+inline float3 ggx_sample_vndf(float ax, float ay, float3 wo, float u1, float u2) {
+    float3 vh = normalize((float3)(ax * wo.x, ay * wo.y, wo.z));
     float lensq = vh.x * vh.x + vh.y * vh.y;
     float3 t1 = lensq > 0.0f ? (float3)(-vh.y, vh.x, 0.0f) / sqrt(lensq)
                              : (float3)(1.0f, 0.0f, 0.0f);
@@ -574,7 +669,15 @@ inline float3 ggx_sample_vndf(float a, float3 wo, float u1, float u2) {
     float s = 0.5f * (1.0f + vh.z);
     p2 = (1.0f - s) * sqrt(fmax(0.0f, 1.0f - p1 * p1)) + s * p2;
     float3 nh = (t1 * p1 + t2 * p2) + vh * sqrt(fmax(0.0f, (1.0f - p1 * p1) - p2 * p2));
-    return normalize((float3)(a * nh.x, a * nh.y, fmax(0.0f, nh.z)));
+    return normalize((float3)(ax * nh.x, ay * nh.y, fmax(0.0f, nh.z)));
+}
+
+inline float3 spec_sample_vndf(BsdfParams p, float3 wo, float u1, float u2) {
+#ifdef HAS_ANISOTROPY
+    return ggx_sample_vndf(p.alpha_t, p.alpha, wo, u1, u2);
+#else
+    return ggx_sample_vndf(p.alpha, p.alpha, wo, u1, u2);
+#endif
 }
 
 // The reflectance of the smooth (delta) reflection lobe for outgoing
@@ -610,7 +713,7 @@ inline float3 smooth_reflectance(BsdfParams p, float c) {
 // True when every lobe of the material is a delta lobe, so bsdf_eval is 0
 // for every pair of directions and light sampling can be skipped.
 inline bool base_only_delta(BsdfParams p) {
-    if (!ggx_smooth(p.alpha)) return false;
+    if (!spec_smooth(p)) return false;
     if (p.metallic >= 1.0f) return true;
 #ifdef HAS_TRANSMISSION
     if (p.transmission >= 1.0f) return true;
@@ -652,7 +755,7 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
         float3 pr = lobe_probabilities(p, wo.z);
         float ps = pr.x, pt = pr.y, pdt = pr.z;
         float3 wi;
-        if (ggx_smooth(p.alpha) && lobe_u < ps + pt) {
+        if (spec_smooth(p) && lobe_u < ps + pt) {
             float3 value;
             if (lobe_u < ps) {
                 wi = (float3)(-wo.x, -wo.y, wo.z);
@@ -682,11 +785,11 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
             return true;
         }
         if (lobe_u < ps) {
-            float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+            float3 h = spec_sample_vndf(p, wo, u1, u2);
             wi = h * (2.0f * dot(wo, h)) - wo;
             if (wi.z <= 0.0f) return false;
         } else if (lobe_u < ps + pt) {
-            float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+            float3 h = spec_sample_vndf(p, wo, u1, u2);
             float c = dot(wo, h);
             if (p.thin != 0.0f) {
                 float3 r = h * (2.0f * c) - wo;
@@ -719,7 +822,7 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
     float ps = bsdf_spec_probability(p, wo.z);
     float3 wi;
     // Pure Lambert (--clay) has no specular lobe: ps is 0.
-    if (lobe_u < ps && ggx_smooth(p.alpha)) {
+    if (lobe_u < ps && spec_smooth(p)) {
         *wi_out = (float3)(-wo.x, -wo.y, wo.z);
         *f_out = smooth_reflectance(p, wo.z) / wo.z;
         *pdf_out = ps;
@@ -727,7 +830,7 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
         return true;
     }
     if (lobe_u < ps) {
-        float3 h = ggx_sample_vndf(p.alpha, wo, u1, u2);
+        float3 h = spec_sample_vndf(p, wo, u1, u2);
         wi = h * (2.0f * dot(wo, h)) - wo;
     } else {
         wi = sample_cosine_hemisphere(u1, u2);
@@ -918,7 +1021,7 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
             *delta_out = true;
             return true;
         }
-        float3 h = ggx_sample_vndf(p.coat_alpha, wo_c, u1, u2);
+        float3 h = ggx_sample_vndf(p.coat_alpha, p.coat_alpha, wo_c, u1, u2);
         float3 wi_c = h * (2.0f * dot(wo_c, h)) - wo_c;
         // Below the coat (its pdf there is 0) or below the surface.
         wi = from_coat(p, tilted, ct, cb, wi_c);

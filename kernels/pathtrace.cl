@@ -345,6 +345,28 @@ inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_
     return ((pmf * s->frame.emit_select_pmf) * (dist * dist)) / (area * cos_l);
 }
 
+#if defined(HAS_TEXTURES) || defined(HAS_ANISOTROPY)
+// The unit tangent dP/du of triangle `prim` for the texture coordinates
+// t0, t1, t2 at its corners, made orthogonal to the unit normal n: false
+// where the uvs are degenerate.
+inline bool pt_uv_tangent(const PtScene* s, uint prim, float3 n, float2 t0, float2 t1, float2 t2,
+                          float3* out) {
+    TRI_LOAD(p, s->positions, s->mt, prim);
+    float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
+    float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
+    float2 d1 = t1 - t0;
+    float2 d2 = t2 - t0;
+    float r = d1.x * d2.y - d2.x * d1.y;
+    if (r == 0.0f || !isfinite(r)) return false;
+    float3 tg = (e1 * d2.y - e2 * d1.y) / r;
+    tg = tg - n * dot(n, tg);
+    float tl = length(tg);
+    if (!(tl > 0.0f)) return false;
+    *out = tg / tl;
+    return true;
+}
+#endif
+
 #ifdef HAS_TEXTURES
 // glTF normal mapping: the tangent is dP/du of the triangle in the normal
 // texture's (transformed) uv space, made orthogonal to the front-side
@@ -353,23 +375,13 @@ inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_
 inline float3 pt_normal_map(const PtScene* s, int binding, float scale, uint prim, float3 n,
                             bool front, float2 uv TEX_DECL) {
     TextureBinding b = tex_bindings[binding];
-    TRI_LOAD(p, s->positions, s->mt, prim);
     const __global float* t = s->uvs + (size_t)prim * 6u;
     float2 t0 = texture_uv(b, (float2)(t[0], t[1]), (float2)(t[0], t[1]));
     float2 t1 = texture_uv(b, (float2)(t[2], t[3]), (float2)(t[2], t[3]));
     float2 t2 = texture_uv(b, (float2)(t[4], t[5]), (float2)(t[4], t[5]));
-    float3 e1 = (float3)(p[4] - p[0], p[5] - p[1], p[6] - p[2]);
-    float3 e2 = (float3)(p[8] - p[0], p[9] - p[1], p[10] - p[2]);
-    float2 d1 = t1 - t0;
-    float2 d2 = t2 - t0;
-    float r = d1.x * d2.y - d2.x * d1.y;
     float3 sn = front ? n : -n;
-    if (r == 0.0f || !isfinite(r)) return sn;
-    float3 tg = (e1 * d2.y - e2 * d1.y) / r;
-    tg = tg - n * dot(n, tg);
-    float tl = length(tg);
-    if (!(tl > 0.0f)) return sn;
-    tg = tg / tl;
+    float3 tg;
+    if (!pt_uv_tangent(s, prim, n, t0, t1, t2, &tg)) return sn;
     float3 bt = cross(n, tg);
     float4 c = sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
     float3 tn = (float3)((c.x * 2.0f - 1.0f) * scale, (c.y * 2.0f - 1.0f) * scale,
@@ -455,6 +467,10 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
         p.metallic = 0.0f;
         p.alpha = 1.0f;
         p.specular = 0.0f;
+#ifdef HAS_ANISOTROPY
+        p.alpha_t = p.alpha;
+        p.anisotropy_dir = (float2)(1.0f, 0.0f);
+#endif
         *albedo = p.base;
         return p;
     }
@@ -472,6 +488,11 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
     p.metallic = clamp(metallic, 0.0f, 1.0f);
     p.alpha = ggx_alpha(roughness);
     p.specular = 1.0f;
+#ifdef HAS_ANISOTROPY
+    // pt_dielectric_params sets the anisotropy.
+    p.alpha_t = p.alpha;
+    p.anisotropy_dir = (float2)(1.0f, 0.0f);
+#endif
     *albedo = p.base;
     return p;
 }
@@ -598,7 +619,52 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     bp->iridescence_ior = mx.iridescence_ior;
     bp->iridescence_thickness = thickness;
 #endif
+#ifdef HAS_ANISOTROPY
+    // KHR_materials_anisotropy: the direction (1, 0) in tangent space, or
+    // anisotropyTexture's RG mapped to -1..1 (its B scales the strength),
+    // turned counter-clockwise by anisotropyRotation. A texel of no
+    // direction (RG 0.5) leaves the lobe isotropic.
+    float strength = mx.anisotropy_strength;
+    float2 dir = (float2)(1.0f, 0.0f);
+#ifdef HAS_TEXTURES
+    if (mx.anisotropy_tex >= 0) {
+        float4 a = pt_texture(mx.anisotropy_tex, uv TEX_PASS);
+        dir = (float2)(a.x * 2.0f - 1.0f, a.y * 2.0f - 1.0f);
+        strength *= a.z;
+        if (!(dot(dir, dir) > 0.0f)) strength = 0.0f;
+    }
+#endif
+    float cr = cos(mx.anisotropy_rotation);
+    float sr = sin(mx.anisotropy_rotation);
+    bp->anisotropy_dir = (float2)(cr * dir.x - sr * dir.y, sr * dir.x + cr * dir.y);
+    bp->alpha_t = anisotropic_alpha(bp->alpha, strength);
+#endif
 }
+
+#ifdef HAS_ANISOTROPY
+// KHR_materials_anisotropy's shading frame at `sf` on triangle `prim`: x
+// along the anisotropy direction, bp.anisotropy_dir in the tangent frame of
+// dP/du for TEXCOORD_0 (the tangent MikkTSpace gives a flat triangle; the
+// soup carries no TANGENT attribute) and n x dP/du, n the front side's
+// normal so both sides agree; y = ns x x. False, and t and b unchanged, for
+// an isotropic lobe or where the uvs give no tangent.
+inline bool pt_anisotropy_frame(const PtScene* s, PtSurface sf, uint prim, BsdfParams bp,
+                                float3* t, float3* b) {
+    if (bp.alpha_t == bp.alpha || (s->frame.flags & FRAME_UVS) == 0u) return false;
+    const __global float* uv = s->uvs + (size_t)prim * 6u;
+    float3 nf = sf.front ? sf.ns : -sf.ns;
+    float3 tg;
+    if (!pt_uv_tangent(s, prim, nf, (float2)(uv[0], uv[1]), (float2)(uv[2], uv[3]),
+                       (float2)(uv[4], uv[5]), &tg))
+        return false;
+    float3 x = tg * bp.anisotropy_dir.x + cross(nf, tg) * bp.anisotropy_dir.y;
+    float xl = length(x);
+    if (!(xl > 0.0f)) return false;
+    *t = x / xl;
+    *b = cross(sf.ns, *t);
+    return true;
+}
+#endif
 
 // Whether a shadow ray may cross `prim` (material `m`): thin-walled,
 // transmissive, and smooth unless a texture may lower its roughness
@@ -659,7 +725,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
 #ifdef HAS_LAYERS
         pt_layer_params(s, mx, sf, -d, t, b, &bp TEX_PASS);
 #endif
-        if (!ggx_smooth(bp.alpha)) return (float3)(0.0f);
+        if (!spec_smooth(bp)) return (float3)(0.0f);
         tr = tr * bsdf_shadow_straight_through(bp, to_local(-d, t, b, sf.ns));
         if (!(tr.x > 0.0f || tr.y > 0.0f || tr.z > 0.0f)) return (float3)(0.0f);
         crossings += 1u;
@@ -975,6 +1041,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other), sf.uv, &bp TEX_PASS);
         sf.medium_above = inner;
         sf.medium_below = volume && sf.front ? mat : other;
+#endif
+#ifdef HAS_ANISOTROPY
+        if (pt_anisotropy_frame(s, sf, h.prim, bp, &t, &b)) wo = to_local(wo_w, t, b, sf.ns);
 #endif
 #ifdef HAS_LAYERS
         pt_layer_params(s, mx, sf, wo_w, t, b, &bp TEX_PASS);

@@ -94,7 +94,8 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
 #ifdef HAS_MATERIAL_EXT
 // Layout of PtMaterialExt: size, offsets of volume, sigma, specular_color,
 // the texture bindings, clearcoat and sheen_color, the layers' texture
-// bindings and the coat normal's scale.
+// bindings and the coat normal's scale, the diffuse transmission's, the
+// film's and the anisotropy's fields, and the size again (27 outputs).
 __kernel void pt_ext_layout_probe(__global uint* out) {
     out[0] = (uint)sizeof(PtMaterialExt);
     out[1] = (uint)offsetof(PtMaterialExt, volume);
@@ -119,7 +120,10 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[20] = (uint)offsetof(PtMaterialExt, iridescence_thickness_max);
     out[21] = (uint)offsetof(PtMaterialExt, iridescence_tex);
     out[22] = (uint)offsetof(PtMaterialExt, iridescence_thickness_tex);
-    out[23] = (uint)sizeof(PtMaterialExt);
+    out[23] = (uint)offsetof(PtMaterialExt, anisotropy_strength);
+    out[24] = (uint)offsetof(PtMaterialExt, anisotropy_rotation);
+    out[25] = (uint)offsetof(PtMaterialExt, anisotropy_tex);
+    out[26] = (uint)sizeof(PtMaterialExt);
 }
 #endif
 
@@ -130,7 +134,8 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
 // f0 blue: the coloured F0 is (f0, green, blue)), wo,
 // wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION or HAS_IRIDESCENCE then
 // (diffuse transmission, its colour rgb), (iridescence, film ior, film
-// thickness nm, 0): 32. Out as bsdf_probe: 12 floats.
+// thickness nm, 0): 32. With HAS_ANISOTROPY, alpha_t is wo's fourth
+// float. Out as bsdf_probe: 12 floats.
 #if defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE)
 #define BSDF_EXT_PROBE_STRIDE 32u
 #else
@@ -158,6 +163,9 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     p.iridescence = c[28];
     p.iridescence_ior = c[29];
     p.iridescence_thickness = c[30];
+#endif
+#ifdef HAS_ANISOTROPY
+    p.alpha_t = c[15];
 #endif
     float3 wo = (float3)(c[12], c[13], c[14]);
     float3 wi = (float3)(c[16], c[17], c[18]);
@@ -207,7 +215,8 @@ __kernel void media_eta_probe(__global const float* in, __global float* out, uin
 // rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
 // f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb, 0),
 // wo, wi, u, (coat normal, 0): 36 floats (the dielectric ones read only
-// with HAS_TRANSMISSION). Out as bsdf_probe: 12 floats, plus only-delta: 13.
+// with HAS_TRANSMISSION; with HAS_ANISOTROPY alpha_t is wo's fourth
+// float). Out as bsdf_probe: 12 floats, plus only-delta: 13.
 __kernel void bsdf_layer_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -229,6 +238,9 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
 #endif
 #ifdef HAS_IRIDESCENCE
     p.iridescence = 0.0f;
+#endif
+#ifdef HAS_ANISOTROPY
+    p.alpha_t = c[23];
 #endif
 #endif
 #ifdef HAS_CLEARCOAT

@@ -180,6 +180,7 @@ fn variants() -> Vec<Variant> {
                                 sheen: compensation,
                                 diffuse_transmission: compensation && transmission,
                                 iridescence: compensation && transmission,
+                                anisotropy: compensation && transmission,
                             },
                         );
                         v.push(Variant {
@@ -254,13 +255,14 @@ fn variants() -> Vec<Variant> {
     // Each layer alone, with and without the dielectric extensions (the
     // kernels read only the fields their defines declare), and diffuse
     // transmission alone (it comes with the dielectric extensions).
-    for (clearcoat, sheen, diffuse_transmission, iridescence) in [
-        (true, false, false, false),
-        (false, true, false, false),
-        (false, false, true, false),
-        (false, false, false, true),
+    for (clearcoat, sheen, diffuse_transmission, iridescence, anisotropy) in [
+        (true, false, false, false, false),
+        (false, true, false, false, false),
+        (false, false, true, false, false),
+        (false, false, false, true, false),
+        (false, false, false, false, true),
     ] {
-        let needs_transmission = diffuse_transmission || iridescence;
+        let needs_transmission = diffuse_transmission || iridescence || anisotropy;
         for transmission in [false, true] {
             if needs_transmission && !transmission {
                 continue;
@@ -270,6 +272,7 @@ fn variants() -> Vec<Variant> {
                 sheen,
                 diffuse_transmission,
                 iridescence,
+                anisotropy,
             };
             v.push(Variant {
                 entry: "pathtrace.cl",
@@ -284,8 +287,8 @@ fn variants() -> Vec<Variant> {
                 ),
                 codegen: true,
             });
-            // HAS_DIFFUSE_TRANSMISSION or HAS_IRIDESCENCE alone: bsdf.h
-            // defines HAS_TRANSMISSION with them.
+            // HAS_DIFFUSE_TRANSMISSION, HAS_IRIDESCENCE or HAS_ANISOTROPY
+            // alone: bsdf.h defines HAS_TRANSMISSION with them.
             let mut probe = vec![(
                 if clearcoat {
                     "HAS_CLEARCOAT"
@@ -293,8 +296,10 @@ fn variants() -> Vec<Variant> {
                     "HAS_SHEEN"
                 } else if diffuse_transmission {
                     "HAS_DIFFUSE_TRANSMISSION"
-                } else {
+                } else if iridescence {
                     "HAS_IRIDESCENCE"
+                } else {
+                    "HAS_ANISOTROPY"
                 },
                 "1".to_owned(),
             )];
@@ -316,6 +321,7 @@ fn variants() -> Vec<Variant> {
             ("HAS_TRANSMISSION", "1".to_owned()),
             ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
             ("HAS_IRIDESCENCE", "1".to_owned()),
+            ("HAS_ANISOTROPY", "1".to_owned()),
             ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
         ],
         codegen: true,

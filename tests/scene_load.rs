@@ -496,7 +496,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         json!({
             "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
                                "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
-                               "KHR_materials_iridescence",
+                               "KHR_materials_iridescence", "KHR_materials_anisotropy",
                                "KHR_materials_diffuse_transmission"],
             "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
@@ -521,7 +521,10 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                     "KHR_materials_volume": {"thicknessFactor": 1.0}}},
                 {"name": "bubble", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 0.8,
                     "iridescenceIor": 1.33, "iridescenceThicknessMaximum": 600,
-                    "iridescenceThicknessTexture": {"index": 0}}}}
+                    "iridescenceThicknessTexture": {"index": 0}}}},
+                {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6,
+                    "anisotropyRotation": 1.25, "anisotropyTexture": {"index": 0}}}},
+                {"name": "too brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 3.0}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
             "textures": [{"source": 0}],
@@ -608,6 +611,20 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         Some(0)
     );
     assert!(m[6].has_iridescence() && m[6].needs_transmission() && !m[5].has_iridescence());
+    // KHR_materials_anisotropy: strength, rotation and texture; a strength
+    // above 1 clamped with a warning.
+    assert_eq!(
+        (m[7].anisotropy_strength, m[7].anisotropy_rotation),
+        (0.6, 1.25)
+    );
+    assert_eq!(m[7].anisotropy_texture.as_ref().map(|t| t.texture), Some(0));
+    assert!(m[7].has_anisotropy() && m[7].needs_transmission() && !m[6].has_anisotropy());
+    assert_eq!(m[8].anisotropy_strength, 1.0);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("anisotropyStrength 3") && w.contains("1 is used")),
+        "{w:?}"
+    );
     // Out of range: the film's index bounded (its optical path stays
     // finite), a negative thickness raised to 0, each with a warning.
     assert_eq!(
@@ -629,6 +646,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         "KHR_materials_sheen",
         "KHR_materials_diffuse_transmission",
         "KHR_materials_iridescence",
+        "KHR_materials_anisotropy",
     ] {
         assert!(
             !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
@@ -650,11 +668,34 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         .any(|w| w.contains("transmissionFactor 2") && w.contains("1 is used")));
     assert!(!w.iter().any(|w| w.contains("KHR_materials_ior is used")));
 
+    // The extensions soupray reads itself load when required.
+    for ext in [
+        "KHR_materials_anisotropy",
+        "KHR_materials_diffuse_transmission",
+        "KHR_materials_iridescence",
+        "KHR_materials_clearcoat",
+    ] {
+        let path = b.write(
+            json!({
+                "extensionsUsed": [ext],
+                "extensionsRequired": [ext],
+                "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
+            }),
+            dir.path(),
+            "required",
+            true,
+        );
+        if let Err(e) = Scene::load(&path, &LoadOptions::default()) {
+            panic!("a required {ext} is refused: {e}");
+        }
+    }
+
     // An unsupported material extension that is required is refused.
     let path = b.write(
         json!({
-            "extensionsUsed": ["KHR_materials_anisotropy"],
-            "extensionsRequired": ["KHR_materials_anisotropy"],
+            "extensionsUsed": ["KHR_materials_dispersion"],
+            "extensionsRequired": ["KHR_materials_dispersion"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
         }),
@@ -663,10 +704,10 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         true,
     );
     let Err(err) = Scene::load(&path, &LoadOptions::default()) else {
-        panic!("a required KHR_materials_anisotropy is refused");
+        panic!("a required KHR_materials_dispersion is refused");
     };
     assert!(
-        err.to_string().contains("KHR_materials_anisotropy"),
+        err.to_string().contains("KHR_materials_dispersion"),
         "{err}"
     );
 }

@@ -401,6 +401,14 @@ fn material_extensions(
             m.iridescence_ior
         ));
     }
+    if m.has_anisotropy() {
+        out.push(format!(
+            "anisotropy {}{} rotation {} rad",
+            m.anisotropy_strength,
+            tex(&m.anisotropy_texture),
+            m.anisotropy_rotation
+        ));
+    }
     if m.has_diffuse_transmission() {
         out.push(format!(
             "diffuse transmission {}{} colour {:?}{}",

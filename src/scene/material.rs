@@ -5,7 +5,9 @@
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
 //! map), KHR_materials_sheen, KHR_materials_diffuse_transmission and
-//! KHR_materials_iridescence, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*` extension a scene uses is
+//! KHR_materials_iridescence and KHR_materials_anisotropy, with their
+//! textures, and KHR_materials_unlit. Every other `KHR_materials_*`
+//! extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
 
@@ -133,6 +135,13 @@ pub struct Material {
     /// `iridescenceThicknessTexture` (G picks the thickness between the
     /// two; without it the film is the maximum thick).
     pub iridescence_thickness_texture: Option<TextureRef>,
+    /// KHR_materials_anisotropy `anisotropyStrength` (0 without it).
+    pub anisotropy_strength: f32,
+    /// `anisotropyRotation`: radians, counter-clockwise from the tangent.
+    pub anisotropy_rotation: f32,
+    /// `anisotropyTexture` (RG: the direction in tangent space, B scales
+    /// the strength).
+    pub anisotropy_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -187,6 +196,9 @@ impl Default for Material {
             iridescence_thickness_min: 100.0,
             iridescence_thickness_max: 400.0,
             iridescence_thickness_texture: None,
+            anisotropy_strength: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_texture: None,
         }
     }
 }
@@ -211,6 +223,7 @@ impl Material {
             &self.diffuse_transmission_color_texture,
             &self.iridescence_texture,
             &self.iridescence_thickness_texture,
+            &self.anisotropy_texture,
         ]
         .into_iter()
         .flatten()
@@ -230,6 +243,7 @@ impl Material {
         self.transmission_factor > 0.0
             || self.has_diffuse_transmission()
             || self.has_iridescence()
+            || self.has_anisotropy()
             || self.ior != 1.5
             || self.specular_factor != 1.0
             || self.specular_color != [1.0; 3]
@@ -248,6 +262,12 @@ impl Material {
     /// above 0 (its texture only scales it).
     pub fn has_iridescence(&self) -> bool {
         self.iridescence > 0.0
+    }
+
+    /// Whether the material's specular lobes are anisotropic
+    /// (`HAS_ANISOTROPY`): a strength above 0 (its texture only scales it).
+    pub fn has_anisotropy(&self) -> bool {
+        self.anisotropy_strength > 0.0
     }
 
     /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
@@ -284,6 +304,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_diffuse_transmission",
     "KHR_materials_iridescence",
+    "KHR_materials_anisotropy",
 ];
 
 /// Every texture the supported material extensions read, as (extension,
@@ -301,6 +322,7 @@ pub(crate) const EXTENSION_TEXTURES: &[(&str, &str)] = &[
     (DIFFUSE_TRANSMISSION, "diffuseTransmissionColorTexture"),
     (IRIDESCENCE, "iridescenceTexture"),
     (IRIDESCENCE, "iridescenceThicknessTexture"),
+    (ANISOTROPY, "anisotropyTexture"),
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -412,6 +434,7 @@ pub(crate) fn variant_material(
 
 const DIFFUSE_TRANSMISSION: &str = "KHR_materials_diffuse_transmission";
 const IRIDESCENCE: &str = "KHR_materials_iridescence";
+const ANISOTROPY: &str = "KHR_materials_anisotropy";
 
 /// The material's `extensions.NAME` object in the raw JSON.
 fn material_extension<'j>(
@@ -843,6 +866,17 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 IRIDESCENCE,
                 "iridescenceThicknessTexture",
             ),
+            anisotropy_strength: number(
+                material_extension(src, i, ANISOTROPY),
+                "anisotropyStrength",
+                0.0,
+            ),
+            anisotropy_rotation: number(
+                material_extension(src, i, ANISOTROPY),
+                "anisotropyRotation",
+                0.0,
+            ),
+            anisotropy_texture: extension_texture(src, i, ANISOTROPY, "anisotropyTexture"),
         });
     }
 

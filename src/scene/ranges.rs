@@ -380,6 +380,26 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         1.0e5,
         400.0,
     );
+    clamp(
+        w,
+        &what,
+        "KHR_materials_anisotropy anisotropyStrength",
+        &mut m.anisotropy_strength,
+        0.0,
+        1.0,
+        0.0,
+    );
+    // A turn is 2 pi; beyond 1e4 radians an f32 angle is coarser than a
+    // thousandth of a radian, and an infinite one has no cosine.
+    clamp(
+        w,
+        &what,
+        "KHR_materials_anisotropy anisotropyRotation",
+        &mut m.anisotropy_rotation,
+        -1.0e4,
+        1.0e4,
+        0.0,
+    );
     if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
         w.push(format!(
             "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",

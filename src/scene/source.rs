@@ -14,9 +14,12 @@ use super::error::{Result, SceneError};
 /// optional by definition and are ignored when unknown.)
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -29,8 +32,11 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// Supported extensions read from the raw JSON rather than by the `gltf`
 /// crate (`scene::material`).
 const READ_FROM_RAW_JSON: &[&str] = &[
+    "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_ior",
+    "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",

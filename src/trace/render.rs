@@ -433,19 +433,24 @@ pub fn pathtrace_defines(
     if layers.iridescence {
         defines.push(("HAS_IRIDESCENCE", "1".to_owned()));
     }
+    if layers.anisotropy {
+        defines.push(("HAS_ANISOTROPY", "1".to_owned()));
+    }
     defines
 }
 
 /// Which lobes beyond the dielectric's a program compiles: the layers over
 /// the BSDF (`HAS_CLEARCOAT`, `HAS_SHEEN`), the diffuse transmission lobe
-/// under it (`HAS_DIFFUSE_TRANSMISSION`) and the thin film on its Fresnel
-/// (`HAS_IRIDESCENCE`), the last two compiled with `HAS_TRANSMISSION`.
+/// under it (`HAS_DIFFUSE_TRANSMISSION`), the thin film on its Fresnel
+/// (`HAS_IRIDESCENCE`) and the anisotropic specular lobes
+/// (`HAS_ANISOTROPY`), the last three compiled with `HAS_TRANSMISSION`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LayerDefines {
     pub clearcoat: bool,
     pub sheen: bool,
     pub diffuse_transmission: bool,
     pub iridescence: bool,
+    pub anisotropy: bool,
 }
 
 impl LayerDefines {
@@ -456,6 +461,7 @@ impl LayerDefines {
             sheen: table.materials.iter().any(|m| m.has_sheen()),
             diffuse_transmission: table.materials.iter().any(|m| m.has_diffuse_transmission()),
             iridescence: table.materials.iter().any(|m| m.has_iridescence()),
+            anisotropy: table.materials.iter().any(|m| m.has_anisotropy()),
         }
     }
 
@@ -523,6 +529,9 @@ pub fn material_features(
     }
     if layers.iridescence {
         v.push("iridescence");
+    }
+    if layers.anisotropy {
+        v.push("anisotropy");
     }
     v
 }
@@ -667,6 +676,9 @@ impl<'d> PathTracer<'d> {
         if layers.iridescence {
             slots.extend(Slot::IRIDESCENCE);
         }
+        if layers.anisotropy {
+            slots.extend(Slot::ANISOTROPY);
+        }
         let slots = &slots[..];
 
         // Textures: only when some material samples one (and not in clay
@@ -679,8 +691,8 @@ impl<'d> PathTracer<'d> {
         if textured {
             match TextureSet::with_slots(device, table, slots) {
                 Ok(set) if !set.is_empty() => {
-                    // Four bindings per material (`PtMaterial`), then twelve
-                    // per material for `PtMaterialExt` when compiled in
+                    // Four bindings per material (`PtMaterial`), then
+                    // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
                     // (those of slots outside `slots` stay -1).
                     let n = table.materials.len();
                     let mut bindings = Vec::with_capacity(slots.len() * n);
@@ -720,6 +732,7 @@ impl<'d> PathTracer<'d> {
                             x.iridescence_tex = bind(m, Slot::Iridescence, at + 10);
                             x.iridescence_thickness_tex =
                                 bind(m, Slot::IridescenceThickness, at + 11);
+                            x.anisotropy_tex = bind(m, Slot::Anisotropy, at + 12);
                         }
                     }
                     if set1 {

@@ -155,10 +155,12 @@ pub enum Slot {
     Iridescence,
     /// KHR_materials_iridescence `iridescenceThicknessTexture`.
     IridescenceThickness,
+    /// KHR_materials_anisotropy `anisotropyTexture`.
+    Anisotropy,
 }
 
 impl Slot {
-    pub const ALL: [Slot; 17] = [
+    pub const ALL: [Slot; 18] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -176,9 +178,10 @@ impl Slot {
         Slot::DiffuseTransmissionColor,
         Slot::Iridescence,
         Slot::IridescenceThickness,
+        Slot::Anisotropy,
     ];
     /// The slots a path tracer shades with (issue 4): all but occlusion.
-    pub const SHADED: [Slot; 16] = [
+    pub const SHADED: [Slot; 17] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
         Slot::Normal,
@@ -195,6 +198,7 @@ impl Slot {
         Slot::DiffuseTransmissionColor,
         Slot::Iridescence,
         Slot::IridescenceThickness,
+        Slot::Anisotropy,
     ];
     /// The slots of `PtMaterial` (four bindings per material).
     pub const BASE: [Slot; 4] = [
@@ -203,12 +207,13 @@ impl Slot {
         Slot::Normal,
         Slot::Emissive,
     ];
-    /// The slots of `PtMaterialExt` (twelve bindings per material, after
+    /// The slots of `PtMaterialExt` (thirteen bindings per material, after
     /// every material's four), in binding order: the dielectric ones, read
     /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`),
     /// the sheen's (`HAS_SHEEN`), diffuse transmission's
-    /// (`HAS_DIFFUSE_TRANSMISSION`) and the thin film's (`HAS_IRIDESCENCE`).
-    pub const EXT: [Slot; 12] = [
+    /// (`HAS_DIFFUSE_TRANSMISSION`), the thin film's (`HAS_IRIDESCENCE`) and
+    /// the anisotropy's (`HAS_ANISOTROPY`).
+    pub const EXT: [Slot; 13] = [
         Slot::Transmission,
         Slot::Specular,
         Slot::SpecularColor,
@@ -221,6 +226,7 @@ impl Slot {
         Slot::DiffuseTransmissionColor,
         Slot::Iridescence,
         Slot::IridescenceThickness,
+        Slot::Anisotropy,
     ];
     pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
     pub const CLEARCOAT: [Slot; 3] = [
@@ -232,6 +238,7 @@ impl Slot {
     pub const DIFFUSE_TRANSMISSION: [Slot; 2] =
         [Slot::DiffuseTransmission, Slot::DiffuseTransmissionColor];
     pub const IRIDESCENCE: [Slot; 2] = [Slot::Iridescence, Slot::IridescenceThickness];
+    pub const ANISOTROPY: [Slot; 1] = [Slot::Anisotropy];
 
     /// The glTF property name, for messages.
     pub fn name(self) -> &'static str {
@@ -257,6 +264,7 @@ impl Slot {
             }
             Slot::Iridescence => "KHR_materials_iridescence iridescenceTexture",
             Slot::IridescenceThickness => "KHR_materials_iridescence iridescenceThicknessTexture",
+            Slot::Anisotropy => "KHR_materials_anisotropy anisotropyTexture",
         }
     }
 
@@ -291,6 +299,7 @@ impl Slot {
             Slot::DiffuseTransmissionColor => m.diffuse_transmission_color_texture.as_ref(),
             Slot::Iridescence => m.iridescence_texture.as_ref(),
             Slot::IridescenceThickness => m.iridescence_thickness_texture.as_ref(),
+            Slot::Anisotropy => m.anisotropy_texture.as_ref(),
         }
     }
 }

@@ -195,8 +195,13 @@ pub fn check_bsdf_probe(
 /// stratified too); transmitted samples are counted times `scale_t` (eta^2
 /// undoes the radiance scaling of a refraction, for the energy balance).
 pub fn albedo(p: &soupray::trace::material::BsdfParams, mu: f32, scale_t: f32) -> f64 {
+    albedo_at(p, glam::Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu), scale_t)
+}
+
+/// `albedo` for the outgoing direction `wo` (unit, above the surface), for
+/// the lobes that are not symmetric about the normal.
+pub fn albedo_at(p: &soupray::trace::material::BsdfParams, wo: glam::Vec3, scale_t: f32) -> f64 {
     use soupray::trace::material::bsdf_sample;
-    let wo = glam::Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
     let n = 64;
     let mut sum = 0.0f64;
     for l in 0..n {
@@ -218,9 +223,13 @@ pub fn albedo(p: &soupray::trace::material::BsdfParams, mu: f32, scale_t: f32) -
 /// midpoint quadrature of eval times |cos| over both hemispheres: (above,
 /// below).
 pub fn sphere_albedo(p: &soupray::trace::material::BsdfParams, mu: f32) -> (f64, f64) {
+    sphere_albedo_at(p, glam::Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu))
+}
+
+/// `sphere_albedo` for the outgoing direction `wo` (unit, above).
+pub fn sphere_albedo_at(p: &soupray::trace::material::BsdfParams, wo: glam::Vec3) -> (f64, f64) {
     use glam::Vec3;
     use soupray::trace::material::bsdf_eval;
-    let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
     let (nc, np) = (256, 256);
     let (mut up, mut down) = (0.0f64, 0.0f64);
     for i in 0..nc {
