@@ -50,7 +50,8 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "sampling.h"
-#if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE) || defined(HAS_ANISOTROPY)) && \
+#if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE) || defined(HAS_ANISOTROPY) || \
+     defined(HAS_DISPERSION)) &&                                                                  \
     !defined(HAS_TRANSMISSION)
 #define HAS_TRANSMISSION
 #endif
@@ -146,7 +147,10 @@ typedef struct {
     float anisotropy_strength;
     float anisotropy_rotation;
     int anisotropy_tex;
-    float pad2[3];
+    // KHR_materials_dispersion `dispersion` (20 / Abbe number; 0: none),
+    // read by HAS_DISPERSION kernels (media.h media_channel_ior).
+    float dispersion;
+    float pad2[2];
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.

@@ -103,4 +103,20 @@ inline float media_eta(float ior, float n_other, bool front) {
 // bsdf.h's f0_of_ior.
 inline float media_f0(float ior, float n_other) { return f0_of_ior(ior / n_other); }
 
+// KHR_materials_dispersion's index for colour channel `channel` (0 red, 1
+// green, 2 blue; -1: a path that has not picked one) of a volume of index
+// `ior` and `dispersion` (20 / Abbe number): the extension's three indices
+// ior -/+ (ior - 1) 0.025 dispersion for red and blue, red at least 1.
+// Without HAS_DISPERSION, or without dispersion, `ior` itself. Rust twin:
+// trace::media::channel_ior.
+inline float media_channel_ior(float ior, float dispersion, int channel) {
+#ifdef HAS_DISPERSION
+    if (channel < 0 || channel == 1 || !(dispersion > 0.0f)) return ior;
+    float half_spread = ((ior - 1.0f) * 0.025f) * dispersion;
+    return channel == 0 ? fmax(ior - half_spread, 1.0f) : ior + half_spread;
+#else
+    return ior;
+#endif
+}
+
 #endif

@@ -169,9 +169,12 @@ inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
 #endif
 
 #ifdef HAS_TRANSMISSION
-// A volume's refractive index (NO_MEDIUM: air, 1).
-inline float pt_medium_ior(const PtScene* s, uint medium) {
-    return medium == NO_MEDIUM ? 1.0f : s->material_exts[medium].ior;
+// A volume's refractive index (NO_MEDIUM: air, 1) for the path's colour
+// channel (media_channel_ior; -1: none picked).
+inline float pt_medium_ior(const PtScene* s, uint medium, int channel) {
+    if (medium == NO_MEDIUM) return 1.0f;
+    PtMaterialExt mx = s->material_exts[medium];
+    return media_channel_ior(mx.ior, mx.dispersion, channel);
 }
 
 // A volume's attenuation coefficient (NO_MEDIUM: none).
@@ -408,6 +411,10 @@ typedef struct {
     // above (on the viewer's side) and below the surface.
     uint medium_above;
     uint medium_below;
+    // The colour channel the path carries alone since it met a dispersive
+    // volume (KHR_materials_dispersion), -1 before: the indices its shadow
+    // rays' surfaces and volumes take.
+    int channel;
 #endif
 #ifdef HAS_CLEARCOAT
     // The interpolated normal before the base's normal map, on the viewer's
@@ -549,7 +556,7 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
 // (symmetric in the two indices); against air both are what a lone surface
 // has. Rust twin: trace::material::Dielectric::nested.
 inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume, bool front,
-                                 float n_other, float2 uv, BsdfParams* bp TEX_DECL) {
+                                 float n_other, int channel, float2 uv, BsdfParams* bp TEX_DECL) {
     if ((s->frame.flags & FRAME_CLAY) != 0u) {
         bp->f0 = 0.04f;
         bp->f0_color = (float3)(0.04f);
@@ -604,11 +611,13 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     }
 #endif
 #endif
-    bp->f0 = media_f0(mx.ior, n_other);
+    // Dispersion is the volume's: a thin-walled surface keeps its index.
+    float ior = volume ? media_channel_ior(mx.ior, mx.dispersion, channel) : mx.ior;
+    bp->f0 = media_f0(ior, n_other);
     bp->f0_color = fmin((float3)(bp->f0) * specular_color, (float3)(1.0f));
     bp->specular = specular;
     bp->transmission = clamp(transmission, 0.0f, 1.0f);
-    bp->eta = volume ? media_eta(mx.ior, n_other, front) : 1.0f;
+    bp->eta = volume ? media_eta(ior, n_other, front) : 1.0f;
     bp->thin = volume ? 0.0f : 1.0f;
 #ifdef HAS_DIFFUSE_TRANSMISSION
     bp->diffuse_transmission = clamp(diffuse_transmission, 0.0f, 1.0f);
@@ -688,7 +697,7 @@ inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
 // surfaces, rough thin ones and opaque ones block. The medium's
 // Beer-Lambert attenuation applies over the whole segment.
 inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float tmax, uint medium,
-                                      SampleRng rng, uint bounce TEX_DECL) {
+                                      int channel, SampleRng rng, uint bounce TEX_DECL) {
     float3 tr = (float3)(1.0f);
     if (medium != NO_MEDIUM) {
         tr = pt_attenuation(pt_medium_sigma(s, medium), tmax * length(dir));
@@ -703,7 +712,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         return (float3)(0.0f);
 #endif
     float3 d = normalize(dir);
-    float n_medium = pt_medium_ior(s, medium);
+    float n_medium = pt_medium_ior(s, medium, channel);
     uint crossings = 0u;
     for (;;) {
         Hit h;
@@ -719,7 +728,7 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
-        pt_dielectric_params(s, mx, false, sf.front, n_medium, sf.uv, &bp TEX_PASS);
+        pt_dielectric_params(s, mx, false, sf.front, n_medium, channel, sf.uv, &bp TEX_PASS);
         float3 t, b;
         onb(sf.ns, &t, &b);
 #ifdef HAS_LAYERS
@@ -774,7 +783,7 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return (float3)(0.0f);
 #ifdef HAS_TRANSMISSION
     uint medium = reflected ? sf.medium_above : sf.medium_below;
-    return c * pt_shadow_transmittance(s, above, shadow_dir, shadow_t, medium, rng,
+    return c * pt_shadow_transmittance(s, above, shadow_dir, shadow_t, medium, sf.channel, rng,
                                        bounce TEX_PASS);
 #else
     if (pt_occluded(s, above, shadow_dir, shadow_t, rng, bounce TEX_PASS)) return (float3)(0.0f);
@@ -942,6 +951,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     // The volumes the path is in (media.h) and the innermost one's
     // attenuation coefficient (0: none).
     PtMedia media = media_empty();
+    int channel = -1; // the colour channel carried alone (pt_dielectric_params)
     float3 sigma = (float3)(0.0f);
     // The distance from the last scattering vertex to this segment's start
     // (null crossings), for the pdf of light sampling an emitter found.
@@ -1038,9 +1048,25 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // refracting surface the one beyond it (media.h).
         uint inner = media_innermost(&media);
         uint other = volume ? media_other(&media, mat, sf.front) : inner;
-        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other), sf.uv, &bp TEX_PASS);
+#ifdef HAS_DISPERSION
+        // KHR_materials_dispersion: at the first dispersive volume it
+        // meets, the path picks one colour channel uniformly and carries it
+        // alone, three times as strong (unbiased per channel), with that
+        // channel's indices from here on. The light set's fourth number is
+        // unused by light sampling.
+        if (channel < 0 && volume && mx.dispersion > 0.0f && mx.transmission > 0.0f &&
+            (s->frame.flags & FRAME_CLAY) == 0u) {
+            float u = rng_4d(rng, set_bounce(bounce, SET_LIGHT)).w;
+            channel = min((int)(u * 3.0f), 2);
+            beta = (float3)(channel == 0 ? 3.0f * beta.x : 0.0f, channel == 1 ? 3.0f * beta.y : 0.0f,
+                            channel == 2 ? 3.0f * beta.z : 0.0f);
+        }
+#endif
+        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other, channel), channel, sf.uv,
+                             &bp TEX_PASS);
         sf.medium_above = inner;
         sf.medium_below = volume && sf.front ? mat : other;
+        sf.channel = channel;
 #endif
 #ifdef HAS_ANISOTROPY
         if (pt_anisotropy_frame(s, sf, h.prim, bp, &t, &b)) wo = to_local(wo_w, t, b, sf.ns);

@@ -208,6 +208,14 @@ __kernel void media_eta_probe(__global const float* in, __global float* out, uin
     out[2u * i] = media_eta(c[0], c[1], c[2] != 0.0f);
     out[2u * i + 1u] = media_f0(c[0], c[1]);
 }
+
+// Per case: ior, dispersion, channel (-1 to 2) -> media_channel_ior.
+__kernel void media_channel_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 3u;
+    out[i] = media_channel_ior(c[0], c[1], (int)c[2]);
+}
 #endif
 
 #ifdef HAS_LAYERS

@@ -185,9 +185,13 @@ fn asset(rel: &str) -> PathBuf {
     common::repo().join(rel)
 }
 
-/// A UV sphere of `segments` around, centred at `c` with radius `r`.
-fn sphere(c: [f32; 3], r: f32, segments: usize) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
-    let (mut pos, mut nrm, mut idx) = (Vec::new(), Vec::new(), Vec::new());
+/// A mesh's positions, normals, indices and TEXCOORD_0.
+type Geometry = (Vec<f32>, Vec<f32>, Vec<u32>, Vec<f32>);
+
+/// A UV sphere of `segments` around, centred at `c` with radius `r`; u
+/// runs around it, v from top to bottom.
+fn sphere(c: [f32; 3], r: f32, segments: usize) -> Geometry {
+    let (mut pos, mut nrm, mut idx, mut uv) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let rings = segments / 2;
     for i in 0..=rings {
         let theta = std::f32::consts::PI * i as f32 / rings as f32;
@@ -200,6 +204,7 @@ fn sphere(c: [f32; 3], r: f32, segments: usize) -> (Vec<f32>, Vec<f32>, Vec<u32>
             ];
             pos.extend([c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]]);
             nrm.extend(n);
+            uv.extend([j as f32 / segments as f32, i as f32 / rings as f32]);
         }
     }
     let row = segments as u32 + 1;
@@ -209,20 +214,21 @@ fn sphere(c: [f32; 3], r: f32, segments: usize) -> (Vec<f32>, Vec<f32>, Vec<u32>
             idx.extend([a, a + 1, b, a + 1, b + 1, b]);
         }
     }
-    (pos, nrm, idx)
+    (pos, nrm, idx, uv)
 }
 
 /// A horizontal square of half-size `h` at height `y`, facing up.
-fn plane(y: f32, h: f32) -> (Vec<f32>, Vec<f32>, Vec<u32>) {
+fn plane(y: f32, h: f32) -> Geometry {
     (
         vec![-h, y, -h, -h, y, h, h, y, h, h, y, -h],
         [0.0, 1.0, 0.0].repeat(4),
         vec![0, 1, 2, 0, 2, 3],
+        vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0],
     )
 }
 
 struct MeshSpec {
-    geometry: (Vec<f32>, Vec<f32>, Vec<u32>),
+    geometry: Geometry,
     material: serde_json::Value,
 }
 
@@ -240,12 +246,21 @@ fn scene_file(
     let mut materials = Vec::new();
     let mut nodes = Vec::new();
     for (i, m) in meshes.into_iter().enumerate() {
-        let (pos, nrm, idx) = m.geometry;
+        let (pos, nrm, idx, uv) = m.geometry;
         let p = b.floats(&pos, 3);
         let n = b.floats(&nrm, 3);
         let ix = b.u32s(&idx);
+        let mut attributes = json!({"POSITION": p, "NORMAL": n});
+        // Texture coordinates only where a material reads them (the
+        // anisotropy's tangent frame), so the other scenes stay as their
+        // goldens were made.
+        if m.material.to_string().contains("KHR_materials_anisotropy") {
+            attributes["TEXCOORD_0"] = json!(b.floats(&uv, 2));
+        }
         materials.push(m.material);
-        gl_meshes.push(json!({"primitives": [{"attributes": {"POSITION": p, "NORMAL": n}, "indices": ix, "material": i}]}));
+        gl_meshes.push(
+            json!({"primitives": [{"attributes": attributes, "indices": ix, "material": i}]}),
+        );
         nodes.push(json!({"mesh": i}));
     }
     // Camera at `eye` looking at the origin (+Y up): rotation about Y then X.
@@ -384,13 +399,13 @@ fn punctual_lights() {
 fn emissive_area_light() {
     let dir = tempfile::tempdir().unwrap();
     // A downward-facing 1.2 x 1.2 emitter, 2 units above the floor.
-    let (mut pos, _, _) = plane(0.0, 0.6);
+    let (mut pos, _, _, uv) = plane(0.0, 0.6);
     for y in pos.iter_mut().skip(1).step_by(3) {
         *y = 2.0;
     }
     let down: Vec<f32> = [0.0, -1.0, 0.0].repeat(4);
     let emitter = MeshSpec {
-        geometry: (pos, down, vec![0, 2, 1, 0, 3, 2]),
+        geometry: (pos, down, vec![0, 2, 1, 0, 3, 2], uv),
         material: json!({"emissiveFactor": [1.0, 0.9, 0.7], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}, "pbrMetallicRoughness": {"baseColorFactor": [0,0,0,1]}}),
     };
     let scene = scene_file(
@@ -667,6 +682,91 @@ fn iridescent_films() {
     );
     check(
         "iridescent_films",
+        &scene,
+        0,
+        256,
+        &["--env-color", "0.5,0.6,0.8"],
+    );
+}
+
+#[test]
+fn brushed_metal_and_dispersive_glass() {
+    // KHR_materials_anisotropy on two gold spheres brushed around (the
+    // tangent follows u, around the sphere) and along the meridians (turned
+    // a quarter), beside an isotropic one of the same roughness, and
+    // KHR_materials_dispersion on a glass ball (ior 1.6, dispersion 4:
+    // Abbe number 5, exaggerated) over a checker of dark and light tiles,
+    // under a sky and a point light.
+    let dir = tempfile::tempdir().unwrap();
+    let gold = |anisotropy: serde_json::Value| {
+        let mut m = json!({"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.78, 0.34, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.35}});
+        if !anisotropy.is_null() {
+            m["extensions"] = json!({"KHR_materials_anisotropy": anisotropy});
+        }
+        m
+    };
+    let mut meshes = vec![
+        MeshSpec {
+            geometry: plane(0.0, 3.0),
+            material: diffuse([0.6, 0.6, 0.6]),
+        },
+        MeshSpec {
+            geometry: sphere([-1.05, 0.35, 0.0], 0.35, 48),
+            material: gold(serde_json::Value::Null),
+        },
+        MeshSpec {
+            geometry: sphere([-0.35, 0.35, 0.0], 0.35, 48),
+            material: gold(json!({"anisotropyStrength": 0.9})),
+        },
+        MeshSpec {
+            geometry: sphere([0.35, 0.35, 0.0], 0.35, 48),
+            material: gold(
+                json!({"anisotropyStrength": 0.9, "anisotropyRotation": std::f32::consts::FRAC_PI_2}),
+            ),
+        },
+        MeshSpec {
+            geometry: sphere([1.05, 0.35, 0.0], 0.35, 48),
+            material: json!({
+                "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+                "extensions": {
+                    "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                    "KHR_materials_volume": {"thicknessFactor": 0.7},
+                    "KHR_materials_ior": {"ior": 1.6},
+                    "KHR_materials_dispersion": {"dispersion": 4.0}
+                }
+            }),
+        },
+    ];
+    // Dark tiles behind the glass ball: edges for the colours to split at.
+    for (x, z) in [
+        (0.8f32, -0.9f32),
+        (1.3, -0.9),
+        (1.05, -1.4),
+        (0.55, -1.4),
+        (1.55, -1.4),
+    ] {
+        let (mut pos, nrm, idx, uv) = plane(0.001, 0.25);
+        for k in 0..4 {
+            pos[3 * k] += x;
+            pos[3 * k + 2] += z;
+        }
+        meshes.push(MeshSpec {
+            geometry: (pos, nrm, idx, uv),
+            material: diffuse([0.03, 0.03, 0.03]),
+        });
+    }
+    let scene = scene_file(
+        dir.path(),
+        "brushed",
+        meshes,
+        [0.0, 1.2, 3.5],
+        vec![(
+            json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 15.0}),
+            json!({"translation": [1.5, 3.0, 2.0]}),
+        )],
+    );
+    check(
+        "brushed_metal_and_dispersive_glass",
         &scene,
         0,
         256,

@@ -181,6 +181,7 @@ fn variants() -> Vec<Variant> {
                                 diffuse_transmission: compensation && transmission,
                                 iridescence: compensation && transmission,
                                 anisotropy: compensation && transmission,
+                                dispersion: compensation && transmission,
                             },
                         );
                         v.push(Variant {
@@ -254,7 +255,8 @@ fn variants() -> Vec<Variant> {
     });
     // Each layer alone, with and without the dielectric extensions (the
     // kernels read only the fields their defines declare), and diffuse
-    // transmission alone (it comes with the dielectric extensions).
+    // transmission, iridescence, and anisotropy with dispersion, each with
+    // the dielectric extensions they come with.
     for (clearcoat, sheen, diffuse_transmission, iridescence, anisotropy) in [
         (true, false, false, false, false),
         (false, true, false, false, false),
@@ -273,6 +275,7 @@ fn variants() -> Vec<Variant> {
                 diffuse_transmission,
                 iridescence,
                 anisotropy,
+                dispersion: anisotropy,
             };
             v.push(Variant {
                 entry: "pathtrace.cl",
@@ -322,6 +325,7 @@ fn variants() -> Vec<Variant> {
             ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
             ("HAS_IRIDESCENCE", "1".to_owned()),
             ("HAS_ANISOTROPY", "1".to_owned()),
+            ("HAS_DISPERSION", "1".to_owned()),
             ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
         ],
         codegen: true,

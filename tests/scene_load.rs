@@ -496,6 +496,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         json!({
             "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
                                "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
+                               "KHR_materials_pbrSpecularGlossiness",
                                "KHR_materials_iridescence", "KHR_materials_anisotropy",
                                "KHR_materials_diffuse_transmission"],
             "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
@@ -524,7 +525,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                     "iridescenceThicknessTexture": {"index": 0}}}},
                 {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6,
                     "anisotropyRotation": 1.25, "anisotropyTexture": {"index": 0}}}},
-                {"name": "too brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 3.0}}}
+                {"name": "too brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 3.0}}},
+                {"name": "prism", "extensions": {"KHR_materials_dispersion": {"dispersion": 0.33},
+                    "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
+                {"name": "rutile squared", "extensions": {"KHR_materials_dispersion": {"dispersion": 50.0}}}
             ],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
             "textures": [{"source": 0}],
@@ -620,6 +625,20 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     assert_eq!(m[7].anisotropy_texture.as_ref().map(|t| t.texture), Some(0));
     assert!(m[7].has_anisotropy() && m[7].needs_transmission() && !m[6].has_anisotropy());
     assert_eq!(m[8].anisotropy_strength, 1.0);
+    // KHR_materials_dispersion: read, compiled only on a refracting volume,
+    // above 20 (Abbe number 1) clamped with a warning.
+    assert_eq!(m[9].dispersion, 0.33);
+    assert!(m[9].has_dispersion() && !m[0].has_dispersion());
+    assert_eq!(m[10].dispersion, 20.0);
+    assert!(
+        !m[10].has_dispersion(),
+        "an opaque material does not disperse"
+    );
+    assert!(
+        w.iter()
+            .any(|w| w.contains("dispersion 50") && w.contains("20 is used")),
+        "{w:?}"
+    );
     assert!(
         w.iter()
             .any(|w| w.contains("anisotropyStrength 3") && w.contains("1 is used")),
@@ -647,6 +666,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         "KHR_materials_diffuse_transmission",
         "KHR_materials_iridescence",
         "KHR_materials_anisotropy",
+        "KHR_materials_dispersion",
     ] {
         assert!(
             !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
@@ -654,7 +674,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         );
     }
     {
-        let (ext, first) = ("KHR_materials_dispersion", "extensionsUsed");
+        let (ext, first) = ("KHR_materials_pbrSpecularGlossiness", "extensionsUsed");
         let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
         assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
         assert!(
@@ -672,6 +692,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     for ext in [
         "KHR_materials_anisotropy",
         "KHR_materials_diffuse_transmission",
+        "KHR_materials_dispersion",
         "KHR_materials_iridescence",
         "KHR_materials_clearcoat",
     ] {
@@ -694,8 +715,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     // An unsupported material extension that is required is refused.
     let path = b.write(
         json!({
-            "extensionsUsed": ["KHR_materials_dispersion"],
-            "extensionsRequired": ["KHR_materials_dispersion"],
+            "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
+            "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
         }),
@@ -704,10 +725,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         true,
     );
     let Err(err) = Scene::load(&path, &LoadOptions::default()) else {
-        panic!("a required KHR_materials_dispersion is refused");
+        panic!("a required KHR_materials_pbrSpecularGlossiness is refused");
     };
     assert!(
-        err.to_string().contains("KHR_materials_dispersion"),
+        err.to_string()
+            .contains("KHR_materials_pbrSpecularGlossiness"),
         "{err}"
     );
 }

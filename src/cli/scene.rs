@@ -401,6 +401,13 @@ fn material_extensions(
             m.iridescence_ior
         ));
     }
+    if m.has_dispersion() {
+        out.push(format!(
+            "dispersion {} (Abbe number {})",
+            m.dispersion,
+            20.0 / m.dispersion
+        ));
+    }
     if m.has_anisotropy() {
         out.push(format!(
             "anisotropy {}{} rotation {} rad",

@@ -5,8 +5,8 @@
 //! KHR_materials_transmission, KHR_materials_ior and KHR_materials_volume
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
 //! map), KHR_materials_sheen, KHR_materials_diffuse_transmission and
-//! KHR_materials_iridescence and KHR_materials_anisotropy, with their
-//! textures, and KHR_materials_unlit. Every other `KHR_materials_*`
+//! KHR_materials_iridescence, KHR_materials_anisotropy and
+//! KHR_materials_dispersion, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*`
 //! extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
@@ -142,6 +142,8 @@ pub struct Material {
     /// `anisotropyTexture` (RG: the direction in tangent space, B scales
     /// the strength).
     pub anisotropy_texture: Option<TextureRef>,
+    /// KHR_materials_dispersion `dispersion`: 20 / Abbe number (0: none).
+    pub dispersion: f32,
 }
 
 impl Default for Material {
@@ -199,6 +201,7 @@ impl Default for Material {
             anisotropy_strength: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_texture: None,
+            dispersion: 0.0,
         }
     }
 }
@@ -270,6 +273,13 @@ impl Material {
         self.anisotropy_strength > 0.0
     }
 
+    /// Whether the material disperses (`HAS_DISPERSION`): a dispersion
+    /// above 0 on a refracting volume (the extension builds on
+    /// KHR_materials_volume; thin-walled surfaces do not disperse).
+    pub fn has_dispersion(&self) -> bool {
+        self.dispersion > 0.0 && self.transmission_factor > 0.0 && self.has_volume()
+    }
+
     /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
     pub fn has_clearcoat(&self) -> bool {
         self.clearcoat_factor > 0.0
@@ -305,6 +315,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_diffuse_transmission",
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
+    "KHR_materials_dispersion",
 ];
 
 /// Every texture the supported material extensions read, as (extension,
@@ -877,6 +888,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 0.0,
             ),
             anisotropy_texture: extension_texture(src, i, ANISOTROPY, "anisotropyTexture"),
+            dispersion: number(
+                material_extension(src, i, "KHR_materials_dispersion"),
+                "dispersion",
+                0.0,
+            ),
         });
     }
 

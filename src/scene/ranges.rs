@@ -389,6 +389,18 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         1.0,
         0.0,
     );
+    // 1 is an Abbe number of 20, about the lowest of real materials; the
+    // extension allows more to exaggerate, and 20 (Abbe number 1) is far
+    // beyond any material.
+    clamp(
+        w,
+        &what,
+        "KHR_materials_dispersion dispersion",
+        &mut m.dispersion,
+        0.0,
+        20.0,
+        0.0,
+    );
     // A turn is 2 pi; beyond 1e4 radians an f32 angle is coarser than a
     // thousandth of a radian, and an infinite one has no cosine.
     clamp(

@@ -197,7 +197,9 @@ pub struct DeviceMaterialExt {
     /// Texture binding index (-1: none) of `anisotropyTexture` (RG: the
     /// direction in tangent space, B: the strength).
     pub anisotropy_tex: i32,
-    pub pad2: [f32; 3],
+    /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
+    pub dispersion: f32,
+    pub pad2: [f32; 2],
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 192);
@@ -259,7 +261,8 @@ impl DeviceMaterialExt {
             anisotropy_strength: m.anisotropy_strength,
             anisotropy_rotation: m.anisotropy_rotation,
             anisotropy_tex: -1,
-            pad2: [0.0; 3],
+            dispersion: m.dispersion,
+            pad2: [0.0; 2],
         }
     }
 }

@@ -97,6 +97,23 @@ pub fn relative_eta(ior: f32, n_other: f32, front: bool) -> f32 {
     }
 }
 
+/// KHR_materials_dispersion's index of a volume of index `ior` and
+/// `dispersion` (20 / Abbe number) for colour channel `channel` (0 red, 1
+/// green, 2 blue; `None`: a path that carries all three): the extension's
+/// `ior -/+ (ior - 1) 0.025 dispersion` for red and blue, red at least 1.
+/// Twin of `media_channel_ior` in kernels/media.h.
+pub fn channel_ior(ior: f32, dispersion: f32, channel: Option<usize>) -> f32 {
+    if dispersion.is_nan() || dispersion <= 0.0 {
+        return ior;
+    }
+    let half_spread = ((ior - 1.0) * 0.025) * dispersion;
+    match channel {
+        Some(0) => (ior - half_spread).max(1.0),
+        Some(2) => ior + half_spread,
+        _ => ior,
+    }
+}
+
 /// The interface's normal-incidence reflectance from the ratio of the two
 /// indices (`media_f0`; symmetric in them, against air the material's own).
 pub fn relative_f0(ior: f32, n_other: f32) -> f32 {

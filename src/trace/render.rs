@@ -436,14 +436,18 @@ pub fn pathtrace_defines(
     if layers.anisotropy {
         defines.push(("HAS_ANISOTROPY", "1".to_owned()));
     }
+    if layers.dispersion {
+        defines.push(("HAS_DISPERSION", "1".to_owned()));
+    }
     defines
 }
 
 /// Which lobes beyond the dielectric's a program compiles: the layers over
 /// the BSDF (`HAS_CLEARCOAT`, `HAS_SHEEN`), the diffuse transmission lobe
 /// under it (`HAS_DIFFUSE_TRANSMISSION`), the thin film on its Fresnel
-/// (`HAS_IRIDESCENCE`) and the anisotropic specular lobes
-/// (`HAS_ANISOTROPY`), the last three compiled with `HAS_TRANSMISSION`.
+/// (`HAS_IRIDESCENCE`), the anisotropic specular lobes (`HAS_ANISOTROPY`)
+/// and the per-channel indices of dispersive volumes (`HAS_DISPERSION`),
+/// the last four compiled with `HAS_TRANSMISSION`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LayerDefines {
     pub clearcoat: bool,
@@ -451,6 +455,7 @@ pub struct LayerDefines {
     pub diffuse_transmission: bool,
     pub iridescence: bool,
     pub anisotropy: bool,
+    pub dispersion: bool,
 }
 
 impl LayerDefines {
@@ -462,6 +467,7 @@ impl LayerDefines {
             diffuse_transmission: table.materials.iter().any(|m| m.has_diffuse_transmission()),
             iridescence: table.materials.iter().any(|m| m.has_iridescence()),
             anisotropy: table.materials.iter().any(|m| m.has_anisotropy()),
+            dispersion: table.materials.iter().any(|m| m.has_dispersion()),
         }
     }
 
@@ -532,6 +538,9 @@ pub fn material_features(
     }
     if layers.anisotropy {
         v.push("anisotropy");
+    }
+    if layers.dispersion {
+        v.push("dispersion");
     }
     v
 }
