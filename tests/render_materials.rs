@@ -1471,6 +1471,49 @@ fn thin_film_has_the_limits_of_its_physics() {
     }
 }
 
+/// `render_square` of `square` under a sun from `sun` and a black sky, as
+/// `--clay` and as itself.
+fn square_under_a_sun(
+    square: serde_json::Value,
+    uri: &str,
+    sun: Vec3,
+) -> (soupray::film::Image, soupray::film::Image) {
+    let clay = render_square(
+        square.clone(),
+        uri,
+        Some(sun),
+        &["--env-color", "0,0,0", "--clay"],
+    );
+    let img = render_square(square, uri, Some(sun), &["--env-color", "0,0,0"]);
+    (clay, img)
+}
+
+/// For a square under a sun and a black sky seen head-on (`img`), the
+/// largest relative error over columns `cols` against `f` E cos, E cos from
+/// the `--clay` render of the same scene (0.8 / pi E cos); and the last
+/// pixel's value.
+fn worst_against_sun_reference(
+    clay: &soupray::film::Image,
+    img: &soupray::film::Image,
+    cols: std::ops::Range<usize>,
+    f: Vec3,
+) -> (f32, [f32; 3]) {
+    let mut worst = 0.0f32;
+    let mut at = [0.0f32; 3];
+    for y in 0..clay.height as usize {
+        for x in cols.clone() {
+            let i = y * clay.width as usize + x;
+            let e_cos = clay.rgba[i][0] / 0.8 * std::f32::consts::PI;
+            for c in 0..3 {
+                let want = f[c] * e_cos;
+                worst = worst.max((img.rgba[i][c] - want).abs() / want);
+            }
+            at = [img.rgba[i][0], img.rgba[i][1], img.rgba[i][2]];
+        }
+    }
+    (worst, at)
+}
+
 #[test]
 fn iridescent_square_under_a_sun_matches_the_reference() {
     use serde_json::json;
@@ -1496,13 +1539,7 @@ fn iridescent_square_under_a_sun_matches_the_reference() {
         }}
     });
     let sun = Vec3::new(0.35, 0.1, 0.93).normalize();
-    let clay = render_square(
-        square.clone(),
-        &uri,
-        Some(sun),
-        &["--env-color", "0,0,0", "--clay"],
-    );
-    let img = render_square(square, &uri, Some(sun), &["--env-color", "0,0,0"]);
+    let (clay, img) = square_under_a_sun(square, &uri, sun);
     for (cols, t) in [(left, texels.0), (right, texels.1)] {
         let film = factor * byte(t[0]);
         let thickness = tmin + (tmax - tmin) * byte(t[1]);
@@ -1514,19 +1551,7 @@ fn iridescent_square_under_a_sun_matches_the_reference() {
         plain.dielectric = Some(Dielectric::new(1.5, 0.0, false, true));
         let f = bsdf_eval(&p, Vec3::Z, sun);
         let f_plain = bsdf_eval(&plain, Vec3::Z, sun);
-        let mut worst = 0.0f32;
-        let mut at = [0.0f32; 3];
-        for y in 0..clay.height as usize {
-            for x in cols.clone() {
-                let i = y * clay.width as usize + x;
-                let e_cos = clay.rgba[i][0] / 0.8 * std::f32::consts::PI; // E cos
-                for c in 0..3 {
-                    let want = f[c] * e_cos;
-                    worst = worst.max((img.rgba[i][c] - want).abs() / want);
-                }
-                at = [img.rgba[i][0], img.rgba[i][1], img.rgba[i][2]];
-            }
-        }
+        let (worst, at) = worst_against_sun_reference(&clay, &img, cols, f);
         eprintln!(
             "iridescence {film:.3} at {thickness:.0} nm: pixel {at:?}, reference f {f} (no film {f_plain}); worst relative error {worst:.2e}"
         );
@@ -1706,13 +1731,7 @@ fn anisotropic_square_under_a_sun_matches_the_reference() {
         }}
     });
     let sun = Vec3::new(0.45, 0.25, 0.86).normalize();
-    let clay = render_square(
-        square.clone(),
-        &uri,
-        Some(sun),
-        &["--env-color", "0,0,0", "--clay"],
-    );
-    let img = render_square(square, &uri, Some(sun), &["--env-color", "0,0,0"]);
+    let (clay, img) = square_under_a_sun(square, &uri, sun);
     let mut seen = Vec::new();
     for (cols, t) in [(left, texels.0), (right, texels.1)] {
         let (dx, dy) = (byte(t[0]) * 2.0 - 1.0, byte(t[1]) * 2.0 - 1.0);
@@ -1727,19 +1746,7 @@ fn anisotropic_square_under_a_sun_matches_the_reference() {
         let f = bsdf_eval(&p, Vec3::Z, local(sun));
         // The same lobe turned a quarter: what a wrong frame would give.
         let turned = bsdf_eval(&p, Vec3::Z, Vec3::new(-local(sun).y, local(sun).x, sun.z));
-        let mut worst = 0.0f32;
-        let mut at = [0.0f32; 3];
-        for yy in 0..clay.height as usize {
-            for xx in cols.clone() {
-                let i = yy * clay.width as usize + xx;
-                let e_cos = clay.rgba[i][0] / 0.8 * std::f32::consts::PI; // E cos
-                for ch in 0..3 {
-                    let want = f[ch] * e_cos;
-                    worst = worst.max((img.rgba[i][ch] - want).abs() / want);
-                }
-                at = [img.rgba[i][0], img.rgba[i][1], img.rgba[i][2]];
-            }
-        }
+        let (worst, at) = worst_against_sun_reference(&clay, &img, cols, f);
         eprintln!(
             "anisotropy direction {x}: pixel {at:?}, reference f {f} (turned a quarter {turned}); worst relative error {worst:.2e}"
         );
