@@ -57,6 +57,9 @@
 #endif
 #ifdef GGX_ENERGY_COMPENSATION
 #include "ggx_energy.h"
+#ifdef HAS_ANISOTROPY
+#include "ggx_aniso_energy.h"
+#endif
 #endif
 #ifdef HAS_SHEEN
 #include "sheen_energy.h"
@@ -302,13 +305,57 @@ inline float spec_lambda(BsdfParams p, float3 w) {
     return ggx_lambda(p.alpha, w.z);
 }
 
+#if defined(GGX_ENERGY_COMPENSATION) && defined(HAS_ANISOTROPY)
+// One axis of the anisotropic correction table: coordinate x (0 to 1)
+// over n nodes -> the lower node and the fraction towards the next.
+inline float aniso_axis(float x, uint n, uint* i) {
+    float v = clamp(x, 0.0f, 1.0f) * (float)(n - 1u);
+    *i = min((uint)v, n - 2u);
+    return v - (float)(*i);
+}
+
+// Quadrilinear lookup in GGX_ANISO_ALBEDO at sqrt(alpha_t), sqrt(alpha /
+// alpha_t), the cosine and the azimuth over pi/2 (Rust twin:
+// trace::energy::aniso_lookup).
+inline float aniso_lookup(float st, float q, float mu, float phi) {
+    uint i0, i1, i2, i3;
+    float f0 = aniso_axis(st, GGX_ANISO_T, &i0);
+    float f1 = aniso_axis(q, GGX_ANISO_R, &i1);
+    float f2 = aniso_axis(mu, GGX_ANISO_MU, &i2);
+    float f3 = aniso_axis(phi, GGX_ANISO_PHI, &i3);
+    float sum = 0.0f;
+    for (uint c = 0u; c < 16u; ++c) {
+        uint u0 = c & 1u;
+        uint u1 = (c >> 1) & 1u;
+        uint u2 = (c >> 2) & 1u;
+        uint u3 = (c >> 3) & 1u;
+        uint index = (((i0 + u0) * GGX_ANISO_R + (i1 + u1)) * GGX_ANISO_MU + (i2 + u2)) *
+                         GGX_ANISO_PHI +
+                     (i3 + u3);
+        float w = 1.0f;
+        w *= u0 != 0u ? f0 : 1.0f - f0;
+        w *= u1 != 0u ? f1 : 1.0f - f1;
+        w *= u2 != 0u ? f2 : 1.0f - f2;
+        w *= u3 != 0u ? f3 : 1.0f - f3;
+        sum += GGX_ANISO_ALBEDO[index] * w;
+    }
+    return sum;
+}
+#endif
+
 #ifdef GGX_ENERGY_COMPENSATION
 // The white single-scattering albedo of the base's specular lobe at wo;
-// anisotropic: the isotropic table at the root-mean-square alpha.
+// anisotropic: the isotropic table at the root-mean-square alpha times the
+// tabulated correction (Rust twin: trace::energy::anisotropic_albedo).
 inline float spec_albedo(BsdfParams p, float3 wo) {
 #ifdef HAS_ANISOTROPY
-    if (p.alpha_t != p.alpha)
-        return ggx_albedo(sqrt((p.alpha_t * p.alpha_t + p.alpha * p.alpha) * 0.5f), wo.z);
+    if (p.alpha_t != p.alpha) {
+        float at = p.alpha_t;
+        float ab = p.alpha;
+        float rms = sqrt((at * at + ab * ab) * 0.5f);
+        float phi = atan2(fabs(wo.y), fabs(wo.x)) * 0.63661977236758134f; // 2 / pi
+        return ggx_albedo(rms, wo.z) * aniso_lookup(sqrt(at), sqrt(ab / at), wo.z, phi);
+    }
 #endif
     return ggx_albedo(p.alpha, wo.z);
 }

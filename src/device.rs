@@ -53,6 +53,10 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     ("pt_types.h", include_str!("../kernels/pt_types.h")),
     ("sampling.h", include_str!("../kernels/sampling.h")),
     ("ggx_energy.h", include_str!("../kernels/ggx_energy.h")),
+    (
+        "ggx_aniso_energy.h",
+        include_str!("../kernels/ggx_aniso_energy.h"),
+    ),
     ("sheen_energy.h", include_str!("../kernels/sheen_energy.h")),
     ("bsdf.h", include_str!("../kernels/bsdf.h")),
     ("lights.h", include_str!("../kernels/lights.h")),

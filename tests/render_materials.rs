@@ -450,6 +450,37 @@ fn energy_table_is_what_the_generator_makes() {
 }
 
 #[test]
+fn anisotropic_energy_table_is_what_the_generator_makes() {
+    use soupray::trace::energy::{
+        aniso_header_text, aniso_table, generate_anisotropic, parse_header, ANISO_SIZES,
+    };
+    let fresh = generate_anisotropic();
+    let path = common::repo().join("kernels/ggx_aniso_energy.h");
+    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
+        std::fs::write(&path, aniso_header_text(&fresh)).unwrap();
+    }
+    assert_eq!(fresh.len(), ANISO_SIZES.iter().product::<usize>());
+    assert_eq!(parse_header(&aniso_header_text(&fresh)), fresh);
+    assert_eq!(
+        aniso_table(),
+        &fresh[..],
+        "kernels/ggx_aniso_energy.h is stale: rerun with SOUPRAY_REGENERATE=1"
+    );
+    // Isotropic nodes (sqrt(alpha / alpha_t) = 1) need no correction but
+    // the isotropic table's own interpolation: within 1%. (The furnace
+    // below holds what the table is for.)
+    let [nt, nr, nm, np] = ANISO_SIZES;
+    for i in 1..nt {
+        for k in 1..nm {
+            for l in 0..np {
+                let c = fresh[((i * nr + nr - 1) * nm + k) * np + l];
+                assert!((c - 1.0).abs() < 0.01, "node {i} {k} {l}: {c}");
+            }
+        }
+    }
+}
+
+#[test]
 fn energy_compensated_white_metal_returns_what_it_receives() {
     // The Rust reference's directional albedo, then the device in a
     // white furnace.
@@ -1666,17 +1697,18 @@ fn anisotropic_lobes_sample_what_they_evaluate() {
 }
 
 #[test]
-fn energy_compensated_anisotropic_white_metal_stays_near_what_it_receives() {
-    // Turquin's compensation for the anisotropic lobe uses the isotropic
-    // table at the root-mean-square alpha (soupray::trace::material's
-    // spec_albedo). It is not exact: this holds the measured envelope over
-    // roughness, strength, elevation and azimuth, and that on average it
-    // takes away most of single scattering's loss.
+fn energy_compensated_anisotropic_white_metal_returns_what_it_receives() {
+    // Turquin's compensation for the anisotropic lobe: the isotropic table
+    // at the root-mean-square alpha times the tabulated correction
+    // (trace::energy::anisotropic_albedo). Over roughness, strength,
+    // elevation and azimuth, between the table's nodes too, the Rust
+    // reference's directional albedo is 1 within 1%; then the device in a
+    // white furnace.
     let mut worst = (0.0f64, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
     let (mut sum_ms, mut sum_ss, mut count) = (0.0f64, 0.0f64, 0usize);
     for roughness in [0.1f32, 0.3, 0.5, 0.8, 1.0] {
         for strength in [0.3f32, 0.6, 1.0] {
-            for mu in [0.9f32, 0.6, 0.3] {
+            for mu in [0.9f32, 0.6, 0.3, 0.15] {
                 for phi in [0.0f32, 0.8, std::f32::consts::FRAC_PI_2] {
                     let s = (1.0 - mu * mu).sqrt();
                     let wo = Vec3::new(s * phi.cos(), s * phi.sin(), mu);
@@ -1701,11 +1733,24 @@ fn energy_compensated_anisotropic_white_metal_stays_near_what_it_receives() {
         "anisotropic furnace: mean |albedo - 1| {mean_ms:.4} compensated, {mean_ss:.4} single scattering; worst compensated {:+.4} (roughness {}, strength {}, mu {}, phi {})",
         worst.0, worst.1, worst.2, worst.3, worst.4
     );
-    assert!(worst.0.abs() < 0.25, "{worst:?}");
-    assert!(
-        mean_ms < 0.05 && mean_ms < 0.25 * mean_ss,
-        "{mean_ms} vs {mean_ss}"
-    );
+    assert!(worst.0.abs() < 0.01, "{worst:?}");
+    assert!(mean_ms < 0.005, "{mean_ms} vs {mean_ss}");
+    // A rough white brushed metal ball in the white furnace.
+    let d = common::device();
+    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
+    let mut s = Soup::default();
+    sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
+    let brushed = Material {
+        anisotropy_strength: 0.8,
+        ..material([1.0; 4], 1.0, 0.6)
+    };
+    let mut st = settings(24, 64);
+    st.environment = Environment::Color([1.0, 1.0, 1.0]);
+    st.energy_compensation = true;
+    let out = render_soup(&d, &s, &table(vec![brushed]), &cam, &[], &st, 0).unwrap();
+    let (m, se) = mean_se(&covered(&out.image));
+    eprintln!("rough white brushed metal furnace: {m} ± {se}");
+    assert!((m - 1.0).abs() < 4.0 * se + 0.01, "{m} ± {se}");
 }
 
 #[test]

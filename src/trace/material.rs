@@ -644,19 +644,12 @@ fn spec_sample_vndf(p: &BsdfParams, wo: Vec3, u1: f32, u2: f32) -> Vec3 {
 }
 
 /// The white single-scattering albedo of the base's specular lobe at `wo`
-/// (Turquin's compensation). Anisotropic: the isotropic table at the
-/// root-mean-square alpha `sqrt((alpha_t^2 + alpha^2) / 2)`, which fits the
-/// lobe's albedo (by inverting the table) far better than the geometric
-/// mean (at alphas 1 and 0.04 the fit is 0.67, the RMS 0.71, the geometric
-/// mean 0.2). Not exact: a white anisotropic metal returns within 2.5% of
-/// what it receives on average, 22% too little at worst (grazing, across
-/// the axis, full strength; tests/render_materials.rs).
+/// (Turquin's compensation); anisotropic: `energy::anisotropic_albedo`.
 fn spec_albedo(p: &BsdfParams, wo: Vec3) -> f32 {
     if spec_isotropic(p) {
         return ggx_albedo(p.alpha, wo.z);
     }
-    let a2 = (p.alpha_t * p.alpha_t + p.alpha * p.alpha) * 0.5;
-    ggx_albedo(a2.sqrt(), wo.z)
+    super::energy::anisotropic_albedo(p.alpha_t, p.alpha, wo.to_array())
 }
 
 fn schlick_weight(c: f32) -> f32 {
