@@ -1275,6 +1275,13 @@ impl<'d> PathTracer<'d> {
         }
         if soup.uvs.is_some() {
             flags |= FRAME_UVS;
+        } else if self.features.contains(&"anisotropy") {
+            warnings.push(
+                "a material uses KHR_materials_anisotropy but the scene has no TEXCOORD_0: the \
+                 anisotropy direction, which is given in the tangent frame of the texture \
+                 coordinates, is arbitrary (export the meshes with UVs)"
+                    .to_owned(),
+            );
         }
         if s.clay {
             flags |= FRAME_CLAY;
