@@ -173,29 +173,41 @@ pub fn generate() -> Vec<f32> {
         for j in 0..n {
             let mu = (j as f64 / (n - 1) as f64).max(1.0e-3);
             let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
-            let lambda = |c: f64| {
-                let c2 = c * c;
+            let lambda = |w: [f64; 3]| {
+                let c2 = w[2] * w[2];
                 let t2 = (1.0 - c2).max(0.0) / c2;
                 ((1.0 + a * a * t2).sqrt() - 1.0) * 0.5
             };
-            let lo = lambda(mu);
-            let mut sum = 0.0;
-            for k in 0..m {
-                for l in 0..m {
-                    let u1 = (k as f64 + 0.5) / m as f64;
-                    let u2 = (l as f64 + 0.5) / m as f64;
-                    let h = sample_vndf(a, a, wo, u1, u2);
-                    let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
-                    let iz = 2.0 * oh * h[2] - wo[2];
-                    if iz > 0.0 {
-                        sum += (1.0 + lo) / (1.0 + lo + lambda(iz));
-                    }
-                }
-            }
-            out.push((sum / (m * m) as f64) as f32);
+            out.push(vndf_albedo(a, a, wo, m, lambda) as f32);
         }
     }
     out
+}
+
+/// The white single-scattering albedo at `wo` of the GGX lobe of alphas
+/// `ax` (along x) and `ay` (along y), `lambda` its Smith Lambda: `m` x `m`
+/// stratified samples of the visible normals, each weighted by G2 / G1 =
+/// (1 + Lambda(wo)) / (1 + Lambda(wo) + Lambda(wi)), in f64.
+fn vndf_albedo(ax: f64, ay: f64, wo: [f64; 3], m: usize, lambda: impl Fn([f64; 3]) -> f64) -> f64 {
+    let lo = lambda(wo);
+    let mut sum = 0.0;
+    for k in 0..m {
+        for l in 0..m {
+            let u1 = (k as f64 + 0.5) / m as f64;
+            let u2 = (l as f64 + 0.5) / m as f64;
+            let h = sample_vndf(ax, ay, wo, u1, u2);
+            let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+            let wi = [
+                2.0 * oh * h[0] - wo[0],
+                2.0 * oh * h[1] - wo[1],
+                2.0 * oh * h[2] - wo[2],
+            ];
+            if wi[2] > 0.0 {
+                sum += (1.0 + lo) / (1.0 + lo + lambda(wi));
+            }
+        }
+    }
+    sum / (m * m) as f64
 }
 
 /// Heitz's visible-normal sampling for alphas `ax` along x and `ay` along y.
@@ -315,25 +327,7 @@ pub fn generate_anisotropic() -> Vec<f32> {
                         let (x, y) = (at * w[0], ab * w[1]);
                         ((1.0 + (x * x + y * y) / (w[2] * w[2])).sqrt() - 1.0) * 0.5
                     };
-                    let lo = lambda(wo);
-                    let mut sum = 0.0;
-                    for a in 0..m {
-                        for b in 0..m {
-                            let u1 = (a as f64 + 0.5) / m as f64;
-                            let u2 = (b as f64 + 0.5) / m as f64;
-                            let h = sample_vndf(at, ab, wo, u1, u2);
-                            let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
-                            let wi = [
-                                2.0 * oh * h[0] - wo[0],
-                                2.0 * oh * h[1] - wo[1],
-                                2.0 * oh * h[2] - wo[2],
-                            ];
-                            if wi[2] > 0.0 {
-                                sum += (1.0 + lo) / (1.0 + lo + lambda(wi));
-                            }
-                        }
-                    }
-                    let e = sum / (m * m) as f64;
+                    let e = vndf_albedo(at, ab, wo, m, lambda);
                     let rms = ((at * at + ab * ab) * 0.5).sqrt();
                     out.push((e / ggx_albedo(rms as f32, mu as f32) as f64) as f32);
                 }
