@@ -144,16 +144,18 @@ typedef struct {
     float iridescence_thickness_max;
     int iridescence_tex;
     int iridescence_thickness_tex;
-    // KHR_materials_anisotropy: anisotropyStrength, anisotropyRotation
-    // (radians, counter-clockwise from the tangent), and the texture binding
-    // (-1: none) of anisotropyTexture (RG: direction, B: strength).
+    // KHR_materials_anisotropy: anisotropyStrength, the cosine and sine of
+    // anisotropyRotation (counter-clockwise from the tangent; taken once on
+    // the host, not per hit), and the texture binding (-1: none) of
+    // anisotropyTexture (RG: direction, B: strength).
     float anisotropy_strength;
-    float anisotropy_rotation;
+    float anisotropy_cos;
+    float anisotropy_sin;
     int anisotropy_tex;
     // KHR_materials_dispersion `dispersion` (20 / Abbe number; 0: none),
     // read by HAS_DISPERSION kernels (media.h media_channel_ior).
     float dispersion;
-    float pad2[2];
+    float pad2;
 } PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.

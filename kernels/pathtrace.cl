@@ -643,8 +643,8 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
         if (!(dot(dir, dir) > 0.0f)) strength = 0.0f;
     }
 #endif
-    float cr = cos(mx.anisotropy_rotation);
-    float sr = sin(mx.anisotropy_rotation);
+    float cr = mx.anisotropy_cos;
+    float sr = mx.anisotropy_sin;
     bp->anisotropy_dir = (float2)(cr * dir.x - sr * dir.y, sr * dir.x + cr * dir.y);
     bp->alpha_t = anisotropic_alpha(bp->alpha, strength);
 #endif

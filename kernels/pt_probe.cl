@@ -121,7 +121,7 @@ __kernel void pt_ext_layout_probe(__global uint* out) {
     out[21] = (uint)offsetof(PtMaterialExt, iridescence_tex);
     out[22] = (uint)offsetof(PtMaterialExt, iridescence_thickness_tex);
     out[23] = (uint)offsetof(PtMaterialExt, anisotropy_strength);
-    out[24] = (uint)offsetof(PtMaterialExt, anisotropy_rotation);
+    out[24] = (uint)offsetof(PtMaterialExt, anisotropy_sin);
     out[25] = (uint)offsetof(PtMaterialExt, anisotropy_tex);
     out[26] = (uint)sizeof(PtMaterialExt);
 }

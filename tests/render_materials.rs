@@ -150,7 +150,7 @@ fn material_ext_layout_matches() {
             offset_of!(DeviceMaterialExt, iridescence_tex) as u32,
             offset_of!(DeviceMaterialExt, iridescence_thickness_tex) as u32,
             offset_of!(DeviceMaterialExt, anisotropy_strength) as u32,
-            offset_of!(DeviceMaterialExt, anisotropy_rotation) as u32,
+            offset_of!(DeviceMaterialExt, anisotropy_sin) as u32,
             offset_of!(DeviceMaterialExt, anisotropy_tex) as u32,
             size_of::<DeviceMaterialExt>() as u32,
         ]

@@ -190,16 +190,18 @@ pub struct DeviceMaterialExt {
     /// `iridescenceThicknessTexture` (G).
     pub iridescence_tex: i32,
     pub iridescence_thickness_tex: i32,
-    /// KHR_materials_anisotropy `anisotropyStrength` and
-    /// `anisotropyRotation` (radians, counter-clockwise from the tangent).
+    /// KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
+    /// sine of `anisotropyRotation` (counter-clockwise from the tangent),
+    /// taken here once rather than at every hit.
     pub anisotropy_strength: f32,
-    pub anisotropy_rotation: f32,
+    pub anisotropy_cos: f32,
+    pub anisotropy_sin: f32,
     /// Texture binding index (-1: none) of `anisotropyTexture` (RG: the
     /// direction in tangent space, B: the strength).
     pub anisotropy_tex: i32,
     /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
     pub dispersion: f32,
-    pub pad2: [f32; 2],
+    pub pad2: f32,
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 192);
@@ -259,10 +261,11 @@ impl DeviceMaterialExt {
             iridescence_tex: -1,
             iridescence_thickness_tex: -1,
             anisotropy_strength: m.anisotropy_strength,
-            anisotropy_rotation: m.anisotropy_rotation,
+            anisotropy_cos: m.anisotropy_rotation.cos(),
+            anisotropy_sin: m.anisotropy_rotation.sin(),
             anisotropy_tex: -1,
             dispersion: m.dispersion,
-            pad2: [0.0; 2],
+            pad2: 0.0,
         }
     }
 }
