@@ -218,6 +218,8 @@ pub struct Aovs {
     pub sample_count: bool,
     /// Each pixel's estimated relative error (`noise`; `noise_estimate`).
     pub noise: bool,
+    /// Rays each pixel traced (`rays`): where the frame's time went.
+    pub rays: bool,
 }
 
 impl Aovs {
@@ -227,6 +229,7 @@ impl Aovs {
         albedo: false,
         sample_count: false,
         noise: false,
+        rays: false,
     };
     /// The first-hit AOVs: depth, normal and albedo.
     pub const ALL: Aovs = Aovs {
@@ -235,9 +238,10 @@ impl Aovs {
         albedo: true,
         sample_count: false,
         noise: false,
+        rays: false,
     };
 
-    /// Parses `--aov depth,normal,albedo,sample_count,noise` (any subset,
+    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays` (any subset,
     /// any order).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
@@ -248,10 +252,11 @@ impl Aovs {
                 "albedo" => aovs.albedo = true,
                 "sample_count" | "samples" => aovs.sample_count = true,
                 "noise" => aovs.noise = true,
+                "rays" => aovs.rays = true,
                 _ => {
                     return Err(UsageError(format!(
                         "--aov: unknown AOV {item:?}; choose from depth, normal, albedo, \
-                         sample_count, noise (e.g. --aov depth,normal,albedo)"
+                         sample_count, noise, rays (e.g. --aov depth,normal,albedo)"
                     )))
                 }
             }
@@ -276,6 +281,9 @@ impl Aovs {
         }
         if self.noise {
             v.push("noise");
+        }
+        if self.rays {
+            v.push("rays");
         }
         v
     }
@@ -355,6 +363,7 @@ pub struct Image {
     pub albedo: Option<Vec<[f32; 3]>>,
     pub sample_count: Option<Vec<f32>>,
     pub noise: Option<Vec<f32>>,
+    pub rays: Option<Vec<f32>>,
 }
 
 impl Image {
@@ -370,6 +379,7 @@ impl Image {
             albedo: aovs.albedo.then(|| vec![[0.0; 3]; n]),
             sample_count: aovs.sample_count.then(|| vec![0.0; n]),
             noise: aovs.noise.then(|| vec![0.0; n]),
+            rays: aovs.rays.then(|| vec![0.0; n]),
         }
     }
 
@@ -381,33 +391,44 @@ impl Image {
             albedo: self.albedo.is_some(),
             sample_count: self.sample_count.is_some(),
             noise: self.noise.is_some(),
+            rays: self.rays.is_some(),
         }
     }
 }
 
 /// The estimated relative error of a pixel's mean from its sums
 /// (`pt_noise_estimate` in kernels/pathtrace.cl, the same float
-/// operations): `color` the sum of all samples, `half` the sum of the
-/// odd-numbered ones, `aux` (.., .., dropped samples, samples taken). The
-/// mean I against twice the odd samples' mean A (Dammertz et al. 2010, as in
-/// Cycles): I - A = (S_even - S_odd) / n, whose spread is the standard
-/// error of I, taken relative to the pixel as the relative MSE is (RMS
-/// over the channels over sqrt(I^2 + 0.01)). Infinite below two samples.
-pub fn noise_estimate(color: [f32; 4], half: [f32; 4], aux: [f32; 4]) -> f32 {
+/// operations): `color` the sum of all samples, `snapshots` the running
+/// sums at the last two powers of two (S(2^j) in `snapshots[j % 2]`),
+/// `aux` (.., .., dropped samples, samples taken t). The mean A of the
+/// first a = 2^j samples (the largest power of two at most t / 2) against
+/// the mean B of the other b = t - a: (A - B)^2 a b / t^2 estimates the
+/// variance of the mean of all t. Cycles' half buffer (Dammertz et al.
+/// 2010) compares even with odd samples instead; both are unbiased for
+/// independent samples, but the sampler's first 2^j samples are a
+/// stratified set of their own (an aligned block of Owen-scrambled Sobol
+/// points), so this split sees the error the stratified mean has where
+/// even against odd sees that of independent samples (2.6-3.6x the
+/// measured relative MSE at 64 spp on the shipped animation and the clay
+/// scan, against 1.1-1.3x). Taken relative to the pixel as the relative
+/// MSE is (RMS over the channels over sqrt(I^2 + 0.01)). Infinite below
+/// two kept samples.
+pub fn noise_estimate(color: [f32; 4], snapshots: [[f32; 4]; 2], aux: [f32; 4]) -> f32 {
     let n = aux[3] - aux[2];
+    let t = aux[3] as u32;
     // Also true for NaN, as in the kernel.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(n >= 2.0) {
+    if !(n >= 2.0) || t < 2 {
         return f32::INFINITY;
     }
+    let j = 30 - t.leading_zeros();
+    let first = snapshots[(j & 1) as usize];
+    let a = (1u32 << j) as f32;
+    let b = t as f32 - a;
     let mean = [color[0] / n, color[1] / n, color[2] / n];
-    let h = 2.0 / n;
-    let d = [
-        mean[0] - half[0] * h,
-        mean[1] - half[1] * h,
-        mean[2] - half[2] * h,
-    ];
-    let num = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) / 3.0;
+    let d = [0, 1, 2].map(|c| first[c] / a - (color[c] - first[c]) / b);
+    let w = (a * b) / (t as f32 * t as f32);
+    let num = (((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) * w) / 3.0;
     let den = ((mean[0] * mean[0] + mean[1] * mean[1]) + mean[2] * mean[2]) / 3.0 + 0.01;
     (num / den).sqrt()
 }
@@ -1047,11 +1068,40 @@ mod tests {
     }
 
     #[test]
+    fn noise_estimate_splits_at_the_largest_power_of_two_in_the_first_half() {
+        // Six grey samples: the first a = 2 (snapshot 1, S(2)) against the
+        // other b = 4, and the variance of the mean (A - B)^2 a b / t^2.
+        let x = [0.5f32, 0.7, 0.2, 0.4, 0.9, 0.3];
+        let sum: f32 = x.iter().sum();
+        let s2 = x[0] + x[1];
+        let color = [sum, sum, sum, 6.0];
+        // Snapshot 0 holds S(4) (the later power of two): not the split.
+        let s4 = s2 + x[2] + x[3];
+        let snapshots = [[s4, s4, s4, 4.0], [s2, s2, s2, 2.0]];
+        let e = noise_estimate(color, snapshots, [0.0, 0.0, 0.0, 6.0]);
+        let (a, b) = (s2 as f64 / 2.0, (sum - s2) as f64 / 4.0);
+        let var = (a - b).powi(2) * 8.0 / 36.0;
+        let mean = sum as f64 / 6.0;
+        let want = (var / (mean * mean + 0.01)).sqrt();
+        assert!((e as f64 - want).abs() < 1e-6 * want, "{e} vs {want}");
+        // At t = 8 the split is 4 + 4, snapshot 0; below two samples none.
+        let e8 = noise_estimate([sum + 1.0; 4], snapshots, [0.0, 0.0, 0.0, 8.0]);
+        let (a, b) = (s4 as f64 / 4.0, (sum + 1.0 - s4) as f64 / 4.0);
+        let mean = (sum + 1.0) as f64 / 8.0;
+        let want = ((a - b).powi(2) / 4.0 / (mean * mean + 0.01)).sqrt();
+        assert!((e8 as f64 - want).abs() < 1e-6 * want, "{e8} vs {want}");
+        assert!(noise_estimate(color, snapshots, [0.0, 0.0, 0.0, 1.0]).is_infinite());
+        assert!(noise_estimate(color, snapshots, [0.0, 0.0, 5.0, 6.0]).is_infinite());
+    }
+
+    #[test]
     fn aov_flags() {
         assert_eq!(Aovs::parse("depth,normal,albedo").unwrap(), Aovs::ALL);
         assert_eq!(Aovs::parse("").unwrap(), Aovs::NONE);
         let a = Aovs::parse(" albedo ").unwrap();
         assert_eq!(a.names(), vec!["albedo"]);
+        let a = Aovs::parse("rays,noise,sample_count").unwrap();
+        assert_eq!(a.names(), vec!["sample_count", "noise", "rays"]);
         let e = Aovs::parse("depth,uv").unwrap_err().0;
         assert!(
             e.contains("\"uv\"") && e.contains("depth, normal, albedo"),

@@ -15,8 +15,9 @@
 //! premultiplied by coverage), and with the AOVs `Z` (camera distance),
 //! `N.X`, `N.Y`, `N.Z` (world-space normal) and `albedo.R`, `albedo.G`,
 //! `albedo.B`: the layer.channel names Nuke splits into layers and Blender
-//! reads; `sample_count` (samples the pixel took) and `noise` (its estimated
-//! relative error, `film::noise_estimate`), always f32. EXR stores channels sorted by name, so a reader lists them as
+//! reads; `sample_count` (samples the pixel took), `noise` (its estimated
+//! relative error, `film::noise_estimate`) and `rays` (rays it traced),
+//! always f32. EXR stores channels sorted by name, so a reader lists them as
 //! `A, B, G, N.X, ..., R, Z, albedo.B, ...`. With `--half` every channel is
 //! f16 except `Z`, which stays f32: depths beyond 65504 (including the
 //! 1e10 background) do not fit a half float, as in Blender.
@@ -274,6 +275,7 @@ pub fn write_exr_denoised(
     for (buf, name) in [
         (&image.sample_count, "sample_count"),
         (&image.noise, "noise"),
+        (&image.rays, "rays"),
     ] {
         if let Some(v) = buf {
             channels.push(AnyChannel::new(name, samples(v.clone(), false)));

@@ -202,6 +202,36 @@ fn exr_half_keeps_depth_in_f32() {
 }
 
 #[test]
+fn exr_counts_and_estimates_stay_f32_with_half() {
+    // Sample counts and rays past 2048 are not exact in a half float, nor
+    // are small error estimates: these channels stay f32 whatever --half.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.exr");
+    let mut img = test_image(Aovs {
+        sample_count: true,
+        noise: true,
+        rays: true,
+        ..Aovs::NONE
+    });
+    for i in 0..15 {
+        img.sample_count.as_mut().unwrap()[i] = 2049.0 + i as f32;
+        img.noise.as_mut().unwrap()[i] = 1e-5 * (i as f32 + 1.0 / 3.0);
+        img.rays.as_mut().unwrap()[i] = 100_003.0 * i as f32;
+    }
+    write_exr(&path, &img, &meta(), true).unwrap();
+    let (layer, _, _) = read_back(&path);
+    for (name, buf) in [
+        ("sample_count", &img.sample_count),
+        ("noise", &img.noise),
+        ("rays", &img.rays),
+    ] {
+        assert!(!is_f16(&layer, name), "{name} should stay f32");
+        assert_eq!(values(&layer, name), *buf.as_ref().unwrap(), "{name}");
+    }
+    assert!(is_f16(&layer, "R"));
+}
+
+#[test]
 fn exr_without_aovs_is_plain_rgba() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.exr");

@@ -118,7 +118,8 @@ pub struct RenderArgs {
     pub half: bool,
     /// Extra EXR channels, comma-separated: depth (Z), normal (N.X N.Y N.Z),
     /// albedo (albedo.R albedo.G albedo.B), sample_count (samples each pixel
-    /// took), noise (each pixel's estimated relative error).
+    /// took), noise (each pixel's estimated relative error), rays (rays each
+    /// pixel traced: where the frame's time went).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
     /// Also write a tonemapped sRGB PNG preview beside each EXR.

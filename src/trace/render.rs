@@ -586,8 +586,9 @@ pub struct PathTracer<'d> {
     accum_albedo: GrowBuffer<[f32; 4]>,
     accum_aux: GrowBuffer<[f32; 4]>,
     ray_counts: GrowBuffer<u32>,
-    /// Sums of the odd-numbered samples (the noise estimate's half buffer).
-    accum_half: GrowBuffer<[f32; 4]>,
+    /// Two per pixel: the running sums at the last two powers of two (the
+    /// noise estimate's first part; `film::noise_estimate`).
+    accum_snapshots: GrowBuffer<[f32; 4]>,
     /// Per pixel: 1 while it takes samples (adaptive sampling).
     active: GrowBuffer<u32>,
     unconverged: GrowBuffer<u32>,
@@ -859,7 +860,7 @@ impl<'d> PathTracer<'d> {
             accum_albedo: GrowBuffer::new(),
             accum_aux: GrowBuffer::new(),
             ray_counts: GrowBuffer::new(),
-            accum_half: GrowBuffer::new(),
+            accum_snapshots: GrowBuffer::new(),
             active: GrowBuffer::new(),
             unconverged: GrowBuffer::new(),
             pixel_list: GrowBuffer::new(),
@@ -1350,7 +1351,7 @@ impl<'d> PathTracer<'d> {
         self.accum_albedo.ensure(d, pixels)?;
         self.accum_aux.ensure(d, pixels)?;
         self.ray_counts.ensure(d, pixels)?;
-        self.accum_half.ensure(d, pixels)?;
+        self.accum_snapshots.ensure(d, 2 * pixels)?;
         self.active.ensure(d, pixels)?;
         self.unconverged.ensure(d, pixels)?;
         self.pixel_list.ensure(d, pixels)?;
@@ -1366,7 +1367,7 @@ impl<'d> PathTracer<'d> {
                 Arg::Buf(self.accum_albedo.get()),
                 Arg::Buf(self.accum_aux.get()),
                 Arg::Buf(self.ray_counts.get()),
-                Arg::Buf(self.accum_half.get()),
+                Arg::Buf(self.accum_snapshots.get()),
                 Arg::Buf(self.active.get()),
                 Arg::U32(pixels as u32),
             ],
@@ -1482,11 +1483,11 @@ impl<'d> PathTracer<'d> {
         // Resolve: means over each pixel's kept samples.
         let mut color = vec![[0.0f32; 4]; pixels];
         let mut aux = vec![[0.0f32; 4]; pixels];
-        let mut half = vec![[0.0f32; 4]; pixels];
+        let mut snapshots = vec![[0.0f32; 4]; 2 * pixels];
         let mut rays = vec![0u32; pixels];
         d.read(self.accum_color.get(), &mut color)?;
         d.read(self.accum_aux.get(), &mut aux)?;
-        d.read(self.accum_half.get(), &mut half)?;
+        d.read(self.accum_snapshots.get(), &mut snapshots)?;
         d.read(self.ray_counts.get(), &mut rays)?;
         let mut normal = Vec::new();
         let mut albedo = Vec::new();
@@ -1509,13 +1510,16 @@ impl<'d> PathTracer<'d> {
             dropped += bad as u64;
             taken += samples as u64;
             counts.push(samples);
-            let e = noise_estimate(color[i], half[i], aux[i]);
+            let e = noise_estimate(color[i], [snapshots[2 * i], snapshots[2 * i + 1]], aux[i]);
             estimates.push(e);
             if let Some(c) = &mut image.sample_count {
                 c[i] = samples as f32;
             }
             if let Some(n) = &mut image.noise {
                 n[i] = e;
+            }
+            if let Some(r) = &mut image.rays {
+                r[i] = rays[i] as f32;
             }
             let kept = samples.saturating_sub(bad);
             if kept == 0 {
@@ -1670,7 +1674,7 @@ impl<'d> PathTracer<'d> {
                     Arg::Buf(self.accum_albedo.get()),
                     Arg::Buf(self.accum_aux.get()),
                     Arg::Buf(self.ray_counts.get()),
-                    Arg::Buf(self.accum_half.get()),
+                    Arg::Buf(self.accum_snapshots.get()),
                     Arg::Buf(self.active.get()),
                     Arg::U32(adaptive as u32),
                     Arg::Buf(self.pixel_list.get()),
@@ -1724,7 +1728,7 @@ impl<'d> PathTracer<'d> {
             64,
             &[
                 Arg::Buf(self.accum_color.get()),
-                Arg::Buf(self.accum_half.get()),
+                Arg::Buf(self.accum_snapshots.get()),
                 Arg::Buf(self.accum_aux.get()),
                 Arg::Buf(self.ray_counts.get()),
                 Arg::Buf(self.unconverged.get()),
