@@ -12,7 +12,9 @@
 //! N` [1024], `--max-spp N` [1024] (the adaptive renders' `--spp`),
 //! `--runs N` [3], `--configs LIST` (`;`-separated: `uN [FLAGS]` is
 //! uniform N spp, anything else the extra flags of an adaptive render; [u64 and the
-//! default time rule at 0.022 and, with `--min-spp 8`, 0.016]),
+//! default time rule at 0.022 and, with `--min-spp 8`, 0.016]; a leading
+//! `@PATH` renders a configuration with another soupray binary, e.g. the
+//! build a change replaces),
 //! `--out DIR` [out/bench-adaptive].
 //!
 //! Each configuration is rendered by the release `soupray render` (seed 0;
@@ -137,8 +139,15 @@ fn scene_args(name: &str) -> Option<(PathBuf, &'static str, Vec<String>)> {
 }
 
 /// A configuration's flags: `uN [FLAGS]` is uniform N spp (with FLAGS),
-/// anything else adaptive flags on top of `--spp MAX`.
+/// anything else adaptive flags on top of `--spp MAX`; a leading `@PATH`
+/// renders it with that soupray binary instead of this build.
 fn config_flags(o: &Opts, config: &str) -> Vec<String> {
+    if let Some(rest) = config.strip_prefix('@') {
+        let (binary, rest) = rest.split_once(' ').unwrap_or((rest, ""));
+        let mut f = vec![format!("@{binary}")];
+        f.extend(config_flags(o, rest));
+        return f;
+    }
     let mut words = config.split_whitespace();
     let first = words.next().unwrap_or("");
     match first.strip_prefix('u').and_then(|n| n.parse::<u32>().ok()) {
@@ -168,7 +177,12 @@ fn render(
     dir: &Path,
 ) -> Result<Run, String> {
     let _ = std::fs::remove_dir_all(dir);
-    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    // `@PATH` first: that build of soupray (the variant a change replaces).
+    let (binary, flags) = match flags.split_first() {
+        Some((first, rest)) if first.starts_with('@') => (first[1..].to_owned(), rest),
+        _ => (env!("CARGO_BIN_EXE_soupray").to_owned(), flags),
+    };
+    let out = Command::new(&binary)
         .arg("render")
         .arg(scene)
         .args(["--frame", frame, "--quiet", "--name", "img.####.exr"])
