@@ -43,6 +43,8 @@
 //! time, and the square root of a noisy v makes the bound slightly
 //! optimistic: no allocation does better than it.
 
+mod support;
+
 use soupray::compare;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -112,30 +114,6 @@ fn parse() -> Result<Opts, String> {
         return Err("nothing to run: --configs and --runs must not be empty".into());
     }
     Ok(o)
-}
-
-/// A scene: its file, frame and the flags that light it.
-fn scene_args(name: &str) -> Option<(PathBuf, &'static str, Vec<String>)> {
-    if name == "cesium" {
-        return Some((
-            PathBuf::from("animations/CesiumMan/CesiumMan.glb"),
-            "24",
-            vec![],
-        ));
-    }
-    let path = PathBuf::from(format!("out/bench-cycles/scenes/{name}.gltf"));
-    let env = if name.ends_with("-sun") { "0.1" } else { "1" };
-    path.exists().then(|| {
-        (
-            path,
-            "0",
-            vec![
-                "--clay".into(),
-                "--env-color".into(),
-                format!("{env},{env},{env}"),
-            ],
-        )
-    })
 }
 
 /// A configuration's flags: `uN [FLAGS]` is uniform N spp (with FLAGS),
@@ -233,11 +211,7 @@ fn median(v: &[f64]) -> f64 {
 }
 
 fn run(o: &Opts) -> Result<String, String> {
-    let (scene, frame, lighting) = scene_args(&o.scene).ok_or(format!(
-        "scene {}: out/bench-cycles/scenes/{0}.gltf is missing; write it with \
-         `cargo bench --bench cycles -- --scenes-only`",
-        o.scene
-    ))?;
+    let (scene, frame, lighting) = support::scene(&o.scene, "24")?;
     let spec = (scene.as_path(), frame, lighting.as_slice());
     let ref_dir = o.out.join(format!(
         "refs/{}-{}x{}-{}",
@@ -354,11 +328,7 @@ fn optimal_ratio(v: &[f64], c: &[f64], spp: f64, min: f64) -> f64 {
 }
 
 fn oracle(o: &Opts) -> Result<String, String> {
-    let (scene, frame, lighting) = scene_args(&o.scene).ok_or(format!(
-        "scene {}: out/bench-cycles/scenes/{0}.gltf is missing; write it with \
-         `cargo bench --bench cycles -- --scenes-only`",
-        o.scene
-    ))?;
+    let (scene, frame, lighting) = support::scene(&o.scene, "24")?;
     let spec = (scene.as_path(), frame, lighting.as_slice());
     let n = o.oracle_spp as f64;
     let pixels = (o.width * o.height) as usize;

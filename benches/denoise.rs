@@ -29,6 +29,8 @@
 //! OUT/results.md and OUT/results.csv. Without OIDN the denoised rows are
 //! skipped with a note.
 
+mod support;
+
 use soupray::compare;
 use soupray::film::Image;
 use std::path::{Path, PathBuf};
@@ -97,30 +99,6 @@ fn parse() -> Result<Opts, String> {
         i += 2;
     }
     Ok(o)
-}
-
-/// A scene: its file, frame and the flags that light it.
-fn scene_args(name: &str) -> Option<(PathBuf, &'static str, Vec<String>)> {
-    if name == "cesium" {
-        return Some((
-            PathBuf::from("animations/CesiumMan/CesiumMan.glb"),
-            "10",
-            vec![],
-        ));
-    }
-    let path = PathBuf::from(format!("out/bench-cycles/scenes/{name}.gltf"));
-    let env = if name.ends_with("-sun") { "0.1" } else { "1" };
-    path.exists().then(|| {
-        (
-            path,
-            "0",
-            vec![
-                "--clay".into(),
-                "--env-color".into(),
-                format!("{env},{env},{env}"),
-            ],
-        )
-    })
 }
 
 struct Render {
@@ -192,9 +170,12 @@ fn main() {
     ];
     let mut csv = vec!["scene,config,spp,flip,rel_mse,time_s,total_s".to_string()];
     for name in &o.scenes {
-        let Some((scene, frame, extra)) = scene_args(name) else {
-            eprintln!("bench denoise: {name}: no scene file (run `cargo bench --bench cycles -- --scenes-only`); skipped");
-            continue;
+        let (scene, frame, extra) = match support::scene(name, "10") {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("bench denoise: {e}; skipped");
+                continue;
+            }
         };
         let refs = o.out.join("refs");
         let ref_dir = refs.join(format!("{name}-{}x{}-spp{}", o.width, o.height, o.ref_spp));

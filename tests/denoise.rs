@@ -40,17 +40,6 @@ fn render(out: &Path, spp: u32, extra: &[&str], env: &[(&str, &str)]) -> Output 
     cmd.output().expect("run soupray")
 }
 
-fn exr_channels(path: &Path) -> BTreeMap<String, Vec<f32>> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path)
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    image.layer_data[0]
-        .channel_data
-        .list
-        .iter()
-        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
-        .collect()
-}
-
 /// An `Image` from three channels of an EXR (and its `A`).
 fn image_from(ch: &BTreeMap<String, Vec<f32>>, names: [&str; 3], w: u32, h: u32) -> Image {
     let mut img = Image::new(w, h, Aovs::NONE);
@@ -196,7 +185,7 @@ fn denoised_render_keeps_the_raw_beauty_and_beats_it_against_a_reference() {
         let o = render(out, spp, extra, &[]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    let exr = |d: &Path| exr_channels(&d.join("CesiumMan.0010.exr"));
+    let exr = |d: &Path| common::exr_channels(&d.join("CesiumMan.0010.exr"));
     let (d, r, f) = (exr(&den), exr(&raw), exr(&reference));
 
     // Both images in one file: denoised in R, G, B; raw in noisy.*; the

@@ -293,18 +293,6 @@ fn stop_threshold_scales_with_the_square_root_of_the_work() {
     assert_eq!(stop_threshold(0.05, 0, 0.01), 0.0);
 }
 
-/// The channels of an EXR that `soupray render` wrote.
-fn exr_channels(path: &std::path::Path) -> std::collections::BTreeMap<String, Vec<f32>> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path)
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    image.layer_data[0]
-        .channel_data
-        .list
-        .iter()
-        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
-        .collect()
-}
-
 /// Frame 24 of the shipped animation at 192x108 through the CLI; the EXR's
 /// channels and the frame log.
 fn render_shipped(
@@ -332,7 +320,7 @@ fn render_shipped(
         String::from_utf8_lossy(&out.stderr)
     );
     let log = soupray::output::read_log(&dir.join("CesiumMan.0024.json")).unwrap();
-    (exr_channels(&dir.join("CesiumMan.0024.exr")), log)
+    (common::exr_channels(&dir.join("CesiumMan.0024.exr")), log)
 }
 
 #[test]

@@ -77,6 +77,18 @@ pub fn read_exr(path: &Path) -> Image {
     soupray::output::read_exr_rgba(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// Every channel of an EXR soupray wrote, by name, as f32 (AOVs included).
+pub fn exr_channels(path: &Path) -> std::collections::BTreeMap<String, Vec<f32>> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    image.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect()
+}
+
 /// `v` in a new device buffer.
 pub fn upload<T: Copy>(d: &Device, v: &[T]) -> opencl3::memory::Buffer<T> {
     let mut b = d.buffer::<T>(v.len()).unwrap();
