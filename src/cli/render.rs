@@ -188,7 +188,11 @@ pub struct RenderArgs {
     )]
     pub adaptive_allocation: String,
     /// With --noise-threshold: samples every pixel takes before its first
-    /// convergence check.
+    /// convergence check. 8 saves time on frames that are mostly cheap,
+    /// smooth background (the shipped animation reaches uniform 64 spp's
+    /// error in 0.40x its time instead of 0.50x) at a little more bias from
+    /// stopping on the evidence of fewer samples. (Cycles' automatic minimum
+    /// is 64 at its default threshold 0.01, 32 at 0.1.)
     #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
     pub min_spp: u32,
     /// Stop sampling each frame after this many seconds of path tracing,
