@@ -47,7 +47,6 @@ mod support;
 
 use soupray::compare;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 struct Opts {
     scene: String,
@@ -142,51 +141,23 @@ fn config_flags(o: &Opts, config: &str) -> Vec<String> {
     }
 }
 
-struct Run {
-    image: soupray::film::Image,
-    log: soupray::output::FrameLog,
-}
-
+/// One frame with `seed` and `flags` (a leading `@PATH`: by that build).
 fn render(
     o: &Opts,
     (scene, frame, lighting): (&Path, &str, &[String]),
     flags: &[String],
     seed: u32,
     dir: &Path,
-) -> Result<Run, String> {
-    let _ = std::fs::remove_dir_all(dir);
+) -> Result<support::Frame, String> {
     // `@PATH` first: that build of soupray (the variant a change replaces).
     let (binary, flags) = match flags.split_first() {
         Some((first, rest)) if first.starts_with('@') => (first[1..].to_owned(), rest),
         _ => (env!("CARGO_BIN_EXE_soupray").to_owned(), flags),
     };
-    let out = Command::new(&binary)
-        .arg("render")
-        .arg(scene)
-        .args(["--frame", frame, "--quiet", "--name", "img.####.exr"])
-        .args(["--width", &o.width.to_string()])
-        .args(["--height", &o.height.to_string()])
-        .args(["--seed", &seed.to_string()])
-        .args(lighting)
-        .args(flags)
-        .arg("--out")
-        .arg(dir)
-        .output()
-        .map_err(|e| format!("cannot run soupray: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "soupray render {} {flags:?}: {}",
-            scene.display(),
-            String::from_utf8_lossy(&out.stderr)
-        ));
-    }
-    let exr = dir.join(format!("img.{frame:0>4}.exr"));
-    let log = dir.join(format!("img.{frame:0>4}.json"));
-    Ok(Run {
-        image: soupray::output::read_exr_rgba(&exr)
-            .map_err(|e| format!("{}: {e}", exr.display()))?,
-        log: soupray::output::read_log(&log).map_err(|e| e.to_string())?,
-    })
+    let mut args = vec!["--seed".to_owned(), seed.to_string()];
+    args.extend_from_slice(lighting);
+    args.extend_from_slice(flags);
+    support::render_frame(&binary, scene, frame, (o.width, o.height), &args, dir)
 }
 
 /// The mean over the pixels and RGB channels.

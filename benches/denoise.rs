@@ -34,7 +34,6 @@ mod support;
 use soupray::compare;
 use soupray::film::Image;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 struct Opts {
     width: u32,
@@ -101,11 +100,7 @@ fn parse() -> Result<Opts, String> {
     Ok(o)
 }
 
-struct Render {
-    image: Image,
-    log: soupray::output::FrameLog,
-}
-
+/// One frame at `spp` with `seed` and `extra` flags, by this build.
 fn render(
     o: &Opts,
     scene: &Path,
@@ -114,33 +109,22 @@ fn render(
     spp: u32,
     seed: u32,
     dir: &Path,
-) -> Result<Render, String> {
-    let _ = std::fs::remove_dir_all(dir);
-    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
-        .arg("render")
-        .arg(scene)
-        .args(["--frame", frame, "--quiet", "--name", "img.####.exr"])
-        .args(["--width", &o.width.to_string()])
-        .args(["--height", &o.height.to_string()])
-        .args(["--spp", &spp.to_string(), "--seed", &seed.to_string()])
-        .args(extra)
-        .arg("--out")
-        .arg(dir)
-        .output()
-        .map_err(|e| format!("cannot run soupray: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "soupray render {} {extra:?} --spp {spp}: {}",
-            scene.display(),
-            String::from_utf8_lossy(&out.stderr)
-        ));
-    }
-    let exr = dir.join(format!("img.{:0>4}.exr", frame));
-    let log = dir.join(format!("img.{:0>4}.json", frame));
-    Ok(Render {
-        image: read_exr(&exr)?,
-        log: soupray::output::read_log(&log).map_err(|e| e.to_string())?,
-    })
+) -> Result<support::Frame, String> {
+    let mut args = vec![
+        "--spp".to_owned(),
+        spp.to_string(),
+        "--seed".into(),
+        seed.to_string(),
+    ];
+    args.extend_from_slice(extra);
+    support::render_frame(
+        env!("CARGO_BIN_EXE_soupray"),
+        scene,
+        frame,
+        (o.width, o.height),
+        &args,
+        dir,
+    )
 }
 
 /// R, G, B, A of an EXR (the denoised beauty of a `--denoise` frame).

@@ -1,4 +1,4 @@
-//! What the render benches share: their scenes.
+//! What the render benches share: their scenes, and rendering one frame.
 
 use std::path::PathBuf;
 
@@ -37,4 +37,49 @@ pub fn scene(
             format!("{env},{env},{env}"),
         ],
     ))
+}
+
+/// A frame `soupray render` wrote: its RGBA (the denoised beauty of a
+/// `--denoise` frame) and its log.
+pub struct Frame {
+    pub image: soupray::film::Image,
+    pub log: soupray::output::FrameLog,
+}
+
+/// Renders frame `frame` of `scene` at `size` with `binary` (a soupray
+/// build) and `args` into `dir` (emptied first), and reads it back.
+pub fn render_frame(
+    binary: &str,
+    scene: &std::path::Path,
+    frame: &str,
+    size: (u32, u32),
+    args: &[String],
+    dir: &std::path::Path,
+) -> Result<Frame, String> {
+    let _ = std::fs::remove_dir_all(dir);
+    let out = std::process::Command::new(binary)
+        .arg("render")
+        .arg(scene)
+        .args(["--frame", frame, "--quiet", "--name", "img.####.exr"])
+        .args(["--width", &size.0.to_string()])
+        .args(["--height", &size.1.to_string()])
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .map_err(|e| format!("cannot run {binary}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "soupray render {} {args:?}: {}",
+            scene.display(),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let exr = dir.join(format!("img.{frame:0>4}.exr"));
+    let log = dir.join(format!("img.{frame:0>4}.json"));
+    Ok(Frame {
+        image: soupray::output::read_exr_rgba(&exr)
+            .map_err(|e| format!("{}: {e}", exr.display()))?,
+        log: soupray::output::read_log(&log).map_err(|e| format!("{}: {e}", log.display()))?,
+    })
 }
