@@ -242,17 +242,9 @@ fn run(o: &Opts) -> Result<String, String> {
 
 /// A channel of an EXR that soupray wrote, as f32.
 fn channel(path: &Path, name: &str) -> Result<Vec<f32>, String> {
-    use exr::prelude::traits::*;
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
+    let image = exr::prelude::read_all_flat_layers_from_file(path)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    let ch = image
-        .layer_data
+    let ch = image.layer_data[0]
         .channel_data
         .list
         .iter()

@@ -61,20 +61,14 @@ fn sheened(p: BsdfParams, color: f32, roughness: f32) -> BsdfParams {
 
 #[test]
 fn sheen_table_is_what_the_generator_makes() {
-    use soupray::trace::energy::{
-        generate_sheen, parse_header, sheen_header_text, sheen_table, ENERGY_SIZE,
-    };
+    use soupray::trace::energy::{generate_sheen, sheen_header_text, sheen_table, ENERGY_SIZE};
     let fresh = generate_sheen();
-    let path = common::repo().join("kernels/sheen_energy.h");
-    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
-        std::fs::write(&path, sheen_header_text(&fresh)).unwrap();
-    }
-    assert_eq!(fresh.len(), ENERGY_SIZE * ENERGY_SIZE);
-    assert_eq!(parse_header(&sheen_header_text(&fresh)), fresh);
-    assert_eq!(
+    common::assert_generated_table(
+        &fresh,
+        ENERGY_SIZE * ENERGY_SIZE,
+        "kernels/sheen_energy.h",
+        sheen_header_text,
         sheen_table(),
-        &fresh[..],
-        "kernels/sheen_energy.h is stale: rerun with SOUPRAY_REGENERATE=1"
     );
     // A sheen reflects a part, never all.
     assert!(fresh.iter().all(|&e| e > 0.0 && e < 1.0), "{fresh:?}");

@@ -424,19 +424,14 @@ fn glass_ball_shows_the_boxes_behind_it_flipped() {
 
 #[test]
 fn energy_table_is_what_the_generator_makes() {
-    use soupray::trace::energy::{generate, header_text, parse_header, table, ENERGY_SIZE};
+    use soupray::trace::energy::{generate, header_text, table, ENERGY_SIZE};
     let fresh = generate();
-    let path = common::repo().join("kernels/ggx_energy.h");
-    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
-        std::fs::write(&path, header_text(&fresh)).unwrap();
-    }
-    assert_eq!(fresh.len(), ENERGY_SIZE * ENERGY_SIZE);
-    // The header round-trips every value, and holds what the generator makes.
-    assert_eq!(parse_header(&header_text(&fresh)), fresh);
-    assert_eq!(
+    common::assert_generated_table(
+        &fresh,
+        ENERGY_SIZE * ENERGY_SIZE,
+        "kernels/ggx_energy.h",
+        header_text,
         table(),
-        &fresh[..],
-        "kernels/ggx_energy.h is stale: rerun with SOUPRAY_REGENERATE=1"
     );
     // Smooth: no loss; alpha = 1 head-on: 1 - ln 2 + ... (the analytic
     // single-scattering albedo at alpha 1, mu 1 is exactly 1 - ln 2 only
@@ -452,19 +447,15 @@ fn energy_table_is_what_the_generator_makes() {
 #[test]
 fn anisotropic_energy_table_is_what_the_generator_makes() {
     use soupray::trace::energy::{
-        aniso_header_text, aniso_table, generate_anisotropic, parse_header, ANISO_SIZES,
+        aniso_header_text, aniso_table, generate_anisotropic, ANISO_SIZES,
     };
     let fresh = generate_anisotropic();
-    let path = common::repo().join("kernels/ggx_aniso_energy.h");
-    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
-        std::fs::write(&path, aniso_header_text(&fresh)).unwrap();
-    }
-    assert_eq!(fresh.len(), ANISO_SIZES.iter().product::<usize>());
-    assert_eq!(parse_header(&aniso_header_text(&fresh)), fresh);
-    assert_eq!(
+    common::assert_generated_table(
+        &fresh,
+        ANISO_SIZES.iter().product(),
+        "kernels/ggx_aniso_energy.h",
+        aniso_header_text,
         aniso_table(),
-        &fresh[..],
-        "kernels/ggx_aniso_energy.h is stale: rerun with SOUPRAY_REGENERATE=1"
     );
     // Isotropic nodes (sqrt(alpha / alpha_t) = 1) need no correction but
     // the isotropic table's own interpolation: within 1%. (The furnace

@@ -89,6 +89,30 @@ pub fn exr_channels(path: &Path) -> std::collections::BTreeMap<String, Vec<f32>>
         .collect()
 }
 
+/// A generated table against its header in kernels/: with
+/// `SOUPRAY_REGENERATE` set, writes `text(fresh)` to `header` first. The
+/// table has `len` values, the header text round-trips every value, and
+/// `stored` (the table soupray parsed from the header) is what the
+/// generator makes now.
+pub fn assert_generated_table(
+    fresh: &[f32],
+    len: usize,
+    header: &str,
+    text: impl Fn(&[f32]) -> String,
+    stored: &[f32],
+) {
+    let path = repo().join(header);
+    if std::env::var_os("SOUPRAY_REGENERATE").is_some() {
+        std::fs::write(&path, text(fresh)).unwrap();
+    }
+    assert_eq!(fresh.len(), len);
+    assert_eq!(soupray::trace::energy::parse_header(&text(fresh)), fresh);
+    assert_eq!(
+        stored, fresh,
+        "{header} is stale: rerun with SOUPRAY_REGENERATE=1"
+    );
+}
+
 /// `v` in a new device buffer.
 pub fn upload<T: Copy>(d: &Device, v: &[T]) -> opencl3::memory::Buffer<T> {
     let mut b = d.buffer::<T>(v.len()).unwrap();
