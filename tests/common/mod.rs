@@ -7,6 +7,8 @@ use soupray::film::Image;
 use soupray::soup::Soup;
 use std::path::{Path, PathBuf};
 
+pub mod shared;
+
 /// The OpenCL device the tests run on (SOUPRAY_DEVICE picks another).
 /// Opening is serialised: PoCL's platform discovery is not safe to run from
 /// several test threads at once (it then sometimes reports no device).

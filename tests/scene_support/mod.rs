@@ -14,6 +14,9 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Matrix4, Quaternion, UnitQuaternion, Vector3, Vector4};
 use serde_json::{json, Value};
 
+#[path = "../common/shared.rs"]
+pub mod shared;
+
 /// A test asset; `SOUPRAY_TEST_ROOT` stands in for the checkout as in
 /// `tests/common` (bundled test binaries).
 pub fn asset(rel: &str) -> PathBuf {

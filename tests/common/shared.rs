@@ -1,0 +1,75 @@
+//! Third-party files read in place: the Khronos sample corpus, the sample
+//! animations and the scanned meshes live in the shared folder beside the
+//! checkout (`../shared`, or `SOUPRAY_SHARED`), never in the repository.
+//!
+//! A test that needs one asks [`shared`] and returns early when it is
+//! absent. The skip is written straight to the process's standard error,
+//! past libtest's capture, so `cargo test` names every skipped test in its
+//! output. Under CI (`CI` set) a missing file is a failure instead: CI has
+//! the folder and must run every test.
+//!
+//! This file has no dependencies so that every support module can include
+//! it (`#[path = "../common/shared.rs"] mod shared;`).
+#![allow(dead_code)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The shared folder: `SOUPRAY_SHARED` when set, else `../shared` beside the
+/// checkout (or beside `SOUPRAY_TEST_ROOT`, a bundle's stand-in for it).
+pub fn shared_root() -> PathBuf {
+    if let Some(dir) = std::env::var_os("SOUPRAY_SHARED").filter(|d| !d.is_empty()) {
+        return PathBuf::from(dir);
+    }
+    let repo = std::env::var_os("SOUPRAY_TEST_ROOT")
+        .filter(|r| !r.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf());
+    repo.join("../shared")
+}
+
+/// `rel` under the shared folder (`"khronos/Fox/glTF-Binary/Fox.glb"`,
+/// `"meshes/beast.ply"`), or `None` after saying which test skips and what
+/// is missing. Panics under CI, where the folder must be there.
+#[track_caller]
+pub fn shared(rel: &str) -> Option<PathBuf> {
+    let path = shared_root().join(rel);
+    if path.exists() {
+        return Some(path);
+    }
+    let test = std::thread::current()
+        .name()
+        .unwrap_or("a test")
+        .to_string();
+    if std::env::var_os("CI").is_some() {
+        panic!(
+            "{test}: {} is missing and CI is set: CI must have the shared folder \
+             (set SOUPRAY_SHARED to its path)",
+            path.display()
+        );
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipped {test}: needs {} (the shared folder of third-party assets; set SOUPRAY_SHARED \
+         to its path)",
+        path.display()
+    );
+    None
+}
+
+/// Several shared files at once: all of them, or `None` after naming the
+/// first one missing.
+#[track_caller]
+pub fn shared_all<const N: usize>(rels: [&str; N]) -> Option<[PathBuf; N]> {
+    let mut out: [PathBuf; N] = std::array::from_fn(|_| PathBuf::new());
+    for (slot, rel) in out.iter_mut().zip(rels) {
+        *slot = shared(rel)?;
+    }
+    Some(out)
+}
+
+/// A file of the Khronos sample corpus, by its path under `khronos/`.
+#[track_caller]
+pub fn khronos(rel: &str) -> Option<PathBuf> {
+    shared(&format!("khronos/{rel}"))
+}
