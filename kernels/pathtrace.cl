@@ -84,6 +84,8 @@ typedef struct {
     const __global float* positions;
     const __global float* normals;
     const __global float* uvs;
+    const __global float* uvs1;
+    const __global float* colors;
     const __global uint* material_ids;
     const __global PtMaterial* materials;
     const __global PtLight* lights;
@@ -196,31 +198,55 @@ inline float3 pt_attenuation(float3 sigma, float t) {
 }
 #endif
 
-inline float2 pt_uv(const PtScene* s, uint prim, float u, float v) {
-    if ((s->frame.flags & FRAME_UVS) == 0u) return (float2)(0.0f);
-    const __global float* t = s->uvs + (size_t)prim * 6u;
+// The vertex attributes at a point of a triangle, interpolated: both uv
+// sets (TEXCOORD_0 in uv.xy, the soup's second set in uv.zw, each 0 where
+// the soup lacks it) and COLOR_0 (white without it).
+typedef struct {
+    float4 uv;
+    float4 color;
+} PtAttrs;
+
+inline float2 pt_interpolate_uv(const __global float* uvs, uint prim, float u, float v) {
+    const __global float* t = uvs + (size_t)prim * 6u;
     float w = 1.0f - u - v;
     return (float2)((w * t[0] + u * t[2]) + v * t[4], (w * t[1] + u * t[3]) + v * t[5]);
 }
 
-// The material's base colour (linear RGBA) at a point: the factor times the
-// base colour texture. Every texture lookup of the integrator goes through
-// pt_texture, which compiles to nothing without HAS_TEXTURES.
-inline float4 pt_texture(int binding, float2 uv TEX_DECL) {
+inline PtAttrs pt_attrs(const PtScene* s, uint prim, float u, float v) {
+    PtAttrs a;
+    float2 uv0 = (s->frame.flags & FRAME_UVS) != 0u ? pt_interpolate_uv(s->uvs, prim, u, v)
+                                                    : (float2)(0.0f);
+    float2 uv1 = (s->frame.flags & FRAME_UVS1) != 0u ? pt_interpolate_uv(s->uvs1, prim, u, v)
+                                                     : (float2)(0.0f);
+    a.uv = (float4)(uv0, uv1);
+    a.color = (float4)(1.0f);
+    if ((s->frame.flags & FRAME_COLORS) != 0u) {
+        const __global float* c = s->colors + (size_t)prim * 12u;
+        float w = 1.0f - u - v;
+        a.color = (float4)((w * c[0] + u * c[4]) + v * c[8], (w * c[1] + u * c[5]) + v * c[9],
+                           (w * c[2] + u * c[6]) + v * c[10], (w * c[3] + u * c[7]) + v * c[11]);
+    }
+    return a;
+}
+
+// The texture of `binding` at a point, through the binding's uv set. Every
+// texture lookup of the integrator goes through pt_texture, which compiles
+// to nothing without HAS_TEXTURES.
+inline float4 pt_texture(int binding, PtAttrs at TEX_DECL) {
 #ifdef HAS_TEXTURES
-    // The soup carries TEXCOORD_0 only, so set 1 reads it too (the host
-    // warns when a material asks for set 1).
     if (binding >= 0) {
         TextureBinding b = tex_bindings[binding];
-        return sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
+        return sample_texture(TEXTURE_ARGS, b, texture_uv(b, at.uv.xy, at.uv.zw));
     }
 #endif
     return (float4)(1.0f);
 }
 
-inline float4 pt_base_color(PtMaterial m, float2 uv TEX_DECL) {
+// The material's base colour (linear RGBA) at a point: the factor times
+// the vertex colour times the base colour texture (glTF 2.0 §3.9.2).
+inline float4 pt_base_color(PtMaterial m, PtAttrs at TEX_DECL) {
     float4 f = (float4)(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
-    return f * pt_texture(m.base_color_tex, uv TEX_PASS);
+    return (f * at.color) * pt_texture(m.base_color_tex, at TEX_PASS);
 }
 
 // Whether a ray crossing `prim` from `dir` passes through it: a culled back
@@ -231,7 +257,7 @@ inline bool pt_passes(const PtScene* s, PtMaterial m, uint prim, float u, float 
         if (dot(dir, geometric_normal(SGEOM(s), prim)) >= 0.0f) return true;
     }
     if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u) return false;
-    float alpha = pt_base_color(m, pt_uv(s, prim, u, v) TEX_PASS).w;
+    float alpha = pt_base_color(m, pt_attrs(s, prim, u, v) TEX_PASS).w;
     if ((m.flags & MAT_ALPHA_MASK) != 0u) return alpha < m.alpha_cutoff;
     return rng_1d(rng, dim) >= alpha;
 }
@@ -324,10 +350,10 @@ inline bool pt_occluded(PtScene* s, float3 org, float3 dir, float tmax, SampleRn
 }
 #endif
 
-inline float3 pt_emission(PtMaterial m, float2 uv TEX_DECL) {
+inline float3 pt_emission(PtMaterial m, PtAttrs at TEX_DECL) {
     float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
 #ifdef HAS_TEXTURES
-    if (m.emissive_tex >= 0) e = e * pt_texture(m.emissive_tex, uv TEX_PASS).xyz;
+    if (m.emissive_tex >= 0) e = e * pt_texture(m.emissive_tex, at TEX_PASS).xyz;
 #endif
     return e;
 }
@@ -376,9 +402,11 @@ inline bool pt_uv_tangent(const PtScene* s, uint prim, float3 n, float2 t0, floa
 // shading normal n, the bitangent is n x t, and on a back face all three
 // flip (as the Khronos sample viewer does). Degenerate uvs keep n.
 inline float3 pt_normal_map(const PtScene* s, int binding, float scale, uint prim, float3 n,
-                            bool front, float2 uv TEX_DECL) {
+                            bool front, PtAttrs at TEX_DECL) {
     TextureBinding b = tex_bindings[binding];
-    const __global float* t = s->uvs + (size_t)prim * 6u;
+    // The tangent follows the uv set the normal texture is mapped through.
+    bool second = b.tex_coord == 1 && (s->frame.flags & FRAME_UVS1) != 0u;
+    const __global float* t = (second ? s->uvs1 : s->uvs) + (size_t)prim * 6u;
     float2 t0 = texture_uv(b, (float2)(t[0], t[1]), (float2)(t[0], t[1]));
     float2 t1 = texture_uv(b, (float2)(t[2], t[3]), (float2)(t[2], t[3]));
     float2 t2 = texture_uv(b, (float2)(t[4], t[5]), (float2)(t[4], t[5]));
@@ -386,7 +414,7 @@ inline float3 pt_normal_map(const PtScene* s, int binding, float scale, uint pri
     float3 tg;
     if (!pt_uv_tangent(s, prim, n, t0, t1, t2, &tg)) return sn;
     float3 bt = cross(n, tg);
-    float4 c = sample_texture(TEXTURE_ARGS, b, texture_uv(b, uv, uv));
+    float4 c = sample_texture(TEXTURE_ARGS, b, texture_uv(b, at.uv.xy, at.uv.zw));
     float3 tn = (float3)((c.x * 2.0f - 1.0f) * scale, (c.y * 2.0f - 1.0f) * scale,
                          c.z * 2.0f - 1.0f);
     float3 mapped = (tg * tn.x + bt * tn.y) + n * tn.z;
@@ -403,7 +431,7 @@ typedef struct {
     float3 p;
     float3 ng;
     float3 ns;
-    float2 uv;
+    PtAttrs at;
     bool front;
 #ifdef HAS_TRANSMISSION
     float3 below; // ray origin for directions below the surface
@@ -439,7 +467,7 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
     sf.front = dot(dir, ng) < 0.0f;
     if (!sf.front) ng = -ng;
     sf.ng = ng;
-    sf.uv = pt_uv(s, h.prim, h.u, h.v);
+    sf.at = pt_attrs(s, h.prim, h.u, h.v);
     float3 ns = ng;
     if ((s->frame.flags & FRAME_NORMALS) != 0u) {
         TRI_LOAD(n, s->normals, s->mt, h.prim);
@@ -461,13 +489,13 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
     if (m.normal_tex >= 0 && (s->frame.flags & FRAME_CLAY) == 0u &&
         (s->frame.flags & FRAME_UVS) != 0u)
         ns = pt_normal_map(s, m.normal_tex, m.normal_scale, h.prim, sf.front ? ns : -ns, sf.front,
-                           sf.uv TEX_PASS);
+                           sf.at TEX_PASS);
 #endif
     sf.ns = pt_facing(ns, -dir, ng);
     return sf;
 }
 
-inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, float3* albedo TEX_DECL) {
+inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, PtAttrs at, float3* albedo TEX_DECL) {
     BsdfParams p;
     if ((s->frame.flags & FRAME_CLAY) != 0u) {
         p.base = (float3)(0.8f);
@@ -481,12 +509,12 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, float2 uv, floa
         *albedo = p.base;
         return p;
     }
-    float4 bc = pt_base_color(m, uv TEX_PASS);
+    float4 bc = pt_base_color(m, at TEX_PASS);
     float metallic = m.metallic;
     float roughness = m.roughness;
 #ifdef HAS_TEXTURES
     if (m.metallic_roughness_tex >= 0) {
-        float4 mr = pt_texture(m.metallic_roughness_tex, uv TEX_PASS);
+        float4 mr = pt_texture(m.metallic_roughness_tex, at TEX_PASS);
         roughness = roughness * mr.y;
         metallic = metallic * mr.z;
     }
@@ -519,12 +547,12 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     float coat_roughness = mx.clearcoat_roughness;
     float3 nc = sf.n_unmapped;
 #ifdef HAS_TEXTURES
-    if (mx.clearcoat_tex >= 0) clearcoat *= pt_texture(mx.clearcoat_tex, sf.uv TEX_PASS).x;
+    if (mx.clearcoat_tex >= 0) clearcoat *= pt_texture(mx.clearcoat_tex, sf.at TEX_PASS).x;
     if (mx.clearcoat_roughness_tex >= 0)
-        coat_roughness *= pt_texture(mx.clearcoat_roughness_tex, sf.uv TEX_PASS).y;
+        coat_roughness *= pt_texture(mx.clearcoat_roughness_tex, sf.at TEX_PASS).y;
     if (layered && mx.clearcoat_normal_tex >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
         nc = pt_normal_map(s, mx.clearcoat_normal_tex, mx.clearcoat_normal_scale, sf.prim,
-                           sf.front ? nc : -nc, sf.front, sf.uv TEX_PASS);
+                           sf.front ? nc : -nc, sf.front, sf.at TEX_PASS);
         nc = pt_facing(nc, wo_w, sf.ng);
     }
 #endif
@@ -538,9 +566,9 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     float3 sheen_color = (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2]);
     float sheen_roughness = mx.sheen_roughness;
 #ifdef HAS_TEXTURES
-    if (mx.sheen_color_tex >= 0) sheen_color *= pt_texture(mx.sheen_color_tex, sf.uv TEX_PASS).xyz;
+    if (mx.sheen_color_tex >= 0) sheen_color *= pt_texture(mx.sheen_color_tex, sf.at TEX_PASS).xyz;
     if (mx.sheen_roughness_tex >= 0)
-        sheen_roughness *= pt_texture(mx.sheen_roughness_tex, sf.uv TEX_PASS).w;
+        sheen_roughness *= pt_texture(mx.sheen_roughness_tex, sf.at TEX_PASS).w;
 #endif
     bp->sheen_color = layered ? sheen_color : (float3)(0.0f);
     bp->sheen_roughness = sheen_roughness;
@@ -556,7 +584,7 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
 // (symmetric in the two indices); against air both are what a lone surface
 // has. Rust twin: trace::material::Dielectric::nested.
 inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume, bool front,
-                                 float n_other, int channel, float2 uv, BsdfParams* bp TEX_DECL) {
+                                 float n_other, int channel, PtAttrs at, BsdfParams* bp TEX_DECL) {
     if ((s->frame.flags & FRAME_CLAY) != 0u) {
         bp->f0 = 0.04f;
         bp->f0_color = (float3)(0.04f);
@@ -590,22 +618,22 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #ifdef HAS_TEXTURES
     // The extensions' textures scale their factors: transmission by R,
     // specular by A, the specular colour by RGB (sRGB-decoded).
-    if (mx.transmission_tex >= 0) transmission *= pt_texture(mx.transmission_tex, uv TEX_PASS).x;
-    if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, uv TEX_PASS).w;
+    if (mx.transmission_tex >= 0) transmission *= pt_texture(mx.transmission_tex, at TEX_PASS).x;
+    if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, at TEX_PASS).w;
     if (mx.specular_color_tex >= 0)
-        specular_color *= pt_texture(mx.specular_color_tex, uv TEX_PASS).xyz;
+        specular_color *= pt_texture(mx.specular_color_tex, at TEX_PASS).xyz;
 #ifdef HAS_DIFFUSE_TRANSMISSION
     // Diffuse transmission by A, its colour by RGB (sRGB-decoded).
     if (mx.diffuse_transmission_tex >= 0)
-        diffuse_transmission *= pt_texture(mx.diffuse_transmission_tex, uv TEX_PASS).w;
+        diffuse_transmission *= pt_texture(mx.diffuse_transmission_tex, at TEX_PASS).w;
     if (mx.diffuse_transmission_color_tex >= 0)
-        diffuse_transmission_color *= pt_texture(mx.diffuse_transmission_color_tex, uv TEX_PASS).xyz;
+        diffuse_transmission_color *= pt_texture(mx.diffuse_transmission_color_tex, at TEX_PASS).xyz;
 #endif
 #ifdef HAS_IRIDESCENCE
     // Iridescence by R; the thickness between its minimum and maximum by G.
-    if (mx.iridescence_tex >= 0) iridescence *= pt_texture(mx.iridescence_tex, uv TEX_PASS).x;
+    if (mx.iridescence_tex >= 0) iridescence *= pt_texture(mx.iridescence_tex, at TEX_PASS).x;
     if (mx.iridescence_thickness_tex >= 0) {
-        float g = pt_texture(mx.iridescence_thickness_tex, uv TEX_PASS).y;
+        float g = pt_texture(mx.iridescence_thickness_tex, at TEX_PASS).y;
         thickness = mx.iridescence_thickness_min +
                     (mx.iridescence_thickness_max - mx.iridescence_thickness_min) * g;
     }
@@ -637,7 +665,7 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     float2 dir = (float2)(1.0f, 0.0f);
 #ifdef HAS_TEXTURES
     if (mx.anisotropy_tex >= 0) {
-        float4 a = pt_texture(mx.anisotropy_tex, uv TEX_PASS);
+        float4 a = pt_texture(mx.anisotropy_tex, at TEX_PASS);
         dir = (float2)(a.x * 2.0f - 1.0f, a.y * 2.0f - 1.0f);
         strength *= a.z;
         if (!(dot(dir, dir) > 0.0f)) strength = 0.0f;
@@ -727,8 +755,8 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         PtMaterialExt mx = pt_material_ext(s, h.prim);
         PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
         float3 albedo;
-        BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
-        pt_dielectric_params(s, mx, false, sf.front, n_medium, channel, sf.uv, &bp TEX_PASS);
+        BsdfParams bp = pt_bsdf_params(s, m, sf.at, &albedo TEX_PASS);
+        pt_dielectric_params(s, mx, false, sf.front, n_medium, channel, sf.at, &bp TEX_PASS);
         float3 t, b;
         onb(sf.ns, &t, &b);
 #ifdef HAS_LAYERS
@@ -846,7 +874,7 @@ inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, B
     if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
     float pdf = pt_emissive_pdf(s, prim, d, cos_l);
     if (!(pdf > 0.0f)) return (float3)(0.0f);
-    float2 luv = pt_uv(s, prim, bc.x, bc.y);
+    PtAttrs luv = pt_attrs(s, prim, bc.x, bc.y);
     float3 contrib = pt_emission(lm, luv TEX_PASS) / pdf;
     // Stop just short of the emitter itself.
     return pt_shade_light(s, sf, bp, wo, t, b, above, beta, wi_w, contrib, pdf, q - above,
@@ -1005,7 +1033,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         }
 #endif
         float3 albedo;
-        BsdfParams bp = pt_bsdf_params(s, m, sf.uv, &albedo TEX_PASS);
+        BsdfParams bp = pt_bsdf_params(s, m, sf.at, &albedo TEX_PASS);
         if (bounce == 0u) {
             out.alpha = 1.0f;
             out.depth = travelled;
@@ -1013,7 +1041,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             out.albedo = albedo;
         }
         if ((m.flags & MAT_EMISSIVE) != 0u) {
-            float3 le = pt_emission(m, sf.uv TEX_PASS);
+            float3 le = pt_emission(m, sf.at TEX_PASS);
             float w = 1.0f;
             if (depth > 0u && !prev_delta) {
                 float cos_l = dot(-dir, sf.ng);
@@ -1062,7 +1090,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
                             channel == 2 ? 3.0f * beta.z : 0.0f);
         }
 #endif
-        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other, channel), channel, sf.uv,
+        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other, channel), channel, sf.at,
                              &bp TEX_PASS);
         sf.medium_above = inner;
         sf.medium_below = volume && sf.front ? mat : other;
@@ -1183,7 +1211,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
                         __global const float* positions, __global const float* normals,
-                        __global const float* uvs, __global const uint* material_ids,
+                        __global const float* uvs, __global const float* uvs1,
+                        __global const float* colors, __global const uint* material_ids,
                         __global const PtMaterial* materials, __global const PtLight* lights,
                         __global const uint* emit_prims, __global const float* emit_cdf,
                         __global const float* emit_pmf, __global const float* select_cdf,
@@ -1219,6 +1248,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     s.positions = positions;
     s.normals = normals;
     s.uvs = uvs;
+    s.uvs1 = uvs1;
+    s.colors = colors;
     s.material_ids = material_ids;
     s.materials = materials;
     s.lights = lights;

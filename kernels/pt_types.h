@@ -11,6 +11,8 @@
 #define FRAME_NORMALS 1u
 #define FRAME_UVS 2u
 #define FRAME_CLAY 4u
+#define FRAME_UVS1 8u   // the soup carries a second uv set
+#define FRAME_COLORS 16u // the soup carries COLOR_0
 
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by

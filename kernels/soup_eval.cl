@@ -19,6 +19,8 @@
 //   MORPH_TARGETS     the most morph targets of any mesh (0: no morph code)
 //   HAS_NORMALS       the soup carries shading normals
 //   HAS_UVS           the soup carries TEXCOORD_0
+//   HAS_UVS1          the soup carries a second uv set (Scene::second_uv_set)
+//   HAS_COLORS        the soup carries COLOR_0
 //   SANITIZE          non-finite triangles are collapsed (and counted) rather
 //                     than reported as an error
 //
@@ -182,12 +184,24 @@ __kernel void assemble_triangles(
 #ifdef HAS_UVS
     __global const float2* base_uvs,
 #endif
+#ifdef HAS_UVS1
+    __global const float2* base_uvs1,
+#endif
+#ifdef HAS_COLORS
+    __global const float4* base_colors,
+#endif
     __global float4* positions,
 #ifdef HAS_NORMALS
     __global float4* normals,
 #endif
 #ifdef HAS_UVS
     __global float2* uvs,
+#endif
+#ifdef HAS_UVS1
+    __global float2* uvs1,
+#endif
+#ifdef HAS_COLORS
+    __global float4* colors,
 #endif
     __global uint* status)
 {
@@ -239,6 +253,18 @@ __kernel void assemble_triangles(
     for (int k = 0; k < 3; ++k) {
         uvs[3 * t + k] = (seg.flags & SEG_UVS) ? base_uvs[seg.src_vertex + src[order[k]]]
                                                : (float2)(0.0f, 0.0f);
+    }
+#endif
+#ifdef HAS_UVS1
+    for (int k = 0; k < 3; ++k) {
+        uvs1[3 * t + k] = (seg.flags & SEG_UVS1) ? base_uvs1[seg.src_vertex + src[order[k]]]
+                                                 : (float2)(0.0f, 0.0f);
+    }
+#endif
+#ifdef HAS_COLORS
+    for (int k = 0; k < 3; ++k) {
+        colors[3 * t + k] = (seg.flags & SEG_COLORS) ? base_colors[seg.src_vertex + src[order[k]]]
+                                                     : (float4)(1.0f);
     }
 #endif
 }

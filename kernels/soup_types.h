@@ -14,6 +14,8 @@
 #define SEG_NORMALS 1u  // the primitive has NORMAL (else flat normals)
 #define SEG_UVS     2u  // the primitive has TEXCOORD_0 (else 0, 0)
 #define SEG_SKINNED 4u  // skinned by its instance's skin (else rigid)
+#define SEG_UVS1    8u  // the primitive has the soup's second uv set (else 0, 0)
+#define SEG_COLORS 16u  // the primitive has COLOR_0 (else white)
 
 // One primitive as placed by one mesh instance: where its static data and its
 // deformed vertices live. Static data is stored once per primitive and shared

@@ -134,11 +134,15 @@ impl Scene {
     fn soup_of(&self, pose: &Pose, attributes: bool, warnings: &mut Vec<String>) -> Result<Soup> {
         let with_normals = attributes && self.has_normals();
         let with_uvs = attributes && self.has_uvs();
+        let with_uvs1 = attributes && self.has_uvs1();
+        let with_colors = attributes && self.has_colors();
         let triangles = self.triangle_count();
         let mut soup = Soup {
             positions: Vec::with_capacity(3 * triangles),
             normals: Vec::with_capacity(if with_normals { 3 * triangles } else { 0 }),
             uvs: Vec::with_capacity(if with_uvs { 3 * triangles } else { 0 }),
+            uvs1: Vec::with_capacity(if with_uvs1 { 3 * triangles } else { 0 }),
+            colors: Vec::with_capacity(if with_colors { 3 * triangles } else { 0 }),
             material_ids: Vec::with_capacity(if attributes { triangles } else { 0 }),
         };
         let default_material = self.materials().default_material.unwrap_or(0);
@@ -213,6 +217,25 @@ impl Scene {
                                 .as_ref()
                                 .map_or([0.0, 0.0], |uvs| uvs[tri[k] as usize]);
                             soup.uvs.push(uv);
+                        }
+                    }
+                    if with_uvs1 {
+                        for &k in &order {
+                            let uv = prim
+                                .uvs1
+                                .as_ref()
+                                .map_or([0.0, 0.0], |uvs| uvs[tri[k] as usize]);
+                            soup.uvs1.push(uv);
+                        }
+                    }
+                    if with_colors {
+                        // A primitive without COLOR_0 multiplies by white.
+                        for &k in &order {
+                            let c = prim
+                                .colors
+                                .as_ref()
+                                .map_or([1.0; 4], |colors| colors[tri[k] as usize]);
+                            soup.colors.push(c);
                         }
                     }
                     soup.material_ids.push(material);

@@ -13,7 +13,7 @@ use super::animation::load_clip;
 use super::camera::load_camera;
 use super::error::{Result, SceneError};
 use super::light::load_light;
-use super::material::{load_materials, Material};
+use super::material::{load_materials, Material, MaterialTable};
 use super::mesh::{load_mesh, Skipped};
 use super::source;
 use super::{LoadOptions, MeshInstance, Node, Scene, Skin, Trs};
@@ -358,9 +358,19 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         materials.materials.push(Material::default());
     }
 
+    let second_uv_set = choose_second_uv_set(&mut materials, &mut meshes, &mut warnings);
+
     let instanced = || instances.iter().flat_map(|i| &meshes[i.mesh].primitives);
     let soup_has_normals = instanced().any(|p| p.normals.is_some());
     let soup_has_uvs = instanced().any(|p| p.uvs.is_some());
+    let soup_has_uvs1 = instanced().any(|p| p.uvs1.is_some());
+    let soup_has_colors = instanced().any(|p| p.colors.is_some());
+    if let (Some(set), false) = (second_uv_set, soup_has_uvs1) {
+        warnings.push(format!(
+            "materials sample textures through TEXCOORD_{set}, but no mesh in the scene has it: \
+             those textures are read at uv (0, 0). Fix: re-export the meshes with that uv set."
+        ));
+    }
 
     Ok(Scene {
         file,
@@ -384,9 +394,58 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         extensions_required: doc.extensions_required().map(str::to_owned).collect(),
         soup_has_normals,
         soup_has_uvs,
+        soup_has_uvs1,
+        soup_has_colors,
+        second_uv_set,
         clip_bounds: OnceLock::new(),
         nodes,
     })
+}
+
+/// The texture coordinate set the soup carries beside TEXCOORD_0: the one
+/// other set the materials sample (TEXCOORD_1 in nearly every file). Texture
+/// uses are renumbered to the soup's two slots (0: TEXCOORD_0, 1: the second
+/// set), and each primitive keeps that set alone. A scene whose materials
+/// sample two or more sets besides TEXCOORD_0 keeps the lowest, and the
+/// others are read with TEXCOORD_0, with a warning.
+fn choose_second_uv_set(
+    materials: &mut MaterialTable,
+    meshes: &mut [super::mesh::Mesh],
+    warnings: &mut Vec<String>,
+) -> Option<u32> {
+    let mut used = std::collections::BTreeSet::new();
+    for m in &mut materials.materials {
+        for t in m.texture_refs_mut().into_iter().flatten() {
+            if t.tex_coord != 0 {
+                used.insert(t.tex_coord);
+            }
+        }
+    }
+    let second = used.iter().copied().find(|&s| s <= 3);
+    let dropped: Vec<String> = used
+        .iter()
+        .filter(|&&s| Some(s) != second)
+        .map(|s| format!("TEXCOORD_{s}"))
+        .collect();
+    if !dropped.is_empty() {
+        warnings.push(format!(
+            "materials sample {} besides {}: soupray carries TEXCOORD_0 and one more set, so those \
+             textures are read with TEXCOORD_0. Fix: map them through TEXCOORD_0{} in the authoring tool.",
+            dropped.join(", "),
+            second.map_or("TEXCOORD_0".to_owned(), |s| format!("TEXCOORD_{s}")),
+            second.map_or(String::new(), |s| format!(" or TEXCOORD_{s}"))
+        ));
+    }
+    for m in &mut materials.materials {
+        for t in m.texture_refs_mut().into_iter().flatten() {
+            t.tex_coord = u32::from(t.tex_coord != 0 && Some(t.tex_coord) == second);
+        }
+    }
+    for p in meshes.iter_mut().flat_map(|m| &mut m.primitives) {
+        let mut sets = std::mem::take(&mut p.other_uv_sets);
+        p.uvs1 = second.and_then(|s| sets[s as usize - 1].take());
+    }
+    second
 }
 
 fn load_nodes(file: &str, doc: &gltf::Document) -> Result<Vec<Node>> {

@@ -146,6 +146,32 @@ pub struct Material {
     pub dispersion: f32,
 }
 
+impl Material {
+    /// Every texture use of the material, core and extensions alike.
+    pub fn texture_refs_mut(&mut self) -> [&mut Option<TextureRef>; 18] {
+        [
+            &mut self.base_color_texture,
+            &mut self.metallic_roughness_texture,
+            &mut self.normal_texture,
+            &mut self.occlusion_texture,
+            &mut self.emissive_texture,
+            &mut self.transmission_texture,
+            &mut self.specular_texture,
+            &mut self.specular_color_texture,
+            &mut self.clearcoat_texture,
+            &mut self.clearcoat_roughness_texture,
+            &mut self.clearcoat_normal_texture,
+            &mut self.sheen_color_texture,
+            &mut self.sheen_roughness_texture,
+            &mut self.diffuse_transmission_texture,
+            &mut self.diffuse_transmission_color_texture,
+            &mut self.iridescence_texture,
+            &mut self.iridescence_thickness_texture,
+            &mut self.anisotropy_texture,
+        ]
+    }
+}
+
 impl Default for Material {
     /// The glTF default material: every property at its specification
     /// default (base colour 1, metallic 1, roughness 1, opaque, one-sided).

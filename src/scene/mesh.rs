@@ -32,6 +32,15 @@ pub struct Primitive {
     pub normals: Option<Vec<Vec3>>,
     /// TEXCOORD_0.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// The scene's second texture coordinate set (`Scene::second_uv_set`:
+    /// TEXCOORD_1 unless the materials sample another), if this primitive
+    /// has it.
+    pub uvs1: Option<Vec<[f32; 2]>>,
+    /// COLOR_0 as linear RGBA (alpha 1 where the accessor is RGB).
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// TEXCOORD_1..=TEXCOORD_3 as read, until the loader knows which one
+    /// the materials sample and moves it into `uvs1` (the rest are dropped).
+    pub(crate) other_uv_sets: [Option<Vec<[f32; 2]>>; 3],
     /// Corner indices in the winding glTF defines for the source topology.
     pub triangles: Vec<[u32; 3]>,
     pub targets: Vec<MorphTarget>,
@@ -236,20 +245,52 @@ fn load_primitive(
         None => None,
     };
 
-    let uvs = match prim.get(&Semantic::TexCoords(0)) {
+    let uv_set = |set: u32| -> Result<Option<Vec<[f32; 2]>>> {
+        let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {
+            return Ok(None);
+        };
+        let attr = format!("TEXCOORD_{set}");
+        reader.expect(
+            &acc,
+            &usage(&attr),
+            &[Dimensions::Vec2],
+            &[DataType::F32, DataType::U8, DataType::U16],
+        )?;
+        same_count(&acc, &attr)?;
+        let flat = reader.floats(&acc, &usage(&attr))?;
+        if !sanitize {
+            reader.check_finite(&acc, &usage(&attr), &flat)?;
+        }
+        Ok(Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
+    };
+    let uvs = uv_set(0)?;
+    let other_uv_sets = [uv_set(1)?, uv_set(2)?, uv_set(3)?];
+
+    // COLOR_0 multiplies the base colour (glTF 2.0 §3.9.2): RGB or RGBA,
+    // float or normalized unsigned bytes and shorts.
+    let colors = match prim.get(&Semantic::Colors(0)) {
         Some(acc) => {
             reader.expect(
                 &acc,
-                &usage("TEXCOORD_0"),
-                &[Dimensions::Vec2],
+                &usage("COLOR_0"),
+                &[Dimensions::Vec3, Dimensions::Vec4],
                 &[DataType::F32, DataType::U8, DataType::U16],
             )?;
-            same_count(&acc, "TEXCOORD_0")?;
-            let flat = reader.floats(&acc, &usage("TEXCOORD_0"))?;
+            same_count(&acc, "COLOR_0")?;
+            let flat = reader.floats(&acc, &usage("COLOR_0"))?;
             if !sanitize {
-                reader.check_finite(&acc, &usage("TEXCOORD_0"), &flat)?;
+                reader.check_finite(&acc, &usage("COLOR_0"), &flat)?;
             }
-            Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+            let width = if acc.dimensions() == Dimensions::Vec3 {
+                3
+            } else {
+                4
+            };
+            Some(
+                flat.chunks_exact(width)
+                    .map(|c| [c[0], c[1], c[2], if width == 4 { c[3] } else { 1.0 }])
+                    .collect(),
+            )
         }
         None => None,
     };
@@ -315,6 +356,9 @@ fn load_primitive(
         positions,
         normals,
         uvs,
+        uvs1: None,
+        colors,
+        other_uv_sets,
         triangles,
         targets,
         influences,

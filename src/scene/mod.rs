@@ -153,6 +153,11 @@ pub struct Scene {
     extensions_required: Vec<String>,
     soup_has_normals: bool,
     soup_has_uvs: bool,
+    soup_has_uvs1: bool,
+    soup_has_colors: bool,
+    /// Which TEXCOORD_n the soup's second uv slot carries, when a material
+    /// samples one besides TEXCOORD_0.
+    second_uv_set: Option<u32>,
     /// Bounds of every frame of the clip, for the default camera.
     clip_bounds: OnceLock<(Vec3, Vec3)>,
 }
@@ -317,6 +322,23 @@ impl Scene {
     /// Whether frames carry TEXCOORD_0.
     pub fn has_uvs(&self) -> bool {
         self.soup_has_uvs
+    }
+
+    /// Whether the soup carries a second texture coordinate set.
+    pub fn has_uvs1(&self) -> bool {
+        self.soup_has_uvs1
+    }
+
+    /// Which TEXCOORD_n the soup's second set is, if a material samples one
+    /// besides TEXCOORD_0 (the materials' texture uses are renumbered: 1
+    /// means this set).
+    pub fn second_uv_set(&self) -> Option<u32> {
+        self.second_uv_set
+    }
+
+    /// Whether the soup carries vertex colours (COLOR_0).
+    pub fn has_colors(&self) -> bool {
+        self.soup_has_colors
     }
 
     /// Triangles per frame (topology never changes with time; `--sanitize`

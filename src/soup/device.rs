@@ -35,6 +35,10 @@ pub const SEG_NORMALS: u32 = 1;
 pub const SEG_UVS: u32 = 2;
 /// [`SoupSegment::flags`]: skinned by its instance's skin (else rigid).
 pub const SEG_SKINNED: u32 = 4;
+/// The primitive has the soup's second uv set (else 0, 0).
+pub const SEG_UVS1: u32 = 8;
+/// The primitive has COLOR_0 (else white).
+pub const SEG_COLORS: u32 = 16;
 
 /// Work-items per work-group of both kernels; they are independent per item.
 const WORK_GROUP: usize = 64;
@@ -108,6 +112,10 @@ pub struct SoupFeatures {
     pub morph_targets: usize,
     pub normals: bool,
     pub uvs: bool,
+    /// The soup carries a second texture coordinate set.
+    pub uvs1: bool,
+    /// The soup carries vertex colours (COLOR_0).
+    pub colors: bool,
     /// `--sanitize`: non-finite triangles are collapsed, not an error.
     pub sanitize: bool,
 }
@@ -121,6 +129,8 @@ impl SoupFeatures {
             morph_targets: scene.max_morph_targets(),
             normals: scene.has_normals(),
             uvs: scene.has_uvs(),
+            uvs1: scene.has_uvs1(),
+            colors: scene.has_colors(),
             sanitize: scene.options().sanitize,
         }
     }
@@ -139,6 +149,12 @@ impl SoupFeatures {
         }
         if self.uvs {
             d.push(("HAS_UVS", "1".to_owned()));
+        }
+        if self.uvs1 {
+            d.push(("HAS_UVS1", "1".to_owned()));
+        }
+        if self.colors {
+            d.push(("HAS_COLORS", "1".to_owned()));
         }
         if self.sanitize {
             d.push(("SANITIZE", "1".to_owned()));
@@ -205,6 +221,8 @@ struct StaticBuffers {
     base_positions: Buffer<[f32; 4]>,
     base_normals: Option<Buffer<[f32; 4]>>,
     base_uvs: Option<Buffer<[f32; 2]>>,
+    base_uvs1: Option<Buffer<[f32; 2]>>,
+    base_colors: Option<Buffer<[f32; 4]>>,
     position_deltas: Option<Buffer<[f32; 4]>>,
     normal_deltas: Option<Buffer<[f32; 4]>>,
     influence_joints: Option<Buffer<[u32; 4]>>,
@@ -222,6 +240,8 @@ struct FrameBuffers {
     positions: Buffer<[f32; 4]>,
     normals: Option<Buffer<[f32; 4]>>,
     uvs: Option<Buffer<[f32; 2]>>,
+    uvs1: Option<Buffer<[f32; 2]>>,
+    colors: Option<Buffer<[f32; 4]>>,
     material_ids: Buffer<u32>,
 }
 
@@ -323,6 +343,8 @@ impl<'d> DeviceSoup<'d> {
         let mut base_positions: Vec<[f32; 4]> = Vec::new();
         let mut base_normals: Vec<[f32; 4]> = Vec::new();
         let mut base_uvs: Vec<[f32; 2]> = Vec::new();
+        let mut base_uvs1: Vec<[f32; 2]> = Vec::new();
+        let mut base_colors: Vec<[f32; 4]> = Vec::new();
         let mut position_deltas: Vec<[f32; 4]> = Vec::new();
         let mut normal_deltas: Vec<[f32; 4]> = Vec::new();
         let mut influence_joints: Vec<[u32; 4]> = Vec::new();
@@ -405,6 +427,18 @@ impl<'d> DeviceSoup<'d> {
                                 None => base_uvs.extend(std::iter::repeat_n([0.0; 2], n)),
                             }
                         }
+                        if features.uvs1 {
+                            match &prim.uvs1 {
+                                Some(uv) => base_uvs1.extend_from_slice(uv),
+                                None => base_uvs1.extend(std::iter::repeat_n([0.0; 2], n)),
+                            }
+                        }
+                        if features.colors {
+                            match &prim.colors {
+                                Some(c) => base_colors.extend_from_slice(c),
+                                None => base_colors.extend(std::iter::repeat_n([1.0; 4], n)),
+                            }
+                        }
                         let mut morph_base = SOUP_NONE;
                         if morphs && mesh.target_count > 0 {
                             morph_base = as_u32(&file, "morph deltas", position_deltas.len())?;
@@ -470,6 +504,12 @@ impl<'d> DeviceSoup<'d> {
                 if prim.uvs.is_some() {
                     flags |= SEG_UVS;
                 }
+                if prim.uvs1.is_some() {
+                    flags |= SEG_UVS1;
+                }
+                if prim.colors.is_some() {
+                    flags |= SEG_COLORS;
+                }
                 if skinned {
                     flags |= SEG_SKINNED;
                 }
@@ -533,6 +573,14 @@ impl<'d> DeviceSoup<'d> {
                 .uvs
                 .then(|| upload(device, &base_uvs, a))
                 .transpose()?,
+            base_uvs1: features
+                .uvs1
+                .then(|| upload(device, &base_uvs1, a))
+                .transpose()?,
+            base_colors: features
+                .colors
+                .then(|| upload(device, &base_colors, a))
+                .transpose()?,
             position_deltas,
             normal_deltas,
             influence_joints: features
@@ -550,6 +598,8 @@ impl<'d> DeviceSoup<'d> {
             deformed_normals: allocate_if(features.normals, device, vertex_count, a)?,
             normals: allocate_if(features.normals, device, 3 * triangle_count, a)?,
             uvs: allocate_if(features.uvs, device, 3 * triangle_count, a)?,
+            uvs1: allocate_if(features.uvs1, device, 3 * triangle_count, a)?,
+            colors: allocate_if(features.colors, device, 3 * triangle_count, a)?,
             instances: allocate(device, instances.len(), a)?,
             deformed_positions: allocate(device, vertex_count, a)?,
             status: allocate(device, 2, a)?,
@@ -708,9 +758,13 @@ impl<'d> DeviceSoup<'d> {
         ];
         args.extend(f.deformed_normals.as_ref().map(|b| Arg::Buf(b)));
         args.extend(s.base_uvs.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(s.base_uvs1.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(s.base_colors.as_ref().map(|b| Arg::Buf(b)));
         args.push(Arg::Buf(&f.positions));
         args.extend(f.normals.as_ref().map(|b| Arg::Buf(b)));
         args.extend(f.uvs.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(f.uvs1.as_ref().map(|b| Arg::Buf(b)));
+        args.extend(f.colors.as_ref().map(|b| Arg::Buf(b)));
         args.push(Arg::Buf(&f.status));
         d.launch(
             "soup/assemble",
@@ -791,6 +845,18 @@ impl<'d> DeviceSoup<'d> {
         self.frame.uvs.as_ref()
     }
 
+    /// The second texture coordinate set, three `float2` per triangle, when
+    /// the scene has one.
+    pub fn uvs1(&self) -> Option<&Buffer<[f32; 2]>> {
+        self.frame.uvs1.as_ref()
+    }
+
+    /// COLOR_0, three `float4` per triangle, when the scene has vertex
+    /// colours.
+    pub fn colors(&self) -> Option<&Buffer<[f32; 4]>> {
+        self.frame.colors.as_ref()
+    }
+
     /// One material index per triangle, into `Scene::materials`.
     pub fn material_ids(&self) -> &Buffer<u32> {
         &self.frame.material_ids
@@ -828,8 +894,8 @@ impl<'d> DeviceSoup<'d> {
         let mut soup = Soup {
             positions: vec![[0.0; 4]; 3 * n],
             normals: Vec::new(),
-            uvs: Vec::new(),
             material_ids: vec![0; n],
+            ..Soup::default()
         };
         d.read(&f.positions, &mut soup.positions)?;
         if let Some(b) = &f.normals {
@@ -839,6 +905,14 @@ impl<'d> DeviceSoup<'d> {
         if let Some(b) = &f.uvs {
             soup.uvs = vec![[0.0; 2]; 3 * n];
             d.read(b, &mut soup.uvs)?;
+        }
+        if let Some(b) = &f.uvs1 {
+            soup.uvs1 = vec![[0.0; 2]; 3 * n];
+            d.read(b, &mut soup.uvs1)?;
+        }
+        if let Some(b) = &f.colors {
+            soup.colors = vec![[0.0; 4]; 3 * n];
+            d.read(b, &mut soup.colors)?;
         }
         d.read(&f.material_ids, &mut soup.material_ids)?;
         Ok(soup)

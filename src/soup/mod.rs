@@ -23,6 +23,13 @@ pub struct Soup {
     pub normals: Vec<[f32; 4]>,
     /// Texture coordinates (TEXCOORD_0), one per corner, or empty.
     pub uvs: Vec<[f32; 2]>,
+    /// The second texture coordinate set the materials sample (TEXCOORD_1,
+    /// or the one other set they use: `Scene::second_uv_set`), one per
+    /// corner, or empty.
+    pub uvs1: Vec<[f32; 2]>,
+    /// Vertex colours (COLOR_0, linear RGBA, alpha 1 for RGB), one per
+    /// corner, or empty when no primitive has them.
+    pub colors: Vec<[f32; 4]>,
     /// Index into the scene's material table, one per triangle, or empty
     /// (every triangle uses the default material).
     pub material_ids: Vec<u32>,
@@ -106,6 +113,8 @@ impl fmt::Debug for Soup {
             .field("triangles", &self.triangle_count())
             .field("normals", &!self.normals.is_empty())
             .field("uvs", &!self.uvs.is_empty())
+            .field("uvs1", &!self.uvs1.is_empty())
+            .field("colors", &!self.colors.is_empty())
             .field("materials", &!self.material_ids.is_empty())
             .finish()
     }

@@ -322,6 +322,8 @@ pub struct DeviceFrame {
 
 const FRAME_NORMALS: u32 = 1;
 const FRAME_UVS: u32 = 2;
+const FRAME_UVS1: u32 = 8;
+const FRAME_COLORS: u32 = 16;
 const FRAME_CLAY: u32 = 4;
 
 /// The camera for a `width` x `height` image. The image's aspect ratio is
@@ -362,6 +364,8 @@ struct SoupBuffers<'a> {
     positions: &'a Buffer<[f32; 4]>,
     normals: Option<&'a Buffer<[f32; 4]>>,
     uvs: Option<&'a Buffer<[f32; 2]>>,
+    uvs1: Option<&'a Buffer<[f32; 2]>>,
+    colors: Option<&'a Buffer<[f32; 4]>>,
     material_ids: &'a Buffer<u32>,
     triangles: usize,
 }
@@ -616,6 +620,8 @@ struct HostSoupBuffers {
     positions: GrowBuffer<[f32; 4]>,
     normals: GrowBuffer<[f32; 4]>,
     uvs: GrowBuffer<[f32; 2]>,
+    uvs1: GrowBuffer<[f32; 2]>,
+    colors: GrowBuffer<[f32; 4]>,
     material_ids: GrowBuffer<u32>,
 }
 
@@ -706,10 +712,8 @@ impl<'d> PathTracer<'d> {
                     // (those of slots outside `slots` stay -1).
                     let n = table.materials.len();
                     let mut bindings = Vec::with_capacity(slots.len() * n);
-                    let mut set1 = false;
                     let mut bind = |m: &crate::scene::Material, slot: Slot, index: usize| {
                         let b = set.slot_binding(m, slot);
-                        set1 |= !b.is_none() && b.tex_coord == 1;
                         bindings.push(b);
                         if b.is_none() {
                             -1
@@ -744,13 +748,6 @@ impl<'d> PathTracer<'d> {
                                 bind(m, Slot::IridescenceThickness, at + 11);
                             x.anisotropy_tex = bind(m, Slot::Anisotropy, at + 12);
                         }
-                    }
-                    if set1 {
-                        warnings.push(
-                            "some material samples a texture with TEXCOORD_1; the soup carries TEXCOORD_0 only, \
-                             so those textures are read with TEXCOORD_0"
-                                .to_owned(),
-                        );
                     }
                     let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
                     device.write(&mut buf, &bindings)?;
@@ -914,6 +911,8 @@ impl<'d> PathTracer<'d> {
             positions: frame.soup.positions(),
             normals: frame.soup.normals(),
             uvs: frame.soup.uvs(),
+            uvs1: frame.soup.uvs1(),
+            colors: frame.soup.colors(),
             material_ids: frame.soup.material_ids(),
             triangles: frame.soup.triangle_count(),
         };
@@ -954,6 +953,8 @@ impl<'d> PathTracer<'d> {
             positions: motion.positions,
             normals: motion.normals,
             uvs: frame.soup.uvs(),
+            uvs1: frame.soup.uvs1(),
+            colors: frame.soup.colors(),
             material_ids: frame.soup.material_ids(),
             triangles: frame.soup.triangle_count(),
         };
@@ -1093,6 +1094,8 @@ impl<'d> PathTracer<'d> {
             positions: GrowBuffer::new(),
             normals: GrowBuffer::new(),
             uvs: GrowBuffer::new(),
+            uvs1: GrowBuffer::new(),
+            colors: GrowBuffer::new(),
             material_ids: GrowBuffer::new(),
         });
         let result = (|| {
@@ -1104,6 +1107,14 @@ impl<'d> PathTracer<'d> {
             if has_uvs {
                 d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
             }
+            let has_uvs1 = first.uvs1.len() == 3 * n && n > 0;
+            if has_uvs1 {
+                d.write(hs.uvs1.ensure(d, 3 * n)?, &first.uvs1)?;
+            }
+            let has_colors = first.colors.len() == 3 * n && n > 0;
+            if has_colors {
+                d.write(hs.colors.ensure(d, 3 * n)?, &first.colors)?;
+            }
             let ids = if first.material_ids.len() == n {
                 first.material_ids.clone()
             } else {
@@ -1114,6 +1125,8 @@ impl<'d> PathTracer<'d> {
                 positions: hs.positions.get(),
                 normals: normals.is_some().then(|| hs.normals.get()),
                 uvs: has_uvs.then(|| hs.uvs.get()),
+                uvs1: has_uvs1.then(|| hs.uvs1.get()),
+                colors: has_colors.then(|| hs.colors.get()),
                 material_ids: hs.material_ids.get(),
                 triangles: n,
             };
@@ -1273,6 +1286,12 @@ impl<'d> PathTracer<'d> {
         let mut flags = 0;
         if soup.normals.is_some() {
             flags |= FRAME_NORMALS;
+        }
+        if soup.uvs1.is_some() {
+            flags |= FRAME_UVS1;
+        }
+        if soup.colors.is_some() {
+            flags |= FRAME_COLORS;
         }
         if soup.uvs.is_some() {
             flags |= FRAME_UVS;
@@ -1637,6 +1656,14 @@ impl<'d> PathTracer<'d> {
                         None => Arg::Buf(&self.dummy_f32),
                     },
                     match soup.uvs {
+                        Some(b) => Arg::Buf(b),
+                        None => Arg::Buf(&self.dummy_f32),
+                    },
+                    match soup.uvs1 {
+                        Some(b) => Arg::Buf(b),
+                        None => Arg::Buf(&self.dummy_f32),
+                    },
+                    match soup.colors {
                         Some(b) => Arg::Buf(b),
                         None => Arg::Buf(&self.dummy_f32),
                     },
