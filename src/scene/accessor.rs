@@ -31,7 +31,7 @@ fn component_size(ty: DataType) -> usize {
     }
 }
 
-fn type_name(ty: DataType) -> &'static str {
+pub(crate) fn type_name(ty: DataType) -> &'static str {
     match ty {
         DataType::I8 => "BYTE",
         DataType::U8 => "UNSIGNED_BYTE",

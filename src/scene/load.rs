@@ -391,7 +391,18 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         warnings,
         extensions_used: doc.extensions_used().map(str::to_owned).collect(),
         variants,
-        extensions_required: doc.extensions_required().map(str::to_owned).collect(),
+        // From the file itself: the document handed to the `gltf` crate
+        // lacks the required extensions soupray reads on its own.
+        extensions_required: src
+            .json
+            .get("extensionsRequired")
+            .and_then(|r| r.as_array())
+            .map(|r| {
+                r.iter()
+                    .filter_map(|e| e.as_str().map(str::to_owned))
+                    .collect()
+            })
+            .unwrap_or_default(),
         soup_has_normals,
         soup_has_uvs,
         soup_has_uvs1,

@@ -204,13 +204,14 @@ fn load_primitive(
         return Ok(None);
     };
     let usage = |attr: &str| format!("{attr} of {where_}");
-    // Positions are float in core glTF 2.0; integer positions need
-    // KHR_mesh_quantization, which soupray refuses at load.
-    reader.expect(
+    let quantized = reader.src.uses_extension(QUANTIZATION);
+    expect_vertex(
+        reader,
         &pos_acc,
         &usage("POSITION"),
-        &[Dimensions::Vec3],
-        &[DataType::F32],
+        Dimensions::Vec3,
+        Attribute::Position,
+        quantized,
     )?;
     let positions = reader.vec3s(&pos_acc, &usage("POSITION"), !sanitize)?;
     let vertex_count = positions.len();
@@ -233,11 +234,13 @@ fn load_primitive(
 
     let normals = match prim.get(&Semantic::Normals) {
         Some(acc) => {
-            reader.expect(
+            expect_vertex(
+                reader,
                 &acc,
                 &usage("NORMAL"),
-                &[Dimensions::Vec3],
-                &[DataType::F32],
+                Dimensions::Vec3,
+                Attribute::Normal,
+                quantized,
             )?;
             same_count(&acc, "NORMAL")?;
             Some(reader.vec3s(&acc, &usage("NORMAL"), !sanitize)?)
@@ -250,11 +253,13 @@ fn load_primitive(
             return Ok(None);
         };
         let attr = format!("TEXCOORD_{set}");
-        reader.expect(
+        expect_vertex(
+            reader,
             &acc,
             &usage(&attr),
-            &[Dimensions::Vec2],
-            &[DataType::F32, DataType::U8, DataType::U16],
+            Dimensions::Vec2,
+            Attribute::TexCoord,
+            quantized,
         )?;
         same_count(&acc, &attr)?;
         let flat = reader.floats(&acc, &usage(&attr))?;
@@ -334,14 +339,30 @@ fn load_primitive(
     let mut targets = Vec::new();
     for (t, target) in prim.morph_targets().enumerate() {
         let mut loaded = MorphTarget::default();
-        for (acc, attr, slot) in [
-            (target.positions(), "POSITION", &mut loaded.positions),
-            (target.normals(), "NORMAL", &mut loaded.normals),
+        for (acc, attr, kind, slot) in [
+            (
+                target.positions(),
+                "POSITION",
+                Attribute::PositionDelta,
+                &mut loaded.positions,
+            ),
+            (
+                target.normals(),
+                "NORMAL",
+                Attribute::Normal,
+                &mut loaded.normals,
+            ),
         ] {
             if let Some(acc) = acc {
                 let what = format!("morph target {t} {attr}");
-                // Integer deltas need KHR_mesh_quantization; core glTF has floats.
-                reader.expect(&acc, &usage(&what), &[Dimensions::Vec3], &[DataType::F32])?;
+                expect_vertex(
+                    reader,
+                    &acc,
+                    &usage(&what),
+                    Dimensions::Vec3,
+                    kind,
+                    quantized,
+                )?;
                 same_count(&acc, &what)?;
                 *slot = Some(reader.vec3s(&acc, &usage(&what), !sanitize)?);
             }
@@ -364,6 +385,75 @@ fn load_primitive(
         influences,
         material: prim.material().index(),
     }))
+}
+
+/// The extension that lets vertex attributes be stored as (normalized)
+/// integers, the node transform carrying the dequantization.
+pub(crate) const QUANTIZATION: &str = "KHR_mesh_quantization";
+
+/// Which row of the component-type tables an attribute reads from.
+#[derive(Clone, Copy, PartialEq)]
+enum Attribute {
+    Position,
+    /// A morph target's POSITION delta (signed types only: a delta has a sign).
+    PositionDelta,
+    /// NORMAL of the base mesh or of a morph target: unit vectors, so
+    /// integers must be normalized.
+    Normal,
+    TexCoord,
+}
+
+/// Checks an attribute's type and component type against glTF 2.0
+/// §3.7.2.1 and, when the file uses KHR_mesh_quantization, that
+/// extension's table of additional types.
+fn expect_vertex(
+    reader: &Reader,
+    acc: &gltf::Accessor,
+    usage: &str,
+    dims: Dimensions,
+    attribute: Attribute,
+    quantized: bool,
+) -> Result<()> {
+    use DataType::{F32, I16, I8, U16, U8};
+    let core: &[DataType] = match attribute {
+        Attribute::TexCoord => &[F32, U8, U16],
+        _ => &[F32],
+    };
+    let widened: &[DataType] = match attribute {
+        Attribute::Position | Attribute::TexCoord => &[F32, I8, U8, I16, U16],
+        Attribute::PositionDelta => &[F32, I8, I16],
+        Attribute::Normal => &[F32, I8, I16],
+    };
+    let ty = acc.data_type();
+    if !quantized && !core.contains(&ty) && widened.contains(&ty) {
+        return Err(reader.error(
+            acc,
+            usage,
+            format!(
+                "is stored as integers ({}), which glTF 2.0 allows only with the extension                  {QUANTIZATION}, and the file does not list it in extensionsUsed. Fix: add                  \"{QUANTIZATION}\" to extensionsUsed and extensionsRequired, or re-export the asset                  with float attributes.",
+                super::accessor::type_name(ty)
+            ),
+        ));
+    }
+    reader.expect(acc, usage, &[dims], if quantized { widened } else { core })?;
+    let needs_normalized = match attribute {
+        Attribute::Normal => ty != F32,
+        // Core glTF's integer texture coordinates are fractions; the
+        // extension adds unnormalized ones scaled by KHR_texture_transform.
+        Attribute::TexCoord => !quantized && ty != F32,
+        Attribute::Position | Attribute::PositionDelta => false,
+    };
+    if needs_normalized && !acc.normalized() {
+        return Err(reader.error(
+            acc,
+            usage,
+            format!(
+                "is {} without normalized: true; this attribute allows integers only as normalized                  fractions. Fix: re-export the asset.",
+                super::accessor::type_name(ty)
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn load_influences(

@@ -27,11 +27,12 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_variants",
     "KHR_materials_volume",
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
 
 /// Supported extensions read from the raw JSON rather than by the `gltf`
-/// crate (`scene::material`).
+/// crate (`scene::material`; `scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -45,6 +46,7 @@ const READ_FROM_RAW_JSON: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_variants",
     "KHR_materials_volume",
+    "KHR_mesh_quantization",
 ];
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -67,6 +69,27 @@ pub struct Source {
     /// What was skipped or ignored while reading (unknown animation paths,
     /// buffers longer than their `byteLength`).
     pub warnings: Vec<String>,
+}
+
+impl Source {
+    /// Whether the file lists `name` in extensionsUsed (or, against the
+    /// spec but harmlessly, only in extensionsRequired).
+    pub(crate) fn uses_extension(&self, name: &str) -> bool {
+        self.json
+            .as_object()
+            .is_some_and(|root| uses_extension(root, name))
+    }
+}
+
+pub(crate) fn uses_extension(
+    root: &serde_json::Map<String, serde_json::Value>,
+    name: &str,
+) -> bool {
+    ["extensionsUsed", "extensionsRequired"].iter().any(|key| {
+        root.get(*key)
+            .and_then(|list| list.as_array())
+            .is_some_and(|list| list.iter().any(|e| e.as_str() == Some(name)))
+    })
 }
 
 struct Glb<'a> {

@@ -732,6 +732,7 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
     }
 
     // Meshes.
+    let quantized = super::source::uses_extension(root, super::mesh::QUANTIZATION);
     for (i, mesh) in items(file, root, "meshes")?.iter().enumerate() {
         let prims = array(
             file,
@@ -757,14 +758,28 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                 let fraction = ["TEXCOORD_", "COLOR_", "WEIGHTS_"]
                     .iter()
                     .any(|p| name.starts_with(p));
-                if fraction && ct != 5126 && !(matches!(ct, 5121 | 5123) && normalized) {
+                // KHR_mesh_quantization adds every (un)normalized 8- and
+                // 16-bit type for texture coordinates (its table).
+                let quantized_uv =
+                    quantized && name.starts_with("TEXCOORD_") && matches!(ct, 5120..=5123);
+                if fraction
+                    && ct != 5126
+                    && !(matches!(ct, 5121 | 5123) && normalized)
+                    && !quantized_uv
+                {
                     return Err(fail(
                         file,
                         format!(
                             "{} attribute {name} is accessor {a} of componentType {ct}{}; glTF allows FLOAT \
-                             or normalized UNSIGNED_BYTE/UNSIGNED_SHORT there",
+                             or normalized UNSIGNED_BYTE/UNSIGNED_SHORT there{}",
                             at(),
-                            if normalized { " (normalized)" } else { " without normalized: true" }
+                            if normalized { " (normalized)" } else { " without normalized: true" },
+                            if name.starts_with("TEXCOORD_") && matches!(ct, 5120..=5123) {
+                                " (and any 8- or 16-bit integers when the file lists KHR_mesh_quantization \
+                                 in extensionsUsed)"
+                            } else {
+                                ""
+                            }
                         ),
                     ));
                 }

@@ -127,6 +127,24 @@ impl Builder {
         )
     }
 
+    pub fn i16s(&mut self, data: &[i16], width: usize, normalized: bool) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessor(
+            json!({"bufferView": view, "componentType": 5122, "count": data.len() / width,
+            "type": type_of(width), "normalized": normalized}),
+        )
+    }
+
+    pub fn i8s(&mut self, data: &[i8], width: usize, normalized: bool) -> usize {
+        let bytes: Vec<u8> = data.iter().map(|&v| v as u8).collect();
+        let view = self.view(&bytes);
+        self.accessor(
+            json!({"bufferView": view, "componentType": 5120, "count": data.len() / width,
+            "type": type_of(width), "normalized": normalized}),
+        )
+    }
+
     pub fn u32s(&mut self, data: &[u32]) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
         let view = self.view(&bytes);
