@@ -598,14 +598,7 @@ impl Image {
             }
             ImageSource::Bytes(b) => (&b[..]).into(),
         };
-        let img = image::load_from_memory(&bytes)
-            .map_err(|e| format!("cannot be decoded ({e}); soupray reads PNG and JPEG. Fix: re-export the texture as PNG or JPEG."))?;
-        let rgba = img.to_rgba8();
-        Ok(Arc::new(DecodedImage {
-            width: rgba.width(),
-            height: rgba.height(),
-            rgba8: rgba.into_raw(),
-        }))
+        super::image_decode::decode(&bytes).map(Arc::new)
     }
 }
 

@@ -14,6 +14,7 @@ pub mod camera;
 pub mod deform;
 pub mod error;
 mod evaluate;
+mod image_decode;
 pub mod light;
 mod load;
 pub mod material;
@@ -21,6 +22,7 @@ pub mod mesh;
 pub mod pose;
 mod ranges;
 mod source;
+mod texture_source;
 mod validate;
 
 use std::sync::OnceLock;

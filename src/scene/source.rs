@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use super::error::{Result, SceneError};
+use super::texture_source;
 
 /// Extensions whose semantics soupray implements; any other name in
 /// `extensionsRequired` is refused. (Names in `extensionsUsed` only are
@@ -29,6 +30,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
+    "EXT_texture_webp",
 ];
 
 /// Supported extensions read from the raw JSON rather than by the `gltf`
@@ -47,6 +49,9 @@ const READ_FROM_RAW_JSON: &[&str] = &[
     "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
+    texture_source::KHR_TEXTURE_BASISU,
+    texture_source::EXT_TEXTURE_WEBP,
+    texture_source::EXT_TEXTURE_AVIF,
 ];
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -138,7 +143,9 @@ pub fn load(path: &Path) -> Result<Source> {
     if let Some(required) = json.get("extensionsRequired").and_then(|r| r.as_array()) {
         for extension in required {
             let name = extension.as_str().unwrap_or("(not a string)");
-            if !SUPPORTED_EXTENSIONS.contains(&name) {
+            // Required AVIF is honoured where every AVIF texture has a
+            // fallback image; `choose_texture_images` refuses the rest.
+            if !SUPPORTED_EXTENSIONS.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
                 return Err(SceneError::UnsupportedExtension {
                     file,
                     extension: name.to_owned(),
@@ -161,6 +168,17 @@ pub fn load(path: &Path) -> Result<Source> {
             !e.as_str()
                 .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
         });
+    }
+    // The `gltf` crate needs every texture's `source`; it gets the image
+    // soupray samples, which a texture-source extension may have chosen.
+    let (texture_images, avif_warning) = texture_source::choose_texture_images(&file, &json)?;
+    warnings.extend(avif_warning);
+    if let Some(textures) = for_crate.get_mut("textures").and_then(|t| t.as_array_mut()) {
+        for (texture, image) in textures.iter_mut().zip(&texture_images) {
+            if let (Some(t), Some(image)) = (texture.as_object_mut(), image) {
+                t.insert("source".into(), (*image).into());
+            }
+        }
     }
     let root: gltf::json::Root = serde_json::from_value(for_crate).map_err(|e| not_json(&e))?;
 

@@ -671,7 +671,25 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
     for (i, t) in items(file, root, "textures")?.iter().enumerate() {
         let at = || format!("texture {i}");
         c.opt_index(t, "sampler", &at, "samplers")?;
-        c.opt_index(t, "source", &at, "images")?;
+        let fallback = c.opt_index(t, "source", &at, "images")?;
+        let mut any_source = fallback.is_some();
+        for ext in crate::scene::texture_source::TEXTURE_SOURCE_EXTENSIONS {
+            let Some(e) = t.get("extensions").and_then(|e| e.get(*ext)) else {
+                continue;
+            };
+            let at_ext = || format!("{}.extensions.{ext}", at());
+            let e = object(file, e, &at_ext)?;
+            any_source |= c.opt_index(e, "source", &at_ext, "images")?.is_some();
+        }
+        if !any_source {
+            return Err(fail(
+                file,
+                format!(
+                    "{} has no image: neither source nor a texture-source extension's source",
+                    at()
+                ),
+            ));
+        }
     }
     // Materials: every texture reference and its texCoord.
     for (i, m) in items(file, root, "materials")?.iter().enumerate() {
