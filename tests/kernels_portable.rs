@@ -219,6 +219,10 @@ fn variants() -> Vec<Variant> {
                                 morph_targets,
                                 normals,
                                 uvs,
+                                // The extra corner attributes are gathered
+                                // like the uvs: on and off with them.
+                                uvs1: uvs,
+                                colors: uvs,
                                 sanitize,
                             };
                             v.push(Variant {

@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Matrix4, Quaternion, UnitQuaternion, Vector3, Vector4};
 use serde_json::{json, Value};
 
+// Tests that use both support modules load it twice; it has no state.
+#[allow(clippy::duplicate_mod)]
 #[path = "../common/shared.rs"]
 pub mod shared;
 
