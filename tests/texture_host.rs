@@ -440,7 +440,7 @@ fn a_corrupt_image_names_the_file_and_the_image() {
 }
 
 #[test]
-fn texcoord_sets_beyond_one_are_refused_with_a_fix() {
+fn a_second_uv_set_other_than_one_is_carried_in_the_second_slot() {
     let dir = tempfile::tempdir().unwrap();
     png(&dir.path().join("t.png"), 1, 1, &[1, 2, 3, 4]);
     let path = write_gltf(
@@ -449,16 +449,44 @@ fn texcoord_sets_beyond_one_are_refused_with_a_fix() {
         json!({
             "images": [{"uri": "t.png"}],
             "textures": [{"source": 0}],
-            "materials": [{"name": "m", "normalTexture": {"index": 0, "texCoord": 2}}]
+            "materials": [{"name": "m", "normalTexture": {"index": 0, "texCoord": 2},
+                           "emissiveTexture": {"index": 0}}]
         }),
     );
     let scene = materials_of(&path);
-    let msg = HostTextures::new(table(&scene)).unwrap_err().to_string();
+    // TEXCOORD_2 is the one set besides 0: the soup's slot 1 carries it.
+    assert_eq!(scene.second_uv_set(), Some(2));
+    let m = &table(&scene).materials[0];
+    assert_eq!(m.normal_texture.as_ref().unwrap().tex_coord, 1);
+    assert_eq!(m.emissive_texture.as_ref().unwrap().tex_coord, 0);
+    HostTextures::new(table(&scene)).unwrap();
+}
+
+#[test]
+fn two_uv_sets_besides_the_first_keep_the_lowest_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    png(&dir.path().join("t.png"), 1, 1, &[1, 2, 3, 4]);
+    let path = write_gltf(
+        dir.path(),
+        "uv12.gltf",
+        json!({
+            "images": [{"uri": "t.png"}],
+            "textures": [{"source": 0}],
+            "materials": [{"name": "m", "normalTexture": {"index": 0, "texCoord": 3},
+                           "emissiveTexture": {"index": 0, "texCoord": 1}}]
+        }),
+    );
+    let scene = materials_of(&path);
+    assert_eq!(scene.second_uv_set(), Some(1));
+    let m = &table(&scene).materials[0];
+    assert_eq!(m.emissive_texture.as_ref().unwrap().tex_coord, 1);
+    assert_eq!(m.normal_texture.as_ref().unwrap().tex_coord, 0);
     assert!(
-        msg.contains("material 0 \"m\"")
-            && msg.contains("normalTexture")
-            && msg.contains("TEXCOORD_2")
-            && msg.contains("Fix:"),
-        "{msg}"
+        scene
+            .warnings()
+            .iter()
+            .any(|w| w.contains("TEXCOORD_3") && w.contains("read with TEXCOORD_0")),
+        "{:?}",
+        scene.warnings()
     );
 }
