@@ -19,6 +19,7 @@ pub mod light;
 mod load;
 pub mod material;
 pub mod mesh;
+mod meshopt_views;
 pub mod pose;
 mod ranges;
 mod source;

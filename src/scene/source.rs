@@ -14,6 +14,7 @@ use super::texture_source;
 /// `extensionsRequired` is refused. (Names in `extensionsUsed` only are
 /// optional by definition and are ignored when unknown.)
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_meshopt_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -36,6 +37,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// Supported extensions read from the raw JSON rather than by the `gltf`
 /// crate (`scene::material`; `scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
+    "EXT_meshopt_compression",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
@@ -180,6 +182,8 @@ pub fn load(path: &Path) -> Result<Source> {
             }
         }
     }
+    let compressed = super::meshopt_views::compressed_views(&file, &json)?;
+    super::meshopt_views::redirect_views(&mut for_crate, &compressed);
     let root: gltf::json::Root = serde_json::from_value(for_crate).map_err(|e| not_json(&e))?;
 
     let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
@@ -197,7 +201,20 @@ pub fn load(path: &Path) -> Result<Source> {
     let mut glb_bin = glb_bin;
     let mut buffers = Vec::new();
     let mut short_buffers = Vec::new();
-    for buffer in document.buffers() {
+    let file_buffers = document.buffers().len() - compressed.len();
+    for buffer in document.buffers().take(file_buffers) {
+        let raw = &json["buffers"][buffer.index()];
+        if super::meshopt_views::is_fallback_buffer(raw) {
+            // Only compressed views point here, and they read their
+            // decoded buffers instead: its uri, if any, is not read.
+            buffers.push(Vec::new());
+            short_buffers.push(Some(format!(
+                "buffer {} is a fallback buffer of {}, which holds no data",
+                buffer.index(),
+                super::meshopt_views::EXTENSION
+            )));
+            continue;
+        }
         let (data, glb_note) = match buffer.source() {
             gltf::buffer::Source::Bin => match glb_bin.take() {
                 Some(bin) => (bin, glb_truncation.clone()),
@@ -248,6 +265,12 @@ pub fn load(path: &Path) -> Result<Source> {
         }
         buffers.push(data);
         short_buffers.push(note);
+    }
+    // Compressed views decode into the buffers `redirect_views` appended.
+    for c in &compressed {
+        let decoded = super::meshopt_views::decode(&file, c, &buffers, &short_buffers)?;
+        buffers.push(decoded);
+        short_buffers.push(None);
     }
 
     Ok(Source {
