@@ -7,7 +7,7 @@
 # the medians, as a Markdown table row per stage.
 #
 #   scripts/bench-motion.sh BINARY SCENE FRAMES [RUNS] -- [render flags...] [-- blur flags...]
-#   scripts/bench-motion.sh target/release/soupray animations/CesiumMan/CesiumMan.glb 0-48:4 3 -- --spp 16 -- --shutter 0.5
+#   scripts/bench-motion.sh target/release/soupray animations/walker/walker.glb 0-48:4 3 -- --spp 16 -- --shutter 0.5
 set -euo pipefail
 [ $# -ge 3 ] || { sed -n '2,11p' "$0" >&2; exit 2; }
 bin=$1 scene=$2 frames=$3 runs=3

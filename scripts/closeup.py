@@ -5,7 +5,7 @@ For the motion-blur benchmark's scene where the character fills the frame
 (BENCHMARKS.md, "Motion blur"): soupray renders a file's first camera, and
 the shipped animation has none.
 
-    scripts/closeup.py animations/CesiumMan/CesiumMan.glb out/closeup.glb [X Y Z [YFOV]]
+    scripts/closeup.py animations/walker/walker.glb out/closeup.glb [X Y Z [YFOV]]
 
 The camera looks down -Z from (X, Y, Z) (default 0 0.8 1.3, yfov 0.7 rad).
 """

@@ -9,7 +9,7 @@
 # --bundle builds the release binary, the device test binaries (cargo test
 # --release --no-run) and the benchmark binaries, strips them, and copies
 # the OpenCL ICD loader from Debian's ocl-icd-libopencl1 package (apt-get
-# download + dpkg-deb -x), the assets the binaries read (tests/assets,
+# download + dpkg-deb -x), the assets the binaries read (the shared folder's assets,
 # tests/golden, the shipped animation) and this script.
 #
 # run.sh finds the machine's OpenCL drivers (libnvidia-opencl.so.1, or any
@@ -99,9 +99,18 @@ bundle() {
 
   # What the binaries read, under the root they are pointed at
   # (SOUPRAY_TEST_ROOT stands in for the checkout they were built in).
-  mkdir -p "$dir/root/tests" "$dir/root/animations"
-  cp -a tests/assets tests/golden "$dir/root/tests/"
-  cp -a animations/CesiumMan "$dir/root/animations/"
+  # The third-party assets come from the shared folder beside the checkout
+  # (the repository has no copies); the GPU machine has no other.
+  shared="${SOUPRAY_SHARED:-../shared}"
+  mkdir -p "$dir/root/tests" "$dir/root/animations" "$dir/shared/meshes"
+  cp -a tests/golden "$dir/root/tests/"
+  cp -a animations/walker "$dir/root/animations/"
+  if [ -d "$shared/assets" ]; then
+    cp -a "$shared/assets" "$dir/shared/"
+    cp -a "$shared/meshes/beast.ply" "$shared/meshes/nefertiti.ply" "$dir/shared/meshes/"
+  else
+    echo "gpu-check: no shared folder at $shared: the bundle's tests that need it will skip" >&2
+  fi
   cp "$0" "$dir/gpu-check.sh"
   chmod +x "$dir/gpu-check.sh"
   cat > "$dir/run.sh" <<'EOF'
@@ -171,6 +180,7 @@ run_check() {
   export OCL_ICD_VENDORS=$vendors
   export LD_LIBRARY_PATH="$B/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
   export SOUPRAY_TEST_ROOT="$B/root"
+  export SOUPRAY_SHARED="$B/shared"
   export SOUPRAY_BUILD_LOG_DIR="$OUT/build-logs"
   # The drivers' program caches, inside OUT: the first program builds are
   # cold, as on a fresh node; later ones hit the cache.
@@ -233,7 +243,7 @@ run_check() {
   # Build timings: the build benchmark's 1M and 2.5M soups (10 and 25
   # copies of nefertiti.ply), both mappings, the median of 6 builds (the
   # first, which includes the kernels' first launches, does not move it).
-  local mesh="$B/root/tests/assets/meshes/nefertiti.ply" copies mapping
+  local mesh="$B/shared/meshes/nefertiti.ply" copies mapping
   for copies in 10 25; do
     for mapping in paper single-lane; do
       # 90 s: the paper mapping's six 2.5M builds take about 60 s on a
@@ -249,7 +259,7 @@ run_check() {
   step bench-render_spp 90 sh -c '"$1" --frames 3 > "$2"' _ "$B/bench/render_spp" "$OUT/bench/render_spp.md"
 
   # The shipped animation, as a farm renders it: start-up in frame 0's log.
-  step render 120 "$B/bin/soupray" render "$B/root/animations/CesiumMan/CesiumMan.glb" \
+  step render 120 "$B/bin/soupray" render "$B/root/animations/walker/walker.glb" \
     --frames "${GPU_CHECK_FRAMES:-0-48}" --out "$OUT/render" --quiet
   step report 30 "$B/bin/soupray" report "$OUT/render"
 

@@ -26,7 +26,7 @@ for i in $(seq "$runs"); do
     out="$tmp/$kind-$i"
     t0=$(date +%s%N)
     POCL_CACHE_DIR="$tmp/cache/pocl" CUDA_CACHE_PATH="$tmp/cache/cuda" \
-      "$bin" render animations/CesiumMan/CesiumMan.glb --frames "$frames" --out "$out" --quiet "$@"
+      "$bin" render animations/walker/walker.glb --frames "$frames" --out "$out" --quiet "$@"
     t1=$(date +%s%N)
     python3 - "$out" "$kind" $(( (t1 - t0) / 1000000 )) <<'EOF' | tee -a "$results"
 import json, pathlib, statistics, sys

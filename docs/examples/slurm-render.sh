@@ -5,7 +5,7 @@
 #SBATCH --output=logs/%x-%A_%a.out
 # Frames FIRST..LAST in chunks of CHUNK; task N renders chunk N.
 set -euo pipefail
-SCENE=${SCENE:-animations/CesiumMan/CesiumMan.glb}
+SCENE=${SCENE:-animations/walker/walker.glb}
 OUT=${OUT:-out/walk}
 FIRST=${FIRST:-0}
 LAST=${LAST:-49}

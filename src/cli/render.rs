@@ -36,7 +36,7 @@ use std::sync::{mpsc, Arc};
 use std::time::Instant;
 
 /// The animation `soupray render` renders when no SCENE is given.
-pub const DEFAULT_SCENE: &str = "animations/CesiumMan/CesiumMan.glb";
+pub const DEFAULT_SCENE: &str = "animations/walker/walker.glb";
 
 /// Render frames of a glTF animation to EXR, with a JSON log per frame.
 ///
@@ -231,6 +231,9 @@ pub struct RenderArgs {
     #[arg(long, help_heading = "Image")]
     pub no_energy_compensation: bool,
     /// Constant environment radiance, linear RGB (e.g. 0.5,0.6,1.0).
+    /// Without this or --env: the file's own sky, where its scene's extras
+    /// give one ({"soupray": {"environment": [r, g, b]}}); else none when
+    /// the scene has lights, and white (radiance 1) when it has none.
     #[arg(long, value_name = "R,G,B", help_heading = "Image")]
     pub env_color: Option<String>,
     /// Equirectangular environment map (.exr), importance sampled.
@@ -526,7 +529,9 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             })?;
             Environment::Map(p.clone())
         }
-        (None, None) => Environment::Default,
+        (None, None) => scene
+            .environment()
+            .map_or(Environment::Default, Environment::Color),
     };
     let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
     // The denoiser's auxiliary images come from the film's AOVs.

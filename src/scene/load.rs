@@ -359,6 +359,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     }
 
     let second_uv_set = choose_second_uv_set(&mut materials, &mut meshes, &mut warnings);
+    let environment = file_environment(&src.json, scene_index, &mut warnings);
 
     let instanced = || instances.iter().flat_map(|i| &meshes[i.mesh].primitives);
     let soup_has_normals = instanced().any(|p| p.normals.is_some());
@@ -408,9 +409,45 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         soup_has_uvs1,
         soup_has_colors,
         second_uv_set,
+        environment,
         clip_bounds: OnceLock::new(),
         nodes,
     })
+}
+
+/// The environment a file asks for in the rendered scene's extras,
+/// `{"soupray": {"environment": [r, g, b]}}` (constant linear radiance):
+/// glTF has no sky of its own. Anything else there is ignored with a warning.
+fn file_environment(
+    json: &serde_json::Value,
+    scene_index: Option<usize>,
+    warnings: &mut Vec<String>,
+) -> Option<[f32; 3]> {
+    let value = json
+        .get("scenes")?
+        .get(scene_index.unwrap_or(0))?
+        .get("extras")?
+        .get("soupray")?
+        .get("environment")?;
+    let rgb: Option<Vec<f32>> = value.as_array().filter(|a| a.len() == 3).and_then(|a| {
+        a.iter()
+            .map(|c| {
+                c.as_f64()
+                    .map(|c| c as f32)
+                    .filter(|c| c.is_finite() && *c >= 0.0)
+            })
+            .collect()
+    });
+    match rgb {
+        Some(c) => Some([c[0], c[1], c[2]]),
+        None => {
+            warnings.push(format!(
+                "the scene's extras.soupray.environment is {value}, not three finite, \
+                 non-negative numbers [r, g, b]: ignored"
+            ));
+            None
+        }
+    }
 }
 
 /// The texture coordinate set the soup carries beside TEXCOORD_0: the one

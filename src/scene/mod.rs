@@ -161,6 +161,8 @@ pub struct Scene {
     /// Which TEXCOORD_n the soup's second uv slot carries, when a material
     /// samples one besides TEXCOORD_0.
     second_uv_set: Option<u32>,
+    /// The file's own constant environment (`extras.soupray.environment`).
+    environment: Option<[f32; 3]>,
     /// Bounds of every frame of the clip, for the default camera.
     clip_bounds: OnceLock<(Vec3, Vec3)>,
 }
@@ -337,6 +339,13 @@ impl Scene {
     /// means this set).
     pub fn second_uv_set(&self) -> Option<u32> {
         self.second_uv_set
+    }
+
+    /// The constant environment radiance the file asks for in its scene's
+    /// `extras` (`{"soupray": {"environment": [r, g, b]}}`), used when the
+    /// command line chooses none.
+    pub fn environment(&self) -> Option<[f32; 3]> {
+        self.environment
     }
 
     /// Whether the soup carries vertex colours (COLOR_0).
