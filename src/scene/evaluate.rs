@@ -59,6 +59,22 @@ pub fn deform_primitive(
         .collect()
 }
 
+/// Appends a triangle's three corners of one vertex attribute to the soup,
+/// in the soup's corner `order`, or `missing` where the primitive lacks it.
+fn push_corners<T: Copy>(
+    out: &mut Vec<T>,
+    values: Option<&[T]>,
+    tri: &[u32; 3],
+    order: &[usize; 3],
+    missing: T,
+) {
+    out.extend(
+        order
+            .iter()
+            .map(|&k| values.map_or(missing, |v| v[tri[k] as usize])),
+    );
+}
+
 impl Scene {
     /// The world-space triangle soup, camera and lights at `time` seconds.
     pub fn evaluate(&self, time: f64) -> Result<FrameSoup> {
@@ -210,33 +226,22 @@ impl Scene {
                                 .extend(std::iter::repeat_n([n.x, n.y, n.z, 0.0], 3));
                         }
                     }
+                    // The corner attributes that do not move: a primitive
+                    // without one takes its neutral value.
                     if with_uvs {
-                        for &k in &order {
-                            let uv = prim
-                                .uvs
-                                .as_ref()
-                                .map_or([0.0, 0.0], |uvs| uvs[tri[k] as usize]);
-                            soup.uvs.push(uv);
-                        }
+                        push_corners(&mut soup.uvs, prim.uvs.as_deref(), tri, &order, [0.0; 2]);
                     }
                     if with_uvs1 {
-                        for &k in &order {
-                            let uv = prim
-                                .uvs1
-                                .as_ref()
-                                .map_or([0.0, 0.0], |uvs| uvs[tri[k] as usize]);
-                            soup.uvs1.push(uv);
-                        }
+                        push_corners(&mut soup.uvs1, prim.uvs1.as_deref(), tri, &order, [0.0; 2]);
                     }
                     if with_colors {
-                        // A primitive without COLOR_0 multiplies by white.
-                        for &k in &order {
-                            let c = prim
-                                .colors
-                                .as_ref()
-                                .map_or([1.0; 4], |colors| colors[tri[k] as usize]);
-                            soup.colors.push(c);
-                        }
+                        push_corners(
+                            &mut soup.colors,
+                            prim.colors.as_deref(),
+                            tri,
+                            &order,
+                            [1.0; 4],
+                        );
                     }
                     soup.material_ids.push(material);
                 }

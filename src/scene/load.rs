@@ -91,6 +91,14 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         stack.extend(nodes[n].children.iter().rev().copied());
     }
 
+    // Materials first: which second uv set the meshes need depends on them.
+    let mut materials = load_materials(&src)?;
+    for (i, m) in materials.materials.iter_mut().enumerate() {
+        super::ranges::material(i, m, &mut warnings);
+    }
+    warnings.extend(super::material::ignored_material_extensions(&src.json));
+    let second_uv_set = choose_second_uv_set(&mut materials, &mut warnings);
+
     // Meshes.
     let sanitize = opts.sanitize;
     let mut skipped = Skipped::default();
@@ -100,6 +108,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
             &reader,
             &mesh,
             sanitize,
+            second_uv_set,
             &mut skipped,
             &mut warnings,
         )?);
@@ -344,11 +353,6 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 
     // Materials, with the glTF default material appended for primitives
     // that name none, so every triangle's id indexes the table.
-    let mut materials = load_materials(&src)?;
-    for (i, m) in materials.materials.iter_mut().enumerate() {
-        super::ranges::material(i, m, &mut warnings);
-    }
-    warnings.extend(super::material::ignored_material_extensions(&src.json));
     let needs_default = instances
         .iter()
         .flat_map(|i| &meshes[i.mesh].primitives)
@@ -358,7 +362,6 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         materials.materials.push(Material::default());
     }
 
-    let second_uv_set = choose_second_uv_set(&mut materials, &mut meshes, &mut warnings);
     let environment = file_environment(&src.json, scene_index, &mut warnings);
 
     let instanced = || instances.iter().flat_map(|i| &meshes[i.mesh].primitives);
@@ -453,14 +456,10 @@ fn file_environment(
 /// The texture coordinate set the soup carries beside TEXCOORD_0: the one
 /// other set the materials sample (TEXCOORD_1 in nearly every file). Texture
 /// uses are renumbered to the soup's two slots (0: TEXCOORD_0, 1: the second
-/// set), and each primitive keeps that set alone. A scene whose materials
+/// set), and the meshes load that set alone. A scene whose materials
 /// sample two or more sets besides TEXCOORD_0 keeps the lowest, and the
 /// others are read with TEXCOORD_0, with a warning.
-fn choose_second_uv_set(
-    materials: &mut MaterialTable,
-    meshes: &mut [super::mesh::Mesh],
-    warnings: &mut Vec<String>,
-) -> Option<u32> {
+fn choose_second_uv_set(materials: &mut MaterialTable, warnings: &mut Vec<String>) -> Option<u32> {
     let mut used = std::collections::BTreeSet::new();
     for m in &mut materials.materials {
         for t in m.texture_refs_mut().into_iter().flatten() {
@@ -488,10 +487,6 @@ fn choose_second_uv_set(
         for t in m.texture_refs_mut().into_iter().flatten() {
             t.tex_coord = u32::from(t.tex_coord != 0 && Some(t.tex_coord) == second);
         }
-    }
-    for p in meshes.iter_mut().flat_map(|m| &mut m.primitives) {
-        let mut sets = std::mem::take(&mut p.other_uv_sets);
-        p.uvs1 = second.and_then(|s| sets[s as usize - 1].take());
     }
     second
 }

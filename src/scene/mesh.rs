@@ -34,13 +34,10 @@ pub struct Primitive {
     pub uvs: Option<Vec<[f32; 2]>>,
     /// The scene's second texture coordinate set (`Scene::second_uv_set`:
     /// TEXCOORD_1 unless the materials sample another), if this primitive
-    /// has it.
+    /// has it; no other set is read.
     pub uvs1: Option<Vec<[f32; 2]>>,
     /// COLOR_0 as linear RGBA (alpha 1 where the accessor is RGB).
     pub colors: Option<Vec<[f32; 4]>>,
-    /// TEXCOORD_1..=TEXCOORD_3 as read, until the loader knows which one
-    /// the materials sample and moves it into `uvs1` (the rest are dropped).
-    pub(crate) other_uv_sets: [Option<Vec<[f32; 2]>>; 3],
     /// Corner indices in the winding glTF defines for the source topology.
     pub triangles: Vec<[u32; 3]>,
     pub targets: Vec<MorphTarget>,
@@ -131,6 +128,7 @@ pub(crate) fn load_mesh(
     reader: &Reader,
     mesh: &gltf::Mesh,
     sanitize: bool,
+    second_uv_set: Option<u32>,
     skipped: &mut Skipped,
     warnings: &mut Vec<String>,
 ) -> Result<Mesh> {
@@ -164,7 +162,7 @@ pub(crate) fn load_mesh(
                 continue;
             }
         }
-        match load_primitive(reader, &prim, &where_, sanitize, warnings)? {
+        match load_primitive(reader, &prim, &where_, sanitize, second_uv_set, warnings)? {
             Some(p) => primitives.push(p),
             None => warnings.push(format!(
                 "{where_} has no POSITION attribute and is skipped, as glTF 2.0 §3.7.2.1 allows"
@@ -198,6 +196,7 @@ fn load_primitive(
     prim: &gltf::Primitive,
     where_: &str,
     sanitize: bool,
+    second_uv_set: Option<u32>,
     warnings: &mut Vec<String>,
 ) -> Result<Option<Primitive>> {
     let Some(pos_acc) = prim.get(&Semantic::Positions) else {
@@ -269,7 +268,10 @@ fn load_primitive(
         Ok(Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
     };
     let uvs = uv_set(0)?;
-    let other_uv_sets = [uv_set(1)?, uv_set(2)?, uv_set(3)?];
+    let uvs1 = match second_uv_set {
+        Some(set) => uv_set(set)?,
+        None => None,
+    };
 
     // COLOR_0 multiplies the base colour (glTF 2.0 §3.9.2): RGB or RGBA,
     // float or normalized unsigned bytes and shorts.
@@ -377,9 +379,8 @@ fn load_primitive(
         positions,
         normals,
         uvs,
-        uvs1: None,
+        uvs1,
         colors,
-        other_uv_sets,
         triangles,
         targets,
         influences,

@@ -898,23 +898,27 @@ impl<'d> DeviceSoup<'d> {
             ..Soup::default()
         };
         d.read(&f.positions, &mut soup.positions)?;
-        if let Some(b) = &f.normals {
-            soup.normals = vec![[0.0; 4]; 3 * n];
-            d.read(b, &mut soup.normals)?;
-        }
-        if let Some(b) = &f.uvs {
-            soup.uvs = vec![[0.0; 2]; 3 * n];
-            d.read(b, &mut soup.uvs)?;
-        }
-        if let Some(b) = &f.uvs1 {
-            soup.uvs1 = vec![[0.0; 2]; 3 * n];
-            d.read(b, &mut soup.uvs1)?;
-        }
-        if let Some(b) = &f.colors {
-            soup.colors = vec![[0.0; 4]; 3 * n];
-            d.read(b, &mut soup.colors)?;
-        }
+        // An attribute the scene lacks stays empty in the soup.
+        soup.normals = read_corners(d, &f.normals, n, [0.0; 4])?;
+        soup.uvs = read_corners(d, &f.uvs, n, [0.0; 2])?;
+        soup.uvs1 = read_corners(d, &f.uvs1, n, [0.0; 2])?;
+        soup.colors = read_corners(d, &f.colors, n, [0.0; 4])?;
         d.read(&f.material_ids, &mut soup.material_ids)?;
         Ok(soup)
     }
+}
+
+/// Three corners per triangle of an attribute buffer, or nothing without one.
+fn read_corners<T: Copy>(
+    d: &Device,
+    buffer: &Option<Buffer<T>>,
+    triangles: usize,
+    zero: T,
+) -> Result<Vec<T>, SoupError> {
+    let Some(b) = buffer else {
+        return Ok(Vec::new());
+    };
+    let mut out = vec![zero; 3 * triangles];
+    d.read(b, &mut out)?;
+    Ok(out)
 }

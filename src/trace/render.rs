@@ -625,6 +625,14 @@ struct HostSoupBuffers {
     material_ids: GrowBuffer<u32>,
 }
 
+/// The kernel argument for an optional buffer: the buffer, or `dummy`.
+fn or_dummy<'b, T>(buffer: Option<&'b Buffer<T>>, dummy: &'b Buffer<f32>) -> Arg<'b> {
+    match buffer {
+        Some(b) => Arg::Buf(b),
+        None => Arg::Buf(dummy),
+    }
+}
+
 fn usage(msg: String) -> TraceError {
     TraceError::Unsupported(msg)
 }
@@ -1651,22 +1659,12 @@ impl<'d> PathTracer<'d> {
                     Arg::U32(snode_count),
                     Arg::Buf(prim_ids),
                     Arg::Buf(positions),
-                    match soup.normals {
-                        Some(b) => Arg::Buf(b),
-                        None => Arg::Buf(&self.dummy_f32),
-                    },
-                    match soup.uvs {
-                        Some(b) => Arg::Buf(b),
-                        None => Arg::Buf(&self.dummy_f32),
-                    },
-                    match soup.uvs1 {
-                        Some(b) => Arg::Buf(b),
-                        None => Arg::Buf(&self.dummy_f32),
-                    },
-                    match soup.colors {
-                        Some(b) => Arg::Buf(b),
-                        None => Arg::Buf(&self.dummy_f32),
-                    },
+                    // An attribute the soup lacks binds a dummy (its frame
+                    // flag keeps the kernel from reading it).
+                    or_dummy(soup.normals, &self.dummy_f32),
+                    or_dummy(soup.uvs, &self.dummy_f32),
+                    or_dummy(soup.uvs1, &self.dummy_f32),
+                    or_dummy(soup.colors, &self.dummy_f32),
                     Arg::Buf(if empty {
                         &self.dummy_u32
                     } else {
