@@ -10,6 +10,8 @@
 //! device's per-stage split, SAH cost relative to the full sweep, and each
 //! builder's peak host memory (VmHWM, reset before each builder).
 
+mod support;
+
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
 use soupray::cli::report::median;
@@ -18,11 +20,10 @@ use soupray::soup::Soup;
 use std::path::Path;
 use std::time::Instant;
 
-fn mesh(name: &str) -> Soup {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/assets/meshes")
-        .join(name);
-    soupray::ply::read_soup(&p).unwrap()
+/// A scanned mesh, read in place from the shared folder; `Err` names the
+/// missing file (its scenes are skipped).
+fn mesh(name: &str) -> Result<Soup, String> {
+    support::mesh(name)
 }
 
 /// The crowded arrangement of `copies` copies (`Soup::arrangement`, which
@@ -60,23 +61,30 @@ fn peak_of(builder: &str, scene: usize, quick: bool) -> f64 {
 
 /// The benchmark's scenes: (name, how to make it). Made one at a time, so
 /// a memory child holds only the scene it measures.
-type MakeScene = (&'static str, fn() -> Soup);
+type MakeScene = (&'static str, fn() -> Result<Soup, String>);
 
 fn scene_list(quick: bool) -> Vec<MakeScene> {
     let mut list: Vec<MakeScene> = vec![
         ("beast (real)", || mesh("beast.ply")),
-        ("4 x beast", || arrangement(&mesh("beast.ply"), 4)),
+        ("4 x beast", || Ok(arrangement(&mesh("beast.ply")?, 4))),
     ];
     if !quick {
-        list.push(("10 x nefertiti", || arrangement(&mesh("nefertiti.ply"), 10)));
-        list.push(("25 x nefertiti", || arrangement(&mesh("nefertiti.ply"), 25)));
+        list.push(("10 x nefertiti", || {
+            Ok(arrangement(&mesh("nefertiti.ply")?, 10))
+        }));
+        list.push(("25 x nefertiti", || {
+            Ok(arrangement(&mesh("nefertiti.ply")?, 25))
+        }));
     }
     list
 }
 
 /// The child side of `peak_of`: loads the scene, builds once, prints VmHWM.
 fn run_peak_child(builder: &str, scene: usize, quick: bool) {
-    let soup = (scene_list(quick)[scene].1)();
+    let Ok(soup) = (scene_list(quick)[scene].1)() else {
+        // A missing mesh: no figure (the parent skipped the scene).
+        return;
+    };
     let params = BuildParams::default();
     match builder {
         "device" | "paper" => {
@@ -191,7 +199,14 @@ fn main() {
         let dir = Path::new(&args[i + 1]);
         for (index, (name, make)) in scenes.iter().enumerate() {
             let path = dir.join(format!("{index}-{}.ply", name.replace([' ', '(', ')'], "")));
-            soupray::ply::write_soup(&path, &make()).unwrap();
+            let soup = match make() {
+                Ok(soup) => soup,
+                Err(e) => {
+                    eprintln!("bvh_build: {name}: {e}; skipped");
+                    continue;
+                }
+            };
+            soupray::ply::write_soup(&path, &soup).unwrap();
             println!("{}", path.display());
         }
         return;
@@ -204,7 +219,13 @@ fn main() {
     let mut paper = DeviceBuilder::with_mapping(&device, params, Mapping::Paper).unwrap();
     let mut rows = Vec::new();
     for (scene_index, (name, make)) in scenes.iter().enumerate() {
-        let soup = &make();
+        let soup = &match make() {
+            Ok(soup) => soup,
+            Err(e) => {
+                eprintln!("bvh_build: {name}: {e}; skipped");
+                continue;
+            }
+        };
         let n = soup.triangle_count();
         let label = format!("{name}, {:.0}K", n as f64 / 1e3);
         let reps = if n > 500_000 { 3 } else { 5 };

@@ -17,7 +17,7 @@
 //! package does not pull in: `apt-get install blender python3-numpy`.
 //!
 //! What it does: writes glTF 2.0 scenes from the scanned meshes
-//! (tests/assets/meshes/*.ply) standing on a ground quad, a camera framing
+//! (the shared folder's meshes/*.ply, read in place) standing on a ground quad, a camera framing
 //! each, every material a 0.8 grey Lambertian, in two lightings: `sky`
 //! (constant white sky of radiance 1, no lights) and `sun` (a 3 lux
 //! KHR_lights_punctual directional light, oblique so the mesh casts a
@@ -64,6 +64,8 @@
 //! * Both run on the same CPU: soupray through PoCL on every core, Cycles
 //!   with `--threads` threads. Run it on a quiet machine: with anything
 //!   else running, the times (not the errors) mean little.
+
+mod support;
 
 use glam::{Mat3, Quat, Vec3};
 use serde_json::json;
@@ -290,9 +292,7 @@ struct SceneFile {
 /// `DIR/MESH-LIGHTING.gltf` for each lighting.
 fn write_scenes(o: &Opts, mesh: &str, dir: &Path) -> Result<BTreeMap<String, SceneFile>, String> {
     let spec = mesh_spec(mesh).expect("checked");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let soup = soupray::ply::read_soup(&root.join("tests/assets/meshes").join(spec.file))
-        .map_err(|e| e.to_string())?;
+    let soup = support::mesh(spec.file)?;
     let rot = (spec.to_gltf)();
     let mut pts: Vec<Vec3> = soup
         .positions
@@ -810,6 +810,11 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
     std::fs::create_dir_all(&scenes_dir).map_err(|e| format!("{}: {e}", scenes_dir.display()))?;
     let mut scenes = BTreeMap::new();
     for mesh in &o.meshes {
+        // A mesh missing from the shared folder skips its rows.
+        if let Err(e) = support::mesh_path(mesh_spec(mesh).expect("checked").file) {
+            eprintln!("cycles bench: {mesh}: {e}; skipped");
+            continue;
+        }
         scenes.insert(mesh.clone(), write_scenes(o, mesh, &scenes_dir)?);
     }
     if o.scenes_only {
@@ -904,7 +909,7 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
     );
     let mut mismatches = Vec::new();
     let mut device = None;
-    for mesh in &o.meshes {
+    for mesh in o.meshes.iter().filter(|m| scenes.contains_key(*m)) {
         for lighting in &o.lightings {
             let scene = &scenes[mesh][lighting];
             let env = if lighting == "sun" { SUN_SKY } else { 1.0 };

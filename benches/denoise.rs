@@ -10,8 +10,8 @@
 //! (`--denoise-quality`), `--scenes LIST` [cesium,beast-sun,nefertiti-sun],
 //! `--out DIR` [out/bench-denoise], `--fresh-refs`.
 //!
-//! Scenes: `cesium` is frame 10 of the shipped animation as `soupray
-//! render` renders it by default; `MESH-LIGHTING` is a clay scan scene that
+//! Scenes: `cesium` is frame 10 of CesiumMan (shared folder) as `soupray
+//! render` renders it; `MESH-LIGHTING` is a clay scan scene that
 //! `cargo bench --bench cycles -- --scenes-only` writes to
 //! out/bench-cycles/scenes/ (frame 0, `--clay`, sky radiance 1 for `sky`,
 //! 0.1 under the sun for `sun`, as that bench renders them); a scene whose

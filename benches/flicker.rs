@@ -10,7 +10,8 @@
 //! (adaptive, with `--spp 256`), `--ref-spp N` [1024], `--out DIR`
 //! [out/bench-flicker], `--fresh-refs`.
 //!
-//! The shot [`--scene`, BoxAnimated] is filmed by the default camera, which
+//! The shot [`--scene`, BoxAnimated, read in place from the shared folder;
+//! without it the bench says so and skips] is filmed by the default camera, which
 //! frames the whole clip and does not move: in BoxAnimated the inner box
 //! rises out of the outer one, whose inside and walls stay still but are
 //! lit by light that bounces off the moving box. Each frame gets a reference
@@ -28,6 +29,8 @@
 //!
 //! Prints a Markdown table and writes OUT/results.md. Without OIDN the
 //! denoised rows are skipped with a note.
+
+mod support;
 
 use soupray::compare;
 use soupray::film::Image;
@@ -70,8 +73,9 @@ struct Opts {
     threshold: f32,
     #[arg(long, default_value_t = 1024)]
     ref_spp: u32,
-    #[arg(long, default_value = "tests/assets/BoxAnimated/BoxAnimated.glb")]
-    scene: PathBuf,
+    /// Default: BoxAnimated from the shared folder (set in `main`).
+    #[arg(long)]
+    scene: Option<PathBuf>,
     #[arg(long, default_value = "out/bench-flicker")]
     out: PathBuf,
     #[arg(long)]
@@ -86,7 +90,7 @@ fn render(o: &Opts, flags: &[String], seed: u32, dir: &Path) -> Result<Vec<Image
     let _ = std::fs::remove_dir_all(dir);
     let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
         .arg("render")
-        .arg(&o.scene)
+        .arg(o.scene())
         .args(["--quiet", "--name", "img.####.exr"])
         .args(["--frames", &format!("{}-{}", o.frames.0, o.frames.1)])
         .args(["--width", &o.size.0.to_string()])
@@ -175,11 +179,27 @@ fn flicker(frames: &[Image], refs: &[Image], still: &[bool]) -> f64 {
     (sum_sq / count as f64).sqrt() / (sum_ref / count as f64)
 }
 
+impl Opts {
+    /// The shot's scene (`main` fills in the default).
+    fn scene(&self) -> &Path {
+        self.scene.as_deref().expect("main sets the scene")
+    }
+}
+
 fn main() {
-    let o = <Opts as clap::Parser>::parse();
+    let mut o = <Opts as clap::Parser>::parse();
+    if o.scene.is_none() {
+        match support::sample("BoxAnimated/BoxAnimated.glb") {
+            Ok(path) => o.scene = Some(path),
+            Err(e) => {
+                eprintln!("bench flicker: skipped: {e}");
+                return;
+            }
+        }
+    }
     let ref_dir = o.out.join("refs").join(format!(
         "{}-{}x{}-{}-{}-spp{}",
-        o.scene.file_stem().unwrap_or_default().to_string_lossy(),
+        o.scene().file_stem().unwrap_or_default().to_string_lossy(),
         o.size.0,
         o.size.1,
         o.frames.0,
@@ -246,7 +266,7 @@ fn main() {
     let table = rows.join("\n");
     println!(
         "\n{}, frames {}-{} at {}x{}, {:.1}% of the pixels still, against {}-spp references:\n\n{table}",
-        o.scene.display(),
+        o.scene().display(),
         o.frames.0,
         o.frames.1,
         o.size.0,

@@ -1,4 +1,4 @@
-//! Path tracing throughput on the shipped animations: for each scene, a
+//! Path tracing throughput on sample models from the shared folder: for each scene, a
 //! few frames spread over its clip are evaluated (device soup), built
 //! (device BVH) and path traced at 640x360 with 16 spp; the table gives
 //! the medians of path-traced samples per second and Mrays/s (over device
@@ -7,6 +7,8 @@
 //!
 //!   cargo bench --bench render_spp
 //!   cargo bench --bench render_spp -- --frames 5 --spp 16 --size 640x360 --max-depth 8
+
+mod support;
 
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
@@ -18,10 +20,11 @@ use soupray::trace::render::{FrameInput, PathTracer, RenderSettings};
 use std::path::Path;
 use std::time::Instant;
 
+/// Sample models, read in place from the shared folder.
 const SCENES: &[&str] = &[
-    "tests/assets/BoxAnimated/BoxAnimated.glb",
-    "tests/assets/CesiumMan/CesiumMan.gltf",
-    "tests/assets/Fox/Fox.glb",
+    "BoxAnimated/BoxAnimated.glb",
+    "CesiumMan/CesiumMan.gltf",
+    "Fox/Fox.glb",
 ];
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
@@ -49,14 +52,16 @@ fn main() {
     );
     println!("| scene | triangles | textures | samples/s | Mrays/s | trace ms | rays/sample | render wall ms |");
     println!("|---|---:|---|---:|---:|---:|---:|---:|");
-    // SOUPRAY_TEST_ROOT stands in for the checkout (scripts/gpu-check.sh's
-    // bundle runs this binary far from it).
-    let root = std::env::var_os("SOUPRAY_TEST_ROOT")
-        .filter(|r| !r.is_empty())
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf());
+    // The shared folder: SOUPRAY_SHARED, or ../shared beside the checkout
+    // (or beside SOUPRAY_TEST_ROOT, scripts/gpu-check.sh's bundle).
     for rel in SCENES {
-        let path = root.join(rel);
+        let path = match support::sample(rel) {
+            Ok(path) => path,
+            Err(e) => {
+                println!("| {rel} | skipped: {e} |");
+                continue;
+            }
+        };
         let scene = match Scene::load(&path, &LoadOptions::default()) {
             Ok(s) => s,
             Err(e) => {

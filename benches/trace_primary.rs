@@ -12,26 +12,22 @@
 //! agreement with the CPU reference; plus the host cost of the stackless
 //! layout's escape indices and of the 4-wide collapse after a build.
 
+mod support;
+
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
 use soupray::cli::report::median;
 use soupray::device::Device;
 use soupray::soup::Soup;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceKind};
-use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-/// A shipped mesh; `SOUPRAY_TEST_ROOT` stands in for the checkout (the
-/// bundle of `scripts/gpu-check.sh` runs this binary far from it).
-fn mesh(name: &str) -> Soup {
-    let p = std::env::var_os("SOUPRAY_TEST_ROOT")
-        .filter(|r| !r.is_empty())
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf())
-        .join("tests/assets/meshes")
-        .join(name);
-    soupray::ply::read_soup(&p).unwrap()
+/// A scanned mesh, read in place from the shared folder (`SOUPRAY_SHARED`,
+/// or `../shared` beside the checkout or `SOUPRAY_TEST_ROOT`, which the
+/// bundle of `scripts/gpu-check.sh` sets); `Err` names the missing file.
+fn mesh(name: &str) -> Result<Soup, String> {
+    support::mesh(name)
 }
 
 /// A camera looking at the box along one of the six axis directions
@@ -133,7 +129,13 @@ fn main() {
     let mut rows = Vec::new();
     let mut escape_rows = Vec::new();
     for name in ["beast.ply", "nefertiti.ply"] {
-        let soup = mesh(name);
+        let soup = match mesh(name) {
+            Ok(soup) => soup,
+            Err(e) => {
+                println!("{name}: skipped: {e}");
+                continue;
+            }
+        };
         let n = soup.triangle_count();
         let mut builder = DeviceBuilder::new(&device, BuildParams::default()).unwrap();
         let (bvh, _) = builder.build(&soup).unwrap();

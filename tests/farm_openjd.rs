@@ -25,7 +25,7 @@ fn openjd() -> Option<PathBuf> {
 
 /// Runs the documented template over frames 0-6 in chunks of 2 (tasks
 /// 0-1, 2-3, 4-5 and 6), rendering into `out`.
-fn run_template(openjd: &Path, work: &Path, out: &Path) -> Output {
+fn run_template(openjd: &Path, scene: &Path, work: &Path, out: &Path) -> Output {
     let bin_dir = Path::new(env!("CARGO_BIN_EXE_soupray")).parent().unwrap();
     let path = format!(
         "{}:{}",
@@ -33,7 +33,6 @@ fn run_template(openjd: &Path, work: &Path, out: &Path) -> Output {
         std::env::var("PATH").unwrap_or_default()
     );
     let template = common::repo().join("docs/examples/openjd-render.yaml");
-    let scene = common::repo().join("tests/assets/BoxAnimated/BoxAnimated.glb");
     let param = |k: &str, v: &str| ["-p".to_owned(), format!("{k}={v}")];
     let mut cmd = Command::new(openjd);
     cmd.arg("run")
@@ -72,12 +71,16 @@ fn the_openjd_template_renders_every_chunk_and_reports_a_failed_one() {
         );
         return;
     };
+    // The scene, read in place from the shared folder.
+    let Some(scene) = common::shared::sample("BoxAnimated/BoxAnimated.glb") else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let work = dir.path();
 
     // Every chunk succeeds: all seven frames, each with its log.
     let out = work.join("ok");
-    let run = run_template(&openjd, work, &out);
+    let run = run_template(&openjd, &scene, work, &out);
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&run.stdout),
@@ -103,7 +106,7 @@ fn the_openjd_template_renders_every_chunk_and_reports_a_failed_one() {
     // fails, naming that task and soupray's exit code 5 (a frame failed).
     let out = work.join("failing");
     std::fs::create_dir_all(out.join("BoxAnimated.0005.exr")).unwrap();
-    let run = run_template(&openjd, work, &out);
+    let run = run_template(&openjd, &scene, work, &out);
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&run.stdout),

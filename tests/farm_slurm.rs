@@ -191,6 +191,10 @@ fn the_slurm_job_array_example_renders_every_chunk() {
         );
         return;
     }
+    // The scene, read in place from the shared folder.
+    let Some(scene) = common::shared::sample("BoxAnimated/BoxAnimated.glb") else {
+        return;
+    };
     let cluster = Cluster::start();
     let work = cluster.dir.path().join("work");
     let out = work.join("frames");
@@ -207,7 +211,6 @@ fn the_slurm_job_array_example_renders_every_chunk() {
         std::env::var("PATH").unwrap_or_default()
     );
     let script = common::repo().join("docs/examples/slurm-render.sh");
-    let scene = common::repo().join("tests/assets/BoxAnimated/BoxAnimated.glb");
     let submitted = cluster
         .client("sbatch")
         .args(["--parsable", "--array=0-3", "--chdir"])

@@ -181,10 +181,6 @@ fn check(name: &str, scene: &Path, frame: i64, spp: u32, extra: &[&str]) {
     }
 }
 
-fn asset(rel: &str) -> PathBuf {
-    common::repo().join(rel)
-}
-
 /// A mesh's positions, normals, indices and TEXCOORD_0.
 type Geometry = (Vec<f32>, Vec<f32>, Vec<u32>, Vec<f32>);
 
@@ -306,7 +302,9 @@ fn diffuse(rgb: [f32; 3]) -> serde_json::Value {
 
 #[test]
 fn textured_skinned_character_at_two_frames() {
-    let scene = asset("animations/CesiumMan/CesiumMan.glb");
+    let Some(scene) = common::shared::cesium_man() else {
+        return;
+    };
     check("cesiumman_f0", &scene, 0, 64, &[]);
     check("cesiumman_f30", &scene, 30, 64, &[]);
 }
@@ -316,11 +314,16 @@ fn textured_skinned_character_at_two_frames() {
 /// above.
 #[test]
 fn motion_blurred_character_and_fox() {
-    let scene = asset("animations/CesiumMan/CesiumMan.glb");
+    let Some([scene, fox]) = common::shared::shared_all([
+        "assets/CesiumMan/glTF-Binary/CesiumMan.glb",
+        "assets/Fox/glTF-Binary/Fox.glb",
+    ]) else {
+        return;
+    };
     check("cesiumman_f30_blur", &scene, 30, 64, &["--motion-blur"]);
     check(
         "fox_run_f8_blur",
-        &asset("tests/assets/Fox/Fox.glb"),
+        &fox,
         8,
         64,
         &["--animation", "2", "--motion-blur", "--shutter", "1"],
@@ -329,19 +332,19 @@ fn motion_blurred_character_and_fox() {
 
 #[test]
 fn skinned_fox_running() {
-    check(
-        "fox_run_f8",
-        &asset("tests/assets/Fox/Fox.glb"),
-        8,
-        64,
-        &["--animation", "2"],
-    );
+    let Some(fox) = common::shared::sample("Fox/Fox.glb") else {
+        return;
+    };
+    check("fox_run_f8", &fox, 8, 64, &["--animation", "2"]);
 }
 
 #[test]
 fn morph_target_animation() {
-    let dir = asset("tests/assets/MorphStressTest");
-    let scene = std::fs::read_dir(&dir)
+    let Some(gltf) = common::shared::sample("MorphStressTest/MorphStressTest.gltf") else {
+        return;
+    };
+    let dir = gltf.parent().unwrap();
+    let scene = std::fs::read_dir(dir)
         .unwrap()
         .filter_map(|e| e.ok().map(|e| e.path()))
         .find(|p| p.extension().is_some_and(|x| x == "glb" || x == "gltf"))
@@ -351,13 +354,10 @@ fn morph_target_animation() {
 
 #[test]
 fn clay_render_of_an_animated_box() {
-    check(
-        "box_animated_clay_f10",
-        &asset("tests/assets/BoxAnimated/BoxAnimated.glb"),
-        10,
-        64,
-        &["--clay"],
-    );
+    let Some(scene) = common::shared::sample("BoxAnimated/BoxAnimated.glb") else {
+        return;
+    };
+    check("box_animated_clay_f10", &scene, 10, 64, &["--clay"]);
 }
 
 #[test]

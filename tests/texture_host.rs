@@ -356,7 +356,10 @@ fn untextured_tables_give_an_empty_set() {
         "RiggedFigure/RiggedFigure.glb",
         "AnimatedMorphCube/AnimatedMorphCube.glb",
     ] {
-        let scene = materials_of(&asset(a));
+        let Some(path) = asset(a) else {
+            return;
+        };
+        let scene = materials_of(&path);
         let h = HostTextures::new(table(&scene)).unwrap();
         assert!(h.is_empty() && h.texels.is_empty(), "{a}");
     }
@@ -372,8 +375,13 @@ fn untextured_tables_give_an_empty_set() {
 
 #[test]
 fn a_missing_image_names_the_file_and_the_image() {
-    // CesiumMan_img0.jpg was deliberately not copied into tests/assets.
-    let scene = materials_of(&asset("CesiumMan/CesiumMan.gltf"));
+    // The original in a temporary copy without CesiumMan_img0.jpg.
+    let Some((_dir, cesium_man_gltf)) =
+        scene_support::shared::sample_without("CesiumMan/CesiumMan.gltf", &["CesiumMan_img0.jpg"])
+    else {
+        return;
+    };
+    let scene = materials_of(&cesium_man_gltf);
     let msg = HostTextures::new(table(&scene)).unwrap_err().to_string();
     for part in [
         "CesiumMan.gltf",
@@ -388,9 +396,16 @@ fn a_missing_image_names_the_file_and_the_image() {
 
 #[test]
 fn only_sampled_slots_are_decoded() {
-    // MorphStressTest's occlusion map Base_AO.png is not in tests/assets: the
-    // shaded slots load, asking for occlusion names the missing image.
-    let scene = materials_of(&asset("MorphStressTest/MorphStressTest.gltf"));
+    // MorphStressTest in a temporary copy without its occlusion map
+    // Base_AO.png: the shaded slots load, asking for occlusion names the
+    // missing image.
+    let Some((_dir, morph_stress_test_gltf)) = scene_support::shared::sample_without(
+        "MorphStressTest/MorphStressTest.gltf",
+        &["Base_AO.png"],
+    ) else {
+        return;
+    };
+    let scene = materials_of(&morph_stress_test_gltf);
     let h = HostTextures::new(table(&scene)).unwrap();
     assert_eq!(h.info.len(), 2);
     assert_eq!(h.texels.len(), 2 * 64 * 64);

@@ -1,10 +1,56 @@
-//! What the render benches share: their scenes, and rendering one frame.
+//! What the benches share: the third-party files they read in place from
+//! the shared folder, their render scenes, and rendering one frame.
+// Each bench uses only some of it.
+#![allow(dead_code)]
 
 use std::path::PathBuf;
 
+#[path = "../../tests/common/shared.rs"]
+mod shared;
+
+/// `rel` under the shared folder (`../shared` beside the checkout, or
+/// `SOUPRAY_SHARED`; `SOUPRAY_TEST_ROOT` stands in for the checkout), or an
+/// error naming the missing file, for the bench to print and skip that row
+/// (never a panic, CI or not).
+pub fn shared_file(rel: &str) -> Result<PathBuf, String> {
+    let path = shared::shared_root().join(rel);
+    if path.exists() {
+        Ok(path)
+    } else {
+        Err(format!(
+            "{} is missing (the shared folder of third-party assets; set SOUPRAY_SHARED to its \
+             path)",
+            path.display()
+        ))
+    }
+}
+
+/// A sample model's file by its short name (`"Fox/Fox.glb"`): a `.glb` from
+/// `assets/Model/glTF-Binary/`, any other from `assets/Model/glTF/`.
+pub fn sample(rel: &str) -> Result<PathBuf, String> {
+    let (model, file) = rel.split_once('/').unwrap_or(("", rel));
+    let variant = if file.ends_with(".glb") {
+        "glTF-Binary"
+    } else {
+        "glTF"
+    };
+    shared_file(&format!("assets/{model}/{variant}/{file}"))
+}
+
+/// A scanned mesh (`"beast.ply"`) from the shared folder's `meshes/`.
+pub fn mesh_path(name: &str) -> Result<PathBuf, String> {
+    shared_file(&format!("meshes/{name}"))
+}
+
+/// A scanned mesh read as a soup; `Err` names the missing file.
+pub fn mesh(name: &str) -> Result<soupray::soup::Soup, String> {
+    let path = mesh_path(name)?;
+    soupray::ply::read_soup(&path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// A bench scene: its file, frame and the flags that light it. `cesium` is
-/// frame `cesium_frame` of the shipped animation as `soupray render`
-/// renders it; `MESH-LIGHTING` a clay scan scene that `cargo bench --bench
+/// frame `cesium_frame` of CesiumMan (read in place from the shared folder)
+/// as `soupray render` renders it; `MESH-LIGHTING` a clay scan scene that `cargo bench --bench
 /// cycles -- --scenes-only` writes to out/bench-cycles/scenes/ (frame 0,
 /// `--clay`, sky radiance 0.1 under the sun, 1 otherwise, as that bench
 /// renders it). An error names the missing file and how to write it.
@@ -13,11 +59,7 @@ pub fn scene(
     cesium_frame: &'static str,
 ) -> Result<(PathBuf, &'static str, Vec<String>), String> {
     if name == "cesium" {
-        return Ok((
-            PathBuf::from("animations/CesiumMan/CesiumMan.glb"),
-            cesium_frame,
-            vec![],
-        ));
+        return Ok((sample("CesiumMan/CesiumMan.glb")?, cesium_frame, vec![]));
     }
     let path = PathBuf::from(format!("out/bench-cycles/scenes/{name}.gltf"));
     if !path.exists() {

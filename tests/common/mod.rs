@@ -1,5 +1,5 @@
 //! Shared helpers for the integration tests: the device, deterministic
-//! geometry, and the shipped meshes.
+//! geometry, and the scanned meshes (read from the shared folder).
 #![allow(dead_code)]
 
 use soupray::device::Device;
@@ -28,9 +28,12 @@ pub fn repo() -> PathBuf {
     }
 }
 
-pub fn mesh(name: &str) -> Soup {
-    let p = repo().join("tests/assets/meshes").join(name);
-    soupray::ply::read_soup(&p).unwrap_or_else(|e| panic!("{e}"))
+/// A scanned mesh from the shared folder (`"beast.ply"`), or `None` (the
+/// caller skips) after naming it when it is absent.
+#[track_caller]
+pub fn mesh(name: &str) -> Option<Soup> {
+    let p = shared::mesh_path(name)?;
+    Some(soupray::ply::read_soup(&p).unwrap_or_else(|e| panic!("{e}")))
 }
 
 /// A small xorshift generator, so test soups are the same everywhere.

@@ -73,3 +73,66 @@ pub fn shared_all<const N: usize>(rels: [&str; N]) -> Option<[PathBuf; N]> {
 pub fn khronos(rel: &str) -> Option<PathBuf> {
     shared(&format!("khronos/{rel}"))
 }
+
+/// A sample model's file by its short name `"Model/file.ext"`, read in place
+/// from the shared folder: a `.glb` from `assets/Model/glTF-Binary/`, any
+/// other file from `assets/Model/glTF/`.
+#[track_caller]
+pub fn sample(rel: &str) -> Option<PathBuf> {
+    let (model, file) = rel
+        .split_once('/')
+        .unwrap_or_else(|| panic!("{rel}: not Model/file"));
+    let variant = if file.ends_with(".glb") {
+        "glTF-Binary"
+    } else {
+        "glTF"
+    };
+    shared(&format!("assets/{model}/{variant}/{file}"))
+}
+
+/// CesiumMan's binary glTF, the scene the render tests frame and check.
+#[track_caller]
+pub fn cesium_man() -> Option<PathBuf> {
+    sample("CesiumMan/CesiumMan.glb")
+}
+
+/// A scanned mesh (`"beast.ply"`) from the shared folder's `meshes/`.
+#[track_caller]
+pub fn mesh_path(name: &str) -> Option<PathBuf> {
+    shared(&format!("meshes/{name}"))
+}
+
+/// A copy of sample model `rel`'s folder in a new temporary directory, less
+/// the files named in `without`, and the path of `rel`'s file in it: for the
+/// tests of what a missing image does (the originals are never changed).
+#[track_caller]
+pub fn sample_without(rel: &str, without: &[&str]) -> Option<(TempCopy, PathBuf)> {
+    let src = sample(rel)?;
+    let from = src.parent().unwrap();
+    let dir = std::env::temp_dir().join(format!(
+        "soupray-sample-{}-{}",
+        std::process::id(),
+        TEMP_COPIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let name = entry.file_name();
+        if entry.file_type().unwrap().is_file() && !without.iter().any(|w| name == **w) {
+            std::fs::copy(entry.path(), dir.join(&name)).unwrap();
+        }
+    }
+    let path = dir.join(src.file_name().unwrap());
+    Some((TempCopy(dir), path))
+}
+
+static TEMP_COPIES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// A temporary directory, removed when dropped.
+pub struct TempCopy(pub PathBuf);
+
+impl Drop for TempCopy {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}

@@ -1,4 +1,4 @@
-//! Shared by the `scene_*` tests: paths of the committed assets, a builder
+//! Shared by the `scene_*` tests: paths of the shared sample models, a builder
 //! for small synthetic glTF files, and an independent reference evaluator.
 //!
 //! The reference reads the JSON with serde_json and the buffers by hand,
@@ -19,15 +19,11 @@ use serde_json::{json, Value};
 #[path = "../common/shared.rs"]
 pub mod shared;
 
-/// A test asset; `SOUPRAY_TEST_ROOT` stands in for the checkout as in
-/// `tests/common` (bundled test binaries).
-pub fn asset(rel: &str) -> PathBuf {
-    std::env::var_os("SOUPRAY_TEST_ROOT")
-        .filter(|r| !r.is_empty())
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf())
-        .join("tests/assets")
-        .join(rel)
+/// A sample model's file (`"Fox/Fox.glb"`), read in place from the shared
+/// folder; `None` (the caller skips) after naming it when it is absent.
+#[track_caller]
+pub fn asset(rel: &str) -> Option<PathBuf> {
+    shared::sample(rel)
 }
 
 // ---------------------------------------------------------------------------
