@@ -93,7 +93,7 @@ pub struct BvhArgs {
     pub repeat: u32,
     /// Build N copies of a PLY INPUT on a grid instead (the build
     /// benchmark's crowded arrangement: `--copies 10` and `--copies 25` of
-    /// tests/assets/meshes/nefertiti.ply are its 1M and 2.5M soups).
+    /// ../shared/meshes/nefertiti.ply are its 1M and 2.5M soups).
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub copies: usize,
     /// Also print each kernel's device time (of the last build) on stderr.
