@@ -80,6 +80,7 @@
 #define MAT_ALPHA_BLEND 4u
 #define MAT_EMISSIVE 8u
 #define MAT_UNLIT 16u // read only with HAS_UNLIT
+#define MAT_CULL_BACK 32u // --backface-culling, on single-sided materials
 
 // One material as the device shades it (mirrored by `DeviceMaterial` in
 // src/trace/material.rs; `pt_layout_probe` compares the layouts). Texture

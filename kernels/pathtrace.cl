@@ -250,10 +250,12 @@ inline float4 pt_base_color(PtMaterial m, PtAttrs at TEX_DECL) {
 }
 
 // Whether a ray crossing `prim` from `dir` passes through it: a culled back
-// face, a MASK hole, or a BLEND crossing drawn with probability 1 - alpha.
+// face (--backface-culling only: by default a single-sided material's back
+// face is shaded, as Cycles does, so flipped parts of a mesh leave no
+// holes), a MASK hole, or a BLEND crossing drawn with probability 1 - alpha.
 inline bool pt_passes(const PtScene* s, PtMaterial m, uint prim, float u, float v, float3 dir,
                       SampleRng rng, uint dim TEX_DECL) {
-    if ((m.flags & MAT_DOUBLE_SIDED) == 0u) {
+    if ((m.flags & MAT_CULL_BACK) != 0u) {
         if (dot(dir, geometric_normal(SGEOM(s), prim)) >= 0.0f) return true;
     }
     if ((m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u) return false;
@@ -312,10 +314,10 @@ inline Hit pt_trace_any(PtScene* s, Ray r) {
 }
 
 // Whether `prim` (material `m`) blocks a ray along `dir` whatever its
-// texture: opaque, and double-sided or facing the ray.
+// texture: opaque, and not culled or facing the ray.
 inline bool pt_blocks_for_certain(const PtScene* s, PtMaterial m, uint prim, float3 dir) {
     return (m.flags & (MAT_ALPHA_MASK | MAT_ALPHA_BLEND)) == 0u &&
-           ((m.flags & MAT_DOUBLE_SIDED) != 0u || dot(dir, geometric_normal(SGEOM(s), prim)) < 0.0f);
+           ((m.flags & MAT_CULL_BACK) == 0u || dot(dir, geometric_normal(SGEOM(s), prim)) < 0.0f);
 }
 #endif
 
@@ -1040,7 +1042,9 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             out.normal = sf.ns;
             out.albedo = albedo;
         }
-        if ((m.flags & MAT_EMISSIVE) != 0u) {
+        // A single-sided emitter emits from its front only (the light
+        // sampler's pdf is 0 behind it too).
+        if ((m.flags & MAT_EMISSIVE) != 0u && (sf.front || (m.flags & MAT_DOUBLE_SIDED) != 0u)) {
             float3 le = pt_emission(m, sf.at TEX_PASS);
             float w = 1.0f;
             if (depth > 0u && !prev_delta) {

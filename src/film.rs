@@ -366,7 +366,45 @@ pub struct Image {
     pub rays: Option<Vec<f32>>,
 }
 
+/// A frame whose pixels that see geometry average less linear luminance
+/// than this is "nearly black": below 1/255 of an 8-bit display's range
+/// after the sRGB curve.
+pub const NEARLY_BLACK_LUMINANCE: f64 = 3.0e-4;
+
 impl Image {
+    /// A warning when the camera sees geometry but the frame is black or
+    /// nearly black there: a scene with no light that reaches the camera,
+    /// which would otherwise pass unnoticed with exit code 0.
+    pub fn darkness_warning(&self) -> Option<String> {
+        let covered: Vec<&[f32; 4]> = self.rgba.iter().filter(|p| p[3] > 0.0).collect();
+        if covered.is_empty() {
+            return None;
+        }
+        let lum = |p: &[f32; 4]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+        let mean = covered.iter().map(|p| lum(p)).sum::<f64>() / covered.len() as f64;
+        let max = covered
+            .iter()
+            .map(|p| p[0].max(p[1]).max(p[2]))
+            .fold(0.0f32, f32::max);
+        let share = 100.0 * covered.len() as f64 / self.rgba.len() as f64;
+        let fix =
+            "Fix: light the scene (--env-color R,G,B, --env FILE.exr, or lights in the file), \
+                   or check the exposure of the lights it has";
+        if max <= 0.0 {
+            Some(format!(
+                "the frame is black: the camera sees geometry in {share:.0}% of its pixels, but no light \
+                 reaches it. {fix}."
+            ))
+        } else if mean < NEARLY_BLACK_LUMINANCE {
+            Some(format!(
+                "the frame is nearly black: the camera sees geometry in {share:.0}% of its pixels, and \
+                 their mean luminance is {mean:.2e}. {fix}."
+            ))
+        } else {
+            None
+        }
+    }
+
     /// A black, transparent image with the given AOVs (background depth).
     pub fn new(width: u32, height: u32, aovs: Aovs) -> Image {
         let n = width as usize * height as usize;
@@ -766,6 +804,30 @@ impl Film {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_frame_that_sees_geometry_but_no_light_is_named_black() {
+        let mut img = Image::new(4, 2, Aovs::NONE);
+        // Nothing covered: an empty view is not a dark frame.
+        img.rgba.fill([0.0; 4]);
+        assert_eq!(img.darkness_warning(), None);
+        // Half the pixels see geometry, all black.
+        for p in &mut img.rgba[..4] {
+            *p = [0.0, 0.0, 0.0, 1.0];
+        }
+        let w = img.darkness_warning().unwrap();
+        assert!(
+            w.contains("the frame is black") && w.contains("50%") && w.contains("Fix:"),
+            "{w}"
+        );
+        // Nearly black: a faint glow on one covered pixel.
+        img.rgba[0] = [1e-4, 1e-4, 1e-4, 1.0];
+        let w = img.darkness_warning().unwrap();
+        assert!(w.contains("nearly black") && w.contains("2.50e-5"), "{w}");
+        // Lit: no warning, whatever the background does.
+        img.rgba[1] = [0.2, 0.1, 0.05, 1.0];
+        assert_eq!(img.darkness_warning(), None);
+    }
 
     /// A small deterministic generator so the tests need no extra crate.
     struct Rng(u64);

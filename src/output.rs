@@ -491,7 +491,8 @@ pub const LOG_SCHEMA: u32 = 1;
 /// {
 ///   "schema": 1, "soupray": "0.1.0",
 ///   "frame": 12, "time": 0.5, "scene": "walk.glb", "device": "pthread-cpu (PoCL)",
-///   "triangles": 88000,
+///   "triangles": 88000, "mesh_instances": 3, "gpu_instances": 0,
+///   "memory": { "soup_bytes": 17248000, "peak_resident_bytes": 612000000 },
 ///   "timings_ms": { "startup": 0.0, "evaluate": 3.1, "build": 9.8, "trace": 1520.0, "denoise": 0.0,
 ///                   "write": 41.0, "total": 1574.2 },
 ///   "build": { "builder": "device", "bins": 16, "leaf_size": 4, "nodes": 45000,
@@ -528,6 +529,12 @@ pub struct FrameLog {
     pub device: String,
     /// Triangles in the frame's soup.
     pub triangles: u64,
+    /// Mesh instances the soup was made of, EXT_mesh_gpu_instancing
+    /// instances counted one by one.
+    pub mesh_instances: u64,
+    /// Of those, instances drawn by EXT_mesh_gpu_instancing.
+    pub gpu_instances: u64,
+    pub memory: MemoryLog,
     pub timings_ms: Timings,
     pub build: BuildLog,
     pub render: RenderLog,
@@ -583,6 +590,26 @@ pub struct MotionLog {
     /// is the tree's SAH cost over the moving bounds), which is what costs
     /// trace time. BENCHMARKS.md measures blur against no blur.
     pub extra_build_ms: f64,
+}
+
+/// What a frame held in memory.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MemoryLog {
+    /// The frame's triangle soup as the host holds it (positions and the
+    /// corner attributes the scene has).
+    pub soup_bytes: u64,
+    /// The process's peak resident memory so far (Linux `VmHWM`), when the
+    /// system reports it: with PoCL this includes the device's buffers.
+    pub peak_resident_bytes: Option<u64>,
+}
+
+/// The process's peak resident set size so far, from `/proc/self/status`.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// Wall-clock times of a frame's stages. `total` covers the frame from the

@@ -275,6 +275,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         environment: Environment::Color([0.2, 0.25, 0.3]),
         aovs: Aovs::NONE,
         energy_compensation: false,
+        backface_culling: false,
     }
 }
 

@@ -4,7 +4,7 @@
 //! against a high-spp render falls as 1/sqrt(spp) with independent samples
 //! and faster with Sobol points; clay mode; alpha MASK
 //! cut-outs, BLEND coverage and single- or double-sided faces; a scene
-//! with no light gets the white environment and says so; the AOVs.
+//! with no light gets the studio sky and says so; the AOVs.
 
 mod common;
 mod render_support;
@@ -201,17 +201,22 @@ fn alpha_modes_and_sidedness() {
     st.environment = Environment::Color([1.0; 3]);
     let mut m = material([1.0, 1.0, 1.0, 0.3], 0.0, 1.0);
     let cases = [
-        (AlphaMode::Opaque, 0.3, true, false, 1.0),
-        (AlphaMode::Mask, 0.3, true, false, 0.0),
-        (AlphaMode::Mask, 0.7, true, false, 1.0),
-        // Single-sided: invisible from behind; double-sided: seen.
-        (AlphaMode::Opaque, 1.0, false, false, 0.0),
-        (AlphaMode::Opaque, 1.0, false, true, 1.0),
+        (AlphaMode::Opaque, 0.3, true, false, false, 1.0),
+        (AlphaMode::Mask, 0.3, true, false, false, 0.0),
+        (AlphaMode::Mask, 0.7, true, false, false, 1.0),
+        // Seen from behind: shaded by default, single-sided or not (as in
+        // Cycles); with --backface-culling a single-sided face is culled.
+        (AlphaMode::Opaque, 1.0, false, false, false, 1.0),
+        (AlphaMode::Opaque, 1.0, false, true, false, 1.0),
+        (AlphaMode::Opaque, 1.0, false, false, true, 0.0),
+        (AlphaMode::Opaque, 1.0, false, true, true, 1.0),
+        (AlphaMode::Opaque, 1.0, true, false, true, 1.0),
     ];
-    for (mode, alpha, front, double, want) in cases {
+    for (mode, alpha, front, double, cull, want) in cases {
         m.alpha_mode = mode;
         m.base_color_factor[3] = alpha;
         m.double_sided = double;
+        st.backface_culling = cull;
         let out = render_soup(
             &d,
             &facing_quad(front, 0),
@@ -225,7 +230,7 @@ fn alpha_modes_and_sidedness() {
         let c = coverage(&out.image);
         assert_eq!(
             c, want,
-            "{mode:?} alpha {alpha} front {front} double {double}"
+            "{mode:?} alpha {alpha} front {front} double {double} culling {cull}"
         );
         if want == 1.0 {
             // Lit from the camera's side, whichever way it faces.
@@ -298,7 +303,7 @@ fn alpha_modes_and_sidedness() {
 use soupray::scene::Material;
 
 #[test]
-fn a_scene_without_lights_gets_a_white_environment_and_says_so() {
+fn a_scene_without_lights_gets_the_studio_sky_and_says_so() {
     let d = common::device();
     let mut s = Soup::default();
     sphere(&mut s, Vec3::ZERO, 1.0, 12, 24, 0);
@@ -309,12 +314,24 @@ fn a_scene_without_lights_gets_a_white_environment_and_says_so() {
     assert!(
         out.warnings
             .iter()
-            .any(|w| w.contains("no light of its own") && w.contains("radiance 1")),
+            .any(|w| w.contains("no KHR_lights_punctual light") && w.contains("studio sky")),
         "{:?}",
         out.warnings
     );
-    // The background is the environment's radiance 1, alpha 0.
-    assert_eq!(out.image.rgba[0], [1.0, 1.0, 1.0, 0.0]);
+    // The background is the grey sky near the horizon, alpha 0.
+    let bg = out.image.rgba[0];
+    assert!(bg[0] == bg[1] && bg[1] == bg[2] && bg[3] == 0.0, "{bg:?}");
+    assert!((0.7..=1.0).contains(&bg[0]), "{bg:?}");
+    // A white object does not vanish against it: the sphere's top, facing
+    // the zenith, is brighter than its bottom, facing the ground, and its
+    // centre differs from the sky behind it.
+    let px = |x: usize, y: usize| out.image.rgba[y * 16 + x];
+    let (top, centre, bottom) = (px(8, 5), px(8, 8), px(8, 11));
+    assert!(top[0] > bottom[0] + 0.1, "top {top:?} bottom {bottom:?}");
+    assert!(
+        (centre[0] - bg[0]).abs() > 0.05,
+        "centre {centre:?} sky {bg:?}"
+    );
     // With a light, there is no environment and no warning.
     let l = light(
         LightKind::Point,

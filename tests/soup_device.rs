@@ -275,6 +275,38 @@ fn mixed_generated_scene_matches_cpu_every_frame() {
 }
 
 #[test]
+fn gpu_instances_match_cpu_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&scene_support::instanced_triangles(dir.path(), true), None);
+    check_scene(&scene, "generated EXT_mesh_gpu_instancing row");
+    // A skinned mesh drawn by two instances: each gets joint matrices of
+    // its own.
+    let path = skinned_triangle(
+        dir.path(),
+        json!({"translation": [0.0, 1.0, 0.0]}),
+        [5.0, 0.0, 2.0],
+    );
+    let mut root: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let mut b = Builder::default();
+    let uri = root["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    b.bin = scene_support::decode_data_uri(&uri);
+    b.views = root["bufferViews"].as_array().unwrap().clone();
+    b.accessors = root["accessors"].as_array().unwrap().clone();
+    let t = b.floats(&[0.0, 0.0, 0.0, 0.0, 3.0, 10.0], 3);
+    root["nodes"][0]["extensions"] =
+        json!({"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": t}}});
+    let scene = load(&b.write(root, dir.path(), "skinned_instanced", true), None);
+    assert_eq!(scene.triangle_count(), 2);
+    check_scene(&scene, "instanced skinned triangle");
+    if let Some(path) =
+        scene_support::shared::khronos("SimpleInstancing/glTF-Binary/SimpleInstancing.glb")
+    {
+        check_scene(&load(&path, None), "SimpleInstancing");
+    }
+}
+
+#[test]
 fn second_influence_set_matches_cpu() {
     let dir = tempfile::tempdir().unwrap();
     let mut b = Builder::default();

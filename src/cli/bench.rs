@@ -246,6 +246,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
             ..Aovs::default()
         },
         energy_compensation: true,
+        backface_culling: false,
     }
 }
 

@@ -230,10 +230,18 @@ pub struct RenderArgs {
     /// specification's Appendix B (darker rough metals).
     #[arg(long, help_heading = "Image")]
     pub no_energy_compensation: bool,
+    /// Let rays pass through the back faces of single-sided materials
+    /// (glTF's doubleSided false), as a rasterizer such as the Khronos
+    /// Sample Viewer culls them. By default back faces are shaded as front
+    /// faces are, as in Cycles, so a mesh with flipped parts has no holes;
+    /// a single-sided emitter emits from its front only either way.
+    #[arg(long, help_heading = "Image")]
+    pub backface_culling: bool,
     /// Constant environment radiance, linear RGB (e.g. 0.5,0.6,1.0).
     /// Without this or --env: the file's own sky, where its scene's extras
     /// give one ({"soupray": {"environment": [r, g, b]}}); else none when
-    /// the scene has lights, and white (radiance 1) when it has none.
+    /// the scene has KHR_lights_punctual lights, and soupray's grey studio
+    /// sky (zenith 1.0, horizon 0.7, ground 0.25) when it has none.
     #[arg(long, value_name = "R,G,B", help_heading = "Image")]
     pub env_color: Option<String>,
     /// Equirectangular environment map (.exr), importance sampled.
@@ -603,6 +611,7 @@ fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::R
             environment,
             aovs,
             energy_compensation: !args.no_energy_compensation,
+            backface_culling: args.backface_culling,
         },
         params,
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
@@ -1046,6 +1055,12 @@ fn render_frame(
     log.scene = job.scene_path.display().to_string();
     log.device = pipe.device.info.name.clone();
     log.triangles = pipe.soup.triangle_count() as u64;
+    log.mesh_instances = pipe.scene.instances().len() as u64;
+    log.gpu_instances = pipe.scene.gpu_instance_count() as u64;
+    log.memory = output::MemoryLog {
+        soup_bytes: pipe.soup.soup_bytes(),
+        peak_resident_bytes: output::peak_resident_bytes(),
+    };
     log.timings_ms.evaluate = evaluate_ms;
     log.timings_ms.build = build_ms;
     log.timings_ms.trace = trace_ms;
@@ -1117,6 +1132,10 @@ fn render_frame(
     log.warnings = pipe.scene.warnings().to_vec();
     log.warnings.extend(info.warnings.iter().cloned());
     log.warnings.extend(traced.warnings.iter().cloned());
+    if let Some(dark) = image.darkness_warning() {
+        progress.warn(&format!("frame {frame}: {dark}"));
+        log.warnings.push(dark);
+    }
     if progress.verbose {
         progress.line(&format!(
             "frame {frame}: evaluate {evaluate_ms:.1} ms, build {build_ms:.1} ms \
@@ -1345,6 +1364,17 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             d.library()
         ));
     }
+    let triangles = scene.triangle_count();
+    crate::scene::soup_size::check_frame_fits(triangles, Some(device.info.global_mem_mib << 20))
+        .map_err(|e| crate::scene::SceneError::invalid(&scene_path.display().to_string(), e))?;
+    progress.line(&format!(
+        "scene: {triangles} triangles from {} mesh instance(s){}",
+        scene.instances().len(),
+        match scene.gpu_instance_count() {
+            0 => String::new(),
+            n => format!(", {n} of them by EXT_mesh_gpu_instancing"),
+        }
+    ));
     let soup = DeviceSoup::new(&device, &scene)?;
     let mut tracer = PathTracer::new(&device, &scene, &job.settings)?;
     // Blur's programs only when some frame can move: a shutter that stays

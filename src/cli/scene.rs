@@ -133,11 +133,25 @@ pub fn describe(scene: &Scene) -> String {
     );
     for (i, mesh) in scene.meshes().iter().enumerate() {
         let tris: usize = mesh.primitives.iter().map(|p| p.triangles.len()).sum();
-        let placed: Vec<String> = scene
-            .instances()
+        // One entry per node; an EXT_mesh_gpu_instancing node says how
+        // many instances it draws (its instances are adjacent).
+        let mut by_node: Vec<(usize, usize)> = Vec::new();
+        for inst in scene.instances().iter().filter(|inst| inst.mesh == i) {
+            let gpu = inst.node_from_instance.is_some() as usize;
+            match by_node.last_mut() {
+                Some((node, count)) if *node == inst.node => *count += gpu,
+                _ => by_node.push((inst.node, gpu)),
+            }
+        }
+        let placed: Vec<String> = by_node
             .iter()
-            .filter(|inst| inst.mesh == i)
-            .map(|inst| scene.node_label(inst.node))
+            .map(|&(node, gpu)| match gpu {
+                0 => scene.node_label(node),
+                n => format!(
+                    "{} ({n} EXT_mesh_gpu_instancing instances)",
+                    scene.node_label(node)
+                ),
+            })
             .collect();
         let _ = writeln!(
             o,

@@ -165,11 +165,11 @@ impl Scene {
         let mut dropped = 0usize;
         for inst in self.instances() {
             let mesh = &self.meshes()[inst.mesh];
-            let joints = inst.skin.map(|s| pose.joint_matrices[s].as_slice());
+            let joints = inst.joint_matrices(pose);
+            let world_from_mesh = inst.world_from_mesh(pose);
             let weights = &pose.morph_weights[inst.node];
             for prim in &mesh.primitives {
-                let verts =
-                    deform_primitive(prim, weights, &pose.world_from_node[inst.node], joints);
+                let verts = deform_primitive(prim, weights, &world_from_mesh, joints.as_deref());
                 let material = prim.material.map_or(default_material, |m| m as u32);
                 for (t, tri) in prim.triangles.iter().enumerate() {
                     let c = [

@@ -18,6 +18,11 @@ use super::mesh::{load_mesh, Skipped};
 use super::source;
 use super::{LoadOptions, MeshInstance, Node, Scene, Skin, Trs};
 
+/// The most mesh instances a scene may have (EXT_mesh_gpu_instancing
+/// instances included): a bound on what a small file can make soupray
+/// allocate per instance, far above real scenes (a forest of 10^6 trees).
+const MAX_MESH_INSTANCES: usize = 1 << 24;
+
 pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let file = path.display().to_string();
     if !(opts.fps.is_finite() && opts.fps > 0.0) {
@@ -221,12 +226,37 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
                 ));
             }
         }
-        instances.push(MeshInstance {
-            node: n,
-            mesh,
-            skin,
-        });
+        let label = label_of(n);
+        match super::instancing::node_instances(&reader, &src.json, n, &label)? {
+            None => instances.push(MeshInstance {
+                node: n,
+                mesh,
+                skin,
+                node_from_instance: None,
+            }),
+            Some(transforms) => {
+                // Bounded before the instances are made: each costs a slot,
+                // and the soup they expand to is checked below.
+                let total = instances.len().saturating_add(transforms.len());
+                if total > MAX_MESH_INSTANCES {
+                    return Err(SceneError::invalid(
+                        &file,
+                        format!(
+                            "{label} asks for {} EXT_mesh_gpu_instancing instances, which takes the scene past                              soupray's limit of {MAX_MESH_INSTANCES} mesh instances. Fix: split the scene.",
+                            transforms.len()
+                        ),
+                    ));
+                }
+                instances.extend(transforms.into_iter().map(|m| MeshInstance {
+                    node: n,
+                    mesh,
+                    skin,
+                    node_from_instance: Some(m),
+                }));
+            }
+        }
     }
+    super::soup_size::check_scene_fits(&file, &instances, &meshes)?;
 
     // Animations: all are read (for `info`), one is applied.
     let mut clips = Vec::new();

@@ -15,6 +15,7 @@ pub mod deform;
 pub mod error;
 mod evaluate;
 mod image_decode;
+mod instancing;
 pub mod light;
 mod load;
 pub mod material;
@@ -22,6 +23,7 @@ pub mod mesh;
 mod meshopt_views;
 pub mod pose;
 mod ranges;
+pub mod soup_size;
 mod source;
 mod texture_source;
 mod validate;
@@ -119,12 +121,43 @@ pub struct Skin {
 }
 
 /// A mesh placed in the scene by a node.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshInstance {
     pub node: usize,
     pub mesh: usize,
     /// The node's skin, when its mesh carries joint influences.
     pub skin: Option<usize>,
+    /// One of the node's EXT_mesh_gpu_instancing instances: its transform
+    /// in the node's space. `None` for a node that draws its mesh once.
+    pub node_from_instance: Option<Mat4>,
+}
+
+impl MeshInstance {
+    /// Where an unskinned instance's mesh sits in the pose.
+    pub fn world_from_mesh(&self, pose: &Pose) -> Mat4 {
+        let world_from_node = pose.world_from_node[self.node];
+        match self.node_from_instance {
+            Some(m) => world_from_node * m,
+            None => world_from_node,
+        }
+    }
+
+    /// The joint matrices of a skinned instance in the pose. Skinning
+    /// places vertices in world space and ignores the node's transform, so
+    /// an instance's transform moves the skinned mesh about the node:
+    /// `world_from_node * node_from_instance * node_from_world` before each
+    /// joint matrix.
+    pub fn joint_matrices<'p>(&self, pose: &'p Pose) -> Option<std::borrow::Cow<'p, [Mat4]>> {
+        let joints = pose.joint_matrices[self.skin?].as_slice();
+        Some(match self.node_from_instance {
+            None => std::borrow::Cow::Borrowed(joints),
+            Some(m) => {
+                let w = pose.world_from_node[self.node];
+                let about_node = w * m * w.inverse();
+                std::borrow::Cow::Owned(joints.iter().map(|j| about_node * *j).collect())
+            }
+        })
+    }
 }
 
 /// A loaded glTF file with one scene, animation and camera chosen.
@@ -356,11 +389,15 @@ impl Scene {
     /// Triangles per frame (topology never changes with time; `--sanitize`
     /// may drop some from a frame).
     pub fn triangle_count(&self) -> usize {
+        triangle_count(&self.instances, &self.meshes)
+    }
+
+    /// Mesh instances drawn by EXT_mesh_gpu_instancing nodes.
+    pub fn gpu_instance_count(&self) -> usize {
         self.instances
             .iter()
-            .flat_map(|i| &self.meshes[i.mesh].primitives)
-            .map(|p| p.triangles.len())
-            .sum()
+            .filter(|i| i.node_from_instance.is_some())
+            .count()
     }
 
     /// "node 3 \"Arm\"" for messages.
@@ -370,6 +407,15 @@ impl Scene {
             None => format!("node {node}"),
         }
     }
+}
+
+/// Triangles of the soup the instances make of the meshes.
+fn triangle_count(instances: &[MeshInstance], meshes: &[Mesh]) -> usize {
+    instances
+        .iter()
+        .flat_map(|i| &meshes[i.mesh].primitives)
+        .map(|p| p.triangles.len())
+        .sum()
 }
 
 /// Runs `load`, turning a panic inside it into an error naming `path` whose

@@ -14,6 +14,7 @@ use super::texture_source;
 /// `extensionsRequired` is refused. (Names in `extensionsUsed` only are
 /// optional by definition and are ignored when unknown.)
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
@@ -37,6 +38,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// Supported extensions read from the raw JSON rather than by the `gltf`
 /// crate (`scene::material`; `scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",

@@ -25,7 +25,7 @@ use opencl3::memory::Buffer;
 use super::Soup;
 use crate::device::{build_options, Arg, Device, DeviceError};
 use crate::scene::deform::normal_matrix;
-use crate::scene::{FrameCamera, FrameLight, Pose, Scene, SceneError};
+use crate::scene::{FrameCamera, FrameLight, MeshInstance, Pose, Scene, SceneError};
 
 /// Marks an absent base index in [`SoupSegment`] (no skin, no morphs).
 pub const SOUP_NONE: u32 = u32::MAX;
@@ -194,7 +194,7 @@ pub struct FrameInfo {
 
 /// A mesh instance as the per-frame pose upload sees it.
 struct InstanceSlot {
-    node: usize,
+    instance: MeshInstance,
     /// Index into the frame's joint matrices of its skin's first joint.
     skin: Option<(usize, u32)>,
     /// Where its morph weights go in the frame's weight array, and how many.
@@ -366,6 +366,13 @@ impl<'d> DeviceSoup<'d> {
         for (ii, inst) in scene.instances().iter().enumerate() {
             let mesh = &scene.meshes()[inst.mesh];
             let skin = match inst.skin {
+                // An EXT_mesh_gpu_instancing instance of a skinned mesh has
+                // joint matrices of its own (`MeshInstance::joint_matrices`).
+                Some(s) if inst.node_from_instance.is_some() => {
+                    let b = as_u32(&file, "joint matrices", joint_count)?;
+                    joint_count += scene.skins()[s].joints.len();
+                    Some((s, b))
+                }
                 Some(s) => {
                     let base = match skin_base.get(&s) {
                         Some(&b) => b,
@@ -388,7 +395,7 @@ impl<'d> DeviceSoup<'d> {
                 None
             };
             instances.push(InstanceSlot {
-                node: inst.node,
+                instance: *inst,
                 skin,
                 weights,
             });
@@ -674,7 +681,7 @@ impl<'d> DeviceSoup<'d> {
         u.weights.resize(self.weight_count, 0.0);
         u.joints.resize(4 * self.joint_count, [0.0; 4]);
         for slot in &self.instances {
-            let m = &pose.world_from_node[slot.node];
+            let m = &slot.instance.world_from_mesh(pose);
             let (n, det) = normal_matrix(m);
             let n = n.to_cols_array_2d();
             u.instances.push(SoupInstancePose {
@@ -687,14 +694,15 @@ impl<'d> DeviceSoup<'d> {
                 det,
                 pad: [0; 3],
             });
-            if let Some((skin, base)) = slot.skin {
-                for (j, m) in pose.joint_matrices[skin].iter().enumerate() {
+            if let (Some((_, base)), Some(joints)) = (slot.skin, slot.instance.joint_matrices(pose))
+            {
+                for (j, m) in joints.iter().enumerate() {
                     let at = 4 * (base as usize + j);
                     u.joints[at..at + 4].copy_from_slice(&cols4(m));
                 }
             }
             if let Some((base, count)) = slot.weights {
-                let w = &pose.morph_weights[slot.node];
+                let w = &pose.morph_weights[slot.instance.node];
                 let base = base as usize;
                 let k = count.min(w.len());
                 u.weights[base..base + k].copy_from_slice(&w[..k]);
@@ -864,6 +872,15 @@ impl<'d> DeviceSoup<'d> {
 
     pub fn triangle_count(&self) -> usize {
         self.triangle_count
+    }
+
+    /// Bytes of the frame's soup on the device: three corners of position
+    /// and of each corner attribute the scene has, and the material ids.
+    pub fn soup_bytes(&self) -> u64 {
+        let f = &self.features;
+        let corner =
+            16 + 16 * (f.normals as u64 + f.colors as u64) + 8 * (f.uvs as u64 + f.uvs1 as u64);
+        self.triangle_count as u64 * (3 * corner + 4)
     }
 
     /// What the program was compiled for.

@@ -139,6 +139,17 @@ pub struct EnvMap {
     pub conditional: Vec<f32>,
 }
 
+/// The studio sky's radiance for a direction whose up component (+Y) is
+/// `up`: 0.25 below the horizon, 0.7 at it rising linearly to 1.0 at the
+/// zenith, blended over 6 degrees about the horizon.
+pub fn studio_sky_radiance(up: f32) -> f32 {
+    let sky = 0.7 + 0.3 * up.max(0.0);
+    let ground = 0.25;
+    let t = ((up + 0.05) / 0.1).clamp(0.0, 1.0);
+    let t = t * t * (3.0 - 2.0 * t);
+    ground + (sky - ground) * t
+}
+
 /// The most texels an environment map may have (16 bytes each on the
 /// host): 8192x4096 is 32M.
 pub const MAX_ENV_TEXELS: u64 = 1 << 26;
@@ -204,6 +215,25 @@ impl EnvMap {
         let (_, texels) = image.layer_data.channel_data.pixels;
         EnvMap::from_texels(size.width() as u32, size.height() as u32, texels)
             .ok_or_else(|| err("is empty. Fix: give a non-empty image.".into()))
+    }
+
+    /// soupray's default sky for scenes that bring no light of their own
+    /// (`Environment::Default`): a grey studio sky, brighter at the zenith
+    /// (1.0) than at the horizon (0.7), over a darker ground (0.25), with a
+    /// soft horizon. Unlike a constant sky it shades a white surface by
+    /// its orientation, so a white object never vanishes against it, and it
+    /// is neutral grey, so colours stay as the file gives them.
+    pub fn studio_sky() -> EnvMap {
+        const W: u32 = 64;
+        const H: u32 = 64;
+        let mut texels = Vec::with_capacity((W * H) as usize);
+        for y in 0..H {
+            let theta = PI * (y as f32 + 0.5) / H as f32;
+            let up = theta.cos();
+            let l = studio_sky_radiance(up);
+            texels.extend(std::iter::repeat_n([l, l, l, 0.0], W as usize));
+        }
+        EnvMap::from_texels(W, H, texels).expect("the sky map is not empty")
     }
 
     /// A map from texels (row-major, top row first). Non-finite or negative

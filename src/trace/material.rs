@@ -44,6 +44,9 @@ pub const MAT_ALPHA_BLEND: u32 = 4;
 pub const MAT_EMISSIVE: u32 = 8;
 /// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
 pub const MAT_UNLIT: u32 = 16;
+/// `--backface-culling`: rays pass through the material's back faces, as a
+/// rasterizer culls them (set on single-sided materials only).
+pub const MAT_CULL_BACK: u32 = 32;
 
 /// `PtMaterial` of `kernels/bsdf.h`: factors, flags and texture binding
 /// indices (-1: none).

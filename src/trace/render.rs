@@ -36,7 +36,10 @@ use super::lights::{
     environment_power, punctual_power, DeviceEnv, DeviceLight, EmissiveDistribution, EnvMap,
     LightSelection, ENV_CONSTANT, ENV_MAP, ENV_NONE,
 };
-use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
+use super::material::{
+    device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt, MAT_CULL_BACK,
+    MAT_DOUBLE_SIDED,
+};
 use super::sampling::{NoisePattern, Sampler};
 use super::texture::{Slot, TextureBinding, TextureSet};
 use super::TraceError;
@@ -78,8 +81,10 @@ impl Traversal {
 /// Where light comes from when rays leave the scene.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub enum Environment {
-    /// None when the scene has lights of its own (punctual or emissive);
-    /// otherwise a constant white environment of radiance 1, with a warning.
+    /// None when the scene has KHR_lights_punctual lights of its own;
+    /// otherwise the studio sky (`EnvMap::studio_sky`), with a warning.
+    /// A scene's emissive materials do not count: they rarely light a
+    /// whole frame (a screen, a lamp's bulb, a helmet's displays).
     #[default]
     Default,
     /// `--env-color R,G,B`: constant linear radiance.
@@ -118,6 +123,10 @@ pub struct RenderSettings {
     /// `--no-energy-compensation`; never compiled for `--clay`, whose
     /// materials have no GGX lobe).
     pub energy_compensation: bool,
+    /// `--backface-culling`: rays pass through the back faces of
+    /// single-sided materials, as the Khronos Sample Viewer's rasterizer
+    /// culls them. Off by default: back faces are shaded, as Cycles does.
+    pub backface_culling: bool,
 }
 
 impl Default for RenderSettings {
@@ -137,6 +146,7 @@ impl Default for RenderSettings {
             environment: Environment::Default,
             aovs: Aovs::NONE,
             energy_compensation: true,
+            backface_culling: false,
         }
     }
 }
@@ -616,6 +626,24 @@ pub struct PathTracer<'d> {
 /// luminance.
 type EnvBuffers = (DeviceEnv, Buffer<[f32; 4]>, Buffer<f32>, Buffer<f32>, f32);
 
+/// An environment map on the device, with its sampling tables.
+fn upload_env_map(device: &Device, map: &EnvMap) -> Result<EnvBuffers, TraceError> {
+    let mut texels = device.buffer::<[f32; 4]>(map.texels.len())?;
+    device.write(&mut texels, &map.texels)?;
+    let mut marginal = device.buffer::<f32>(map.marginal.len())?;
+    device.write(&mut marginal, &map.marginal)?;
+    let mut conditional = device.buffer::<f32>(map.conditional.len())?;
+    device.write(&mut conditional, &map.conditional)?;
+    let env = DeviceEnv {
+        color: [1.0, 1.0, 1.0, 0.0],
+        kind: ENV_MAP,
+        width: map.width,
+        height: map.height,
+        pad: 0,
+    };
+    Ok((env, texels, marginal, conditional, map.mean_luminance()))
+}
+
 struct HostSoupBuffers {
     positions: GrowBuffer<[f32; 4]>,
     normals: GrowBuffer<[f32; 4]>,
@@ -676,6 +704,13 @@ impl<'d> PathTracer<'d> {
         }
         let mut warnings = Vec::new();
         let mut host_materials = device_materials(table);
+        if settings.backface_culling {
+            for m in &mut host_materials {
+                if m.flags & MAT_DOUBLE_SIDED == 0 {
+                    m.flags |= MAT_CULL_BACK;
+                }
+            }
+        }
 
         let transmission = table.materials.iter().any(|m| m.needs_transmission());
         // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
@@ -795,23 +830,7 @@ impl<'d> PathTracer<'d> {
         let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
 
         let env_map = match &settings.environment {
-            Environment::Map(path) => {
-                let map = EnvMap::load(path)?;
-                let mut texels = device.buffer::<[f32; 4]>(map.texels.len())?;
-                device.write(&mut texels, &map.texels)?;
-                let mut marginal = device.buffer::<f32>(map.marginal.len())?;
-                device.write(&mut marginal, &map.marginal)?;
-                let mut conditional = device.buffer::<f32>(map.conditional.len())?;
-                device.write(&mut conditional, &map.conditional)?;
-                let env = DeviceEnv {
-                    color: [1.0, 1.0, 1.0, 0.0],
-                    kind: ENV_MAP,
-                    width: map.width,
-                    height: map.height,
-                    pad: 0,
-                };
-                Some((env, texels, marginal, conditional, map.mean_luminance()))
-            }
+            Environment::Map(path) => Some(upload_env_map(device, &EnvMap::load(path)?)?),
             Environment::Color(c) => {
                 if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
                     return Err(usage(format!(
@@ -1258,9 +1277,21 @@ impl<'d> PathTracer<'d> {
             self.emit_cdf.ensure(d, 2)?;
         }
 
-        // The environment.
+        // The environment. The default: the studio sky unless the scene
+        // has punctual lights of its own (`Environment::Default`).
+        if matches!(s.environment, Environment::Default) && lights.is_empty() {
+            if self.env_map.is_none() {
+                self.env_map = Some(upload_env_map(d, &EnvMap::studio_sky())?);
+            }
+            warnings.push(
+                "the scene has no KHR_lights_punctual light: lit by soupray's default studio sky \
+                 (pass --env-color R,G,B or --env FILE.exr to choose another, --env-color 0,0,0 for none)"
+                    .to_owned(),
+            );
+        }
         let env = match (&s.environment, &self.env_map) {
             (Environment::Map(_), Some((env, ..))) => *env,
+            (Environment::Default, Some((env, ..))) if lights.is_empty() => *env,
             (Environment::Color(c), _) if c.iter().any(|&v| v > 0.0) => DeviceEnv {
                 color: [c[0], c[1], c[2], 0.0],
                 kind: ENV_CONSTANT,
@@ -1272,18 +1303,6 @@ impl<'d> PathTracer<'d> {
                 kind: ENV_NONE,
                 ..DeviceEnv::zeroed()
             },
-            _ if lights.is_empty() && emit.is_empty() => {
-                warnings.push(
-                    "the scene has no light of its own (no KHR_lights_punctual light, no emissive material): \
-                     lit by a constant white environment of radiance 1 (--env-color or --env to choose another)"
-                        .to_owned(),
-                );
-                DeviceEnv {
-                    color: [1.0, 1.0, 1.0, 0.0],
-                    kind: ENV_CONSTANT,
-                    ..DeviceEnv::zeroed()
-                }
-            }
             _ => DeviceEnv {
                 kind: ENV_NONE,
                 ..DeviceEnv::zeroed()

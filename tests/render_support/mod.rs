@@ -172,6 +172,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
         energy_compensation: false,
+        backface_culling: false,
     }
 }
 
