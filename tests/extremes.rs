@@ -911,18 +911,29 @@ fn camera_inside_closed_meshes_sees_only_the_mesh() {
         .iter()
         .all(|p| grey(p) > 0.0 && grey(p) < 5.0));
     // Single-sided and facing outwards, every face is a back face from
-    // inside: glTF culls it, so the camera sees the sky through the box
-    // (this pins the culling, it is not a leak).
-    let culled = render(
-        &d,
-        &write(
-            &inside(closed_box(r, false, diffuse([1.0; 3]))),
-            dir.path(),
-            "culled",
-        ),
-        &st,
-        Tree::Device,
+    // inside. By default back faces are shaded (as in Cycles), so the box
+    // is as closed as the double-sided one...
+    let outward = write(
+        &inside(closed_box(r, false, diffuse([1.0; 3]))),
+        dir.path(),
+        "outward",
     );
+    let flipped = render(&d, &outward, &st, Tree::Device);
+    assert_eq!(
+        coverage(&flipped.image).0,
+        flipped.image.rgba.len(),
+        "a single-sided box seen from inside leaks"
+    );
+    assert!(flipped
+        .image
+        .rgba
+        .iter()
+        .all(|p| grey(p) > 0.0 && grey(p) < 5.0));
+    // ...and with --backface-culling they are culled as a rasterizer does,
+    // so the camera sees the sky through the box (this pins the culling,
+    // it is not a leak).
+    st.backface_culling = true;
+    let culled = render(&d, &outward, &st, Tree::Device);
     assert_eq!(coverage(&culled.image).1, culled.image.rgba.len());
     assert!(culled.image.rgba.iter().all(|p| p[..3] == [5.0, 5.0, 5.0]));
 }
