@@ -350,6 +350,43 @@ fn structured_mutation_fuzz() {
 
     // Small assets only: each case is a full load and three evaluations.
     let mut bases: Vec<(String, Value, Vec<u8>, Option<PathBuf>)> = Vec::new();
+    // Generated seeds first, so a clone without the shared folder still
+    // fuzzes skins, morphs, every interpolation, textures, lights, cameras,
+    // instancing and compressed views: the shipped animation, and the
+    // support module's generated scenes (data-URI buffers).
+    let generated = tempfile::tempdir().unwrap();
+    let walker =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("animations/walker/walker.glb"))
+            .unwrap();
+    let (json, bin) = glb_parts(&walker);
+    bases.push(("animations/walker/walker.glb".into(), json, bin, None));
+    let (meshopt, meshopt_bin) = scene_support::meshopt_quad();
+    for (name, path) in [
+        (
+            "generated EXT_mesh_gpu_instancing row",
+            scene_support::instanced_triangles(generated.path(), true),
+        ),
+        (
+            "generated skinned triangle",
+            scene_support::skinned_triangle(
+                generated.path(),
+                serde_json::json!({"translation": [0.0, 1.0, 0.0]}),
+                [1.0, 0.0, 0.0],
+            ),
+        ),
+        (
+            "generated EXT_meshopt_compression quad",
+            scene_support::write_with_buffer(
+                meshopt.clone(),
+                &meshopt_bin,
+                generated.path(),
+                "meshopt",
+            ),
+        ),
+    ] {
+        let json = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        bases.push((name.into(), json, Vec::new(), None));
+    }
     for rel in [
         "BoxAnimated/BoxAnimated.glb",
         "RiggedSimple/RiggedSimple.glb",
