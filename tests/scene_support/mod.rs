@@ -203,6 +203,7 @@ impl Raw {
             .iter()
             .map(|b| match b["uri"].as_str() {
                 None => bin.take().unwrap(),
+                Some(uri) if uri.starts_with("data:") => decode_data_uri(uri),
                 Some(uri) => std::fs::read(path.parent().unwrap().join(uri)).unwrap(),
             })
             .collect();
