@@ -78,7 +78,10 @@ fn spec_gloss_factors_become_metallic_roughness_with_specular_colour() {
     let scene = Scene::load(&spec_gloss_file(dir.path()), &LoadOptions::default())
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(
-        scene.warnings().iter().all(|w| !w.contains("pbrSpecularGlossiness")),
+        scene
+            .warnings()
+            .iter()
+            .all(|w| !w.contains("pbrSpecularGlossiness")),
         "{:?}",
         scene.warnings()
     );
@@ -108,7 +111,10 @@ fn spec_gloss_textures_become_base_colour_specular_colour_and_roughness() {
     assert_eq!(m.base_color_factor, [1.0; 4]);
     assert_eq!(m.base_color_texture.as_ref().unwrap().texture, 0);
     assert_eq!(m.metallic_factor, 0.0);
-    assert_eq!(m.roughness_factor, 1.0, "the glossiness factor is in the image");
+    assert_eq!(
+        m.roughness_factor, 1.0,
+        "the glossiness factor is in the image"
+    );
     let specular = m.specular_color_texture.as_ref().unwrap();
     assert_eq!(specular.texture, 1);
     assert_eq!(specular.transform.unwrap().offset, [0.25, 0.0]);
@@ -125,8 +131,18 @@ fn spec_gloss_textures_become_base_colour_specular_colour_and_roughness() {
     assert_eq!(table.textures.len(), 3);
     let (source, derived) = (&table.textures[1], &table.textures[2]);
     assert_eq!(
-        (derived.wrap_s, derived.wrap_t, derived.mag_filter, derived.min_filter),
-        (source.wrap_s, source.wrap_t, source.mag_filter, source.min_filter)
+        (
+            derived.wrap_s,
+            derived.wrap_t,
+            derived.mag_filter,
+            derived.min_filter
+        ),
+        (
+            source.wrap_s,
+            source.wrap_t,
+            source.mag_filter,
+            source.min_filter
+        )
     );
     assert_eq!(derived.image, 2);
     let pixels = table.images[2].decoded(2).unwrap();
@@ -162,7 +178,8 @@ fn mean_covered(img: &soupray::film::Image, x0: u32, x1: u32, y0: u32) -> ([f64;
 
 #[test]
 fn spec_gloss_and_metal_rough_bottles_render_alike() {
-    let Some(path) = shared::khronos("SpecGlossVsMetalRough/glTF/SpecGlossVsMetalRough.gltf") else {
+    let Some(path) = shared::khronos("SpecGlossVsMetalRough/glTF/SpecGlossVsMetalRough.gltf")
+    else {
         return;
     };
     let scene = Scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -191,7 +208,11 @@ fn spec_gloss_and_metal_rough_bottles_render_alike() {
         .args(["--env-color", "1,1,1", "--out", out.to_str().unwrap()])
         .output()
         .expect("run soupray");
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let exr = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -202,7 +223,9 @@ fn spec_gloss_and_metal_rough_bottles_render_alike() {
     let (metal_rough, n_left) = mean_covered(&img, 0, img.width / 2, below_labels);
     let (spec_gloss, n_right) = mean_covered(&img, img.width / 2, img.width, below_labels);
     assert!(n_left > 200 && n_right > 200, "{n_left} {n_right}");
-    eprintln!("metal-rough {metal_rough:?} ({n_left} px), spec-gloss {spec_gloss:?} ({n_right} px)");
+    eprintln!(
+        "metal-rough {metal_rough:?} ({n_left} px), spec-gloss {spec_gloss:?} ({n_right} px)"
+    );
     for c in 0..3 {
         let rel = (spec_gloss[c] - metal_rough[c]).abs() / metal_rough[c];
         assert!(

@@ -6,7 +6,9 @@
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
 //! map), KHR_materials_sheen, KHR_materials_diffuse_transmission and
 //! KHR_materials_iridescence, KHR_materials_anisotropy and
-//! KHR_materials_dispersion, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*`
+//! KHR_materials_dispersion, with their textures, and KHR_materials_unlit;
+//! KHR_materials_pbrSpecularGlossiness is converted to these on load
+//! (`apply_specular_glossiness`). Every other `KHR_materials_*`
 //! extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
@@ -374,7 +376,12 @@ fn apply_specular_glossiness(
     m.specular_factor = 1.0;
     m.specular_texture = None;
     m.specular_color = specular.map(|s| s / DIELECTRIC_F0);
-    let texture = extension_texture(src, material, SPECULAR_GLOSSINESS, "specularGlossinessTexture");
+    let texture = extension_texture(
+        src,
+        material,
+        SPECULAR_GLOSSINESS,
+        "specularGlossinessTexture",
+    );
     m.specular_color_texture = texture.clone();
     match texture {
         Some(t) => {

@@ -20,6 +20,7 @@ mod load;
 pub mod material;
 pub mod mesh;
 mod meshopt_views;
+pub mod pointer;
 pub mod pose;
 mod ranges;
 mod source;

@@ -15,6 +15,7 @@ use super::texture_source;
 /// optional by definition and are ignored when unknown.)
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_meshopt_compression",
+    "KHR_animation_pointer",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -39,6 +40,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// crate (`scene::material`; `scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
     "EXT_meshopt_compression",
+    "KHR_animation_pointer",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
@@ -172,6 +174,18 @@ pub fn load(path: &Path) -> Result<Source> {
             !e.as_str()
                 .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
         });
+    }
+    // KHR_animation_pointer channels (`scene::pointer`) are read from the
+    // raw JSON; the crate knows no "pointer" path.
+    if let Some(animations) = for_crate
+        .get_mut("animations")
+        .and_then(|a| a.as_array_mut())
+    {
+        for animation in animations {
+            if let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) {
+                channels.retain(|ch| super::pointer::channel_pointer(ch).is_none());
+            }
+        }
     }
     // The `gltf` crate needs every texture's `source`; it gets the image
     // soupray samples, which a texture-source extension may have chosen.
