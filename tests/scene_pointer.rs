@@ -5,6 +5,7 @@
 //! animation says. Renders run the real binary (`soupray render`), so the
 //! per-frame material upload is what is tested.
 
+mod common;
 mod scene_support;
 
 use std::path::{Path, PathBuf};
@@ -251,6 +252,16 @@ fn light_intensity_pointer_scales_the_brightness() {
     // samples is where in the pixel they land (the filter), which the
     // 64-pixel mean averages. The brightness follows the intensity.
     let frames = render(&path, "0,12,24", 16);
+    // Motion blur sees the change: a shutter over which the intensity
+    // changes has motion steps, each with its own lights.
+    let plan = soupray::soup::motion::motion_steps(&scene, 0.4, 0.6, None);
+    assert!(plan.steps >= 2, "{plan:?}");
+    let still = load(&asset_without_pointers(dir.path()));
+    assert_eq!(
+        soupray::soup::motion::motion_steps(&still, 0.4, 0.6, None).steps,
+        1
+    );
+
     let lum: Vec<f64> = frames.iter().map(|i| centre(i)[1]).collect();
     assert!(lum[0] > 0.1, "frame 0 is lit: {lum:?}");
     close(lum[1] / lum[0], 2.5, 0.025, "intensity 25 vs 10");
@@ -405,4 +416,95 @@ fn mesh_weights_pointer_drives_the_nodes_that_take_them() {
     // Node 0 takes the mesh's weights; node 1 has its own.
     assert_eq!(pose.morph_weights[0], vec![0.5]);
     assert_eq!(pose.morph_weights[1], vec![0.0]);
+}
+
+#[test]
+fn emissive_factor_pointer_lights_the_surface_from_black() {
+    let dir = tempfile::tempdir().unwrap();
+    // No light reaches the quad (the point light is off): what the camera
+    // sees is the emission alone, 0 at rest and at frame 0, 2 at frame 24.
+    let path = quad_scene(
+        dir.path(),
+        "emissive",
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0}}),
+        &[
+            (
+                "/materials/0/emissiveFactor",
+                &[0.0, 0.0, 0.0, 1.0, 0.5, 0.25],
+                3,
+            ),
+            (
+                "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength",
+                &[2.0, 2.0],
+                1,
+            ),
+            (
+                "/extensions/KHR_lights_punctual/lights/0/intensity",
+                &[0.0, 0.0],
+                1,
+            ),
+        ],
+        false,
+    );
+    let scene = load(&path);
+    assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+    let frames = render(&path, "0,24", 2);
+    let (a, b) = (centre(&frames[0]), centre(&frames[1]));
+    for v in a {
+        close(v, 0.0, 1e-6, "frame 0 is black");
+    }
+    for (c, want) in [2.0, 1.0, 0.5].into_iter().enumerate() {
+        close(
+            b[c],
+            want,
+            2e-3 * want,
+            "frame 24 emits emissiveFactor x strength",
+        );
+    }
+}
+
+#[test]
+fn animated_layer_factors_compile_their_features_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let material = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}});
+    let animated = quad_scene(
+        dir.path(),
+        "coat",
+        material.clone(),
+        &[(
+            "/materials/0/extensions/KHR_materials_clearcoat/clearcoatFactor",
+            &[0.0, 1.0],
+            1,
+        )],
+        false,
+    );
+    let still = quad_scene(dir.path(), "no_coat", material, &[], false);
+    let d = common::device();
+    let settings = soupray::trace::render::RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        ..Default::default()
+    };
+    let features = |path: &Path| {
+        let scene = load(path);
+        soupray::trace::render::PathTracer::new(&d, &scene, &settings)
+            .unwrap()
+            .material_features()
+            .to_vec()
+    };
+    // At rest the material has no coat; at the clip's last key it has.
+    let scene = load(&animated);
+    assert_eq!(scene.materials().materials[0].clearcoat_factor, 0.0);
+    assert_eq!(scene.materials_at(1.0).unwrap()[0].clearcoat_factor, 1.0);
+    assert!(
+        features(&animated).contains(&"clearcoat"),
+        "{:?}",
+        features(&animated)
+    );
+    assert!(
+        !features(&still).contains(&"clearcoat"),
+        "{:?}",
+        features(&still)
+    );
 }
