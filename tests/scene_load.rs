@@ -513,7 +513,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         json!({
             "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
                                "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
-                               "KHR_materials_pbrSpecularGlossiness",
+                               "KHR_materials_volume_scatter",
                                "KHR_materials_iridescence", "KHR_materials_anisotropy",
                                "KHR_materials_diffuse_transmission"],
             "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
@@ -691,7 +691,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         );
     }
     {
-        let (ext, first) = ("KHR_materials_pbrSpecularGlossiness", "extensionsUsed");
+        let (ext, first) = ("KHR_materials_volume_scatter", "extensionsUsed");
         let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
         assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
         assert!(
@@ -712,6 +712,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         "KHR_materials_dispersion",
         "KHR_materials_iridescence",
         "KHR_materials_clearcoat",
+        "KHR_materials_pbrSpecularGlossiness",
     ] {
         let path = b.write(
             json!({
@@ -732,8 +733,8 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     // An unsupported material extension that is required is refused.
     let path = b.write(
         json!({
-            "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
-            "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],
+            "extensionsUsed": ["KHR_materials_volume_scatter"],
+            "extensionsRequired": ["KHR_materials_volume_scatter"],
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
         }),
@@ -742,11 +743,10 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         true,
     );
     let Err(err) = Scene::load(&path, &LoadOptions::default()) else {
-        panic!("a required KHR_materials_pbrSpecularGlossiness is refused");
+        panic!("a required KHR_materials_volume_scatter is refused");
     };
     assert!(
-        err.to_string()
-            .contains("KHR_materials_pbrSpecularGlossiness"),
+        err.to_string().contains("KHR_materials_volume_scatter"),
         "{err}"
     );
 }

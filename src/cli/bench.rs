@@ -339,6 +339,9 @@ fn bench_gltf(
         .unwrap_or_default();
     let render = |tree: &Tree, s: &RenderSettings| -> anyhow::Result<(Image, f64, f64, u64, f64)> {
         let mut tracer = PathTracer::new(device, &scene, s)?;
+        if let Some(materials) = scene.materials_at(time) {
+            tracer.set_materials(&materials)?;
+        }
         let input = FrameInput {
             frame,
             soup: &soup,
@@ -385,6 +388,9 @@ fn bench_gltf(
                 ..settings(args, args.reference_spp, &configs(1, false)[0])
             },
         )?;
+        if let Some(materials) = scene.materials_at(time) {
+            tracer.set_materials(&materials)?;
+        }
         let input = FrameInput {
             frame,
             soup: &soup,

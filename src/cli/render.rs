@@ -912,6 +912,10 @@ impl<'d> Pipeline<'d> {
         tree: &bvh::Bvh,
         progress: Option<&Progress>,
     ) -> Result<RenderOutput, anyhow::Error> {
+        // KHR_animation_pointer material channels: the frame's materials.
+        if let Some(materials) = self.scene.materials_at(ev.info.time) {
+            self.tracer.set_materials(&materials)?;
+        }
         let prim_ids = self
             .builder
             .device_prim_ids()

@@ -202,7 +202,9 @@ pub fn describe(scene: &Scene) -> String {
         let mut modes: Vec<&str> = clip
             .channels
             .iter()
-            .map(|c| c.sampler.interpolation.name())
+            .map(|c| &c.sampler)
+            .chain(clip.pointer_channels.iter().map(|c| &c.sampler))
+            .map(|s| s.interpolation.name())
             .collect();
         modes.sort_unstable();
         modes.dedup();
@@ -212,7 +214,7 @@ pub fn describe(scene: &Scene) -> String {
             "  animation {}: {:.3} s, {} channels ({}), frames 0..={last} at {fps} fps{}",
             named(clip.index, clip.name.as_deref()),
             clip.duration,
-            clip.channels.len(),
+            clip.channels.len() + clip.pointer_channels.len(),
             modes.join("/"),
             if Some(clip.index) == active {
                 " (default)"

@@ -9,6 +9,8 @@ use gltf::accessor::{DataType, Dimensions};
 use super::accessor::Reader;
 use super::error::{Result, SceneError};
 
+pub use super::pointer::ValueTarget;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Interpolation {
     Step,
@@ -54,12 +56,28 @@ pub struct Channel {
     pub sampler: Sampler,
 }
 
+/// A KHR_animation_pointer channel to a material, light or camera
+/// property.
+#[derive(Debug, Clone)]
+pub struct PointerChannel {
+    /// The JSON pointer, as the file spells it.
+    pub pointer: String,
+    pub target: super::pointer::ValueTarget,
+    pub sampler: Sampler,
+}
+
 /// One `animations[i]` entry.
 #[derive(Debug, Clone)]
 pub struct Clip {
     pub index: usize,
     pub name: Option<String>,
+    /// Node channels, KHR_animation_pointer ones to node TRS and weights
+    /// included (a `/meshes/M/weights` pointer is one channel per node
+    /// taking the mesh's weights).
     pub channels: Vec<Channel>,
+    /// KHR_animation_pointer channels to material, light and camera
+    /// properties.
+    pub pointer_channels: Vec<PointerChannel>,
     /// Last key time over all channels, in seconds (the clip starts at 0).
     pub duration: f64,
 }
@@ -190,22 +208,36 @@ pub fn slerp(a: [f64; 4], b: [f64; 4], s: f64) -> [f64; 4] {
     ])
 }
 
-/// Reads one animation. `targets_of(node)` is the morph target count of
-/// the node's mesh (0 without one), needed to split weight outputs.
+/// What a clip's channels may target, for resolving KHR_animation_pointer
+/// pointers: the morph target count of every node's mesh, and per mesh its
+/// target count and the nodes that take its `weights` (those without their
+/// own).
+pub(crate) struct ClipTargets<'a> {
+    pub targets_of_node: &'a dyn Fn(usize) -> usize,
+    pub mesh_targets: Vec<usize>,
+    pub mesh_weight_nodes: Vec<Vec<usize>>,
+}
+
+/// Reads one animation: its `node`/`path` channels through the `gltf`
+/// crate, its KHR_animation_pointer channels from the raw JSON (which the
+/// crate never sees).
 pub(crate) fn load_clip(
     reader: &Reader,
     anim: &gltf::Animation,
-    targets_of: &dyn Fn(usize) -> usize,
+    targets: &ClipTargets,
     warnings: &mut Vec<String>,
 ) -> Result<Clip> {
-    let file = &reader.src.file;
     let label = match anim.name() {
         Some(n) => format!("animation {} \"{n}\"", anim.index()),
         None => format!("animation {}", anim.index()),
     };
     let mut channels = Vec::new();
     let mut duration = 0.0f64;
+    // The crate's channels are the file's without the pointer ones: their
+    // indices in the file, for messages.
+    let file_index = super::pointer::node_channel_indices(&reader.src.json, anim.index());
     for (c, channel) in anim.channels().enumerate() {
+        let c = file_index.get(c).copied().unwrap_or(c);
         let target = channel.target();
         let node = target.node().index();
         let property = match target.property() {
@@ -220,66 +252,11 @@ pub(crate) fn load_clip(
             gltf::animation::Interpolation::Linear => Interpolation::Linear,
             gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
         };
-        let input = sampler.input();
-        let output = sampler.output();
-        let in_usage = format!("keyframe times of {label} channel {c}");
-        let out_usage = format!("keyframe values of {label} channel {c}");
-        reader.expect(&input, &in_usage, &[Dimensions::Scalar], &[DataType::F32])?;
-        let times = reader.finite_floats(&input, &in_usage)?;
-        if times.is_empty() {
-            warnings.push(format!(
-                "{label} channel {c} has no keyframes and is ignored"
-            ));
-            continue;
-        }
-        if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(reader.error(
-                &input,
-                &in_usage,
-                format!(
-                    "key times do not increase at key {} ({} after {}); glTF requires strictly increasing times. \
-                     Fix: re-export the animation.",
-                    k + 1,
-                    times[k + 1],
-                    times[k]
-                ),
-            ));
-        }
-        let (dims, types): (&[Dimensions], &[DataType]) = match property {
-            Property::Translation | Property::Scale => (&[Dimensions::Vec3], &[DataType::F32]),
-            Property::Rotation => (
-                &[Dimensions::Vec4],
-                &[
-                    DataType::F32,
-                    DataType::I8,
-                    DataType::U8,
-                    DataType::I16,
-                    DataType::U16,
-                ],
-            ),
-            Property::Weights => (
-                &[Dimensions::Scalar],
-                &[
-                    DataType::F32,
-                    DataType::I8,
-                    DataType::U8,
-                    DataType::I16,
-                    DataType::U16,
-                ],
-            ),
-        };
-        reader.expect(&output, &out_usage, dims, types)?;
-        let values = reader.finite_floats(&output, &out_usage)?;
-        let per_key = if interpolation == Interpolation::CubicSpline {
-            3
-        } else {
-            1
-        };
         let width = match property {
             Property::Translation | Property::Scale => 3,
             Property::Rotation => 4,
             Property::Weights => {
-                let t = targets_of(node);
+                let t = (targets.targets_of_node)(node);
                 if t == 0 {
                     warnings.push(format!(
                         "{label} channel {c} animates morph weights of node {node}, which has no morph targets; ignored"
@@ -289,59 +266,238 @@ pub(crate) fn load_clip(
                 t
             }
         };
-        let expected = times.len() * per_key * width;
-        if values.len() != expected {
-            return Err(reader.error(
-                &output,
-                &out_usage,
-                format!(
-                    "holds {} floats but {} keys of {} interpolation need {expected} ({per_key} x {width} per key). \
-                     Fix: re-export the animation.",
-                    values.len(),
-                    times.len(),
-                    interpolation.name()
-                ),
-            ));
-        }
-        let mut values = values;
-        if matches!(property, Property::Rotation) && interpolation != Interpolation::CubicSpline {
-            // Keys must be unit quaternions, but exporters round them (e.g.
-            // to 3 decimals); slerp's angle is only right for unit inputs.
-            for (k, q) in values.chunks_exact_mut(4).enumerate() {
-                let len = q
-                    .iter()
-                    .map(|&x| (x as f64) * (x as f64))
-                    .sum::<f64>()
-                    .sqrt();
-                if len < 1e-6 {
-                    return Err(SceneError::invalid(
-                        file,
-                        format!("{label} channel {c} key {k} is a zero quaternion, which is no rotation. Fix: re-export the animation."),
-                    ));
-                }
-                for x in q {
-                    *x = (*x as f64 / len) as f32;
-                }
-            }
-        }
-        duration = duration.max(*times.last().unwrap_or(&0.0) as f64);
+        let keys = KeySource {
+            label: &label,
+            channel: c,
+            input: sampler.input(),
+            output: sampler.output(),
+            interpolation,
+        };
+        let Some(sampler) = read_keys(reader, &keys, property_kind(property), width, warnings)?
+        else {
+            continue;
+        };
+        duration = duration.max(*sampler.times.last().unwrap_or(&0.0) as f64);
         channels.push(Channel {
             node,
             property,
-            sampler: Sampler {
-                times,
-                values,
-                width,
-                interpolation,
-            },
+            sampler,
         });
+    }
+
+    let mut pointer_channels = Vec::new();
+    let mut skipped: std::collections::BTreeMap<String, (String, usize)> = Default::default();
+    for raw in super::pointer::raw_pointer_channels(&reader.src.json, anim.index()) {
+        let resolved = match super::pointer::resolve(&reader.src.json, &raw.pointer, targets) {
+            Ok(r) => r,
+            Err(why) => {
+                skipped.entry(raw.pointer.clone()).or_insert((why, 0)).1 += 1;
+                continue;
+            }
+        };
+        let doc = &reader.src.document;
+        let (Some(input), Some(output)) = (
+            doc.accessors().nth(raw.input),
+            doc.accessors().nth(raw.output),
+        ) else {
+            continue;
+        };
+        let keys = KeySource {
+            label: &label,
+            channel: raw.channel,
+            input,
+            output,
+            interpolation: raw.interpolation,
+        };
+        let (kind, width) = match &resolved {
+            super::pointer::Resolved::Node(_, property, width) => {
+                (property_kind(*property), *width)
+            }
+            super::pointer::Resolved::Value(target) => (ValueKind::Factor, target.width()),
+        };
+        let Some(sampler) = read_keys(reader, &keys, kind, width, warnings)? else {
+            continue;
+        };
+        duration = duration.max(*sampler.times.last().unwrap_or(&0.0) as f64);
+        match resolved {
+            super::pointer::Resolved::Node(nodes, property, _) => {
+                for node in nodes {
+                    channels.push(Channel {
+                        node,
+                        property,
+                        sampler: sampler.clone(),
+                    });
+                }
+            }
+            super::pointer::Resolved::Value(target) => pointer_channels.push(PointerChannel {
+                pointer: raw.pointer,
+                target,
+                sampler,
+            }),
+        }
+    }
+    if !skipped.is_empty() {
+        let list: Vec<String> = skipped
+            .iter()
+            .take(8)
+            .map(|(pointer, (why, n))| {
+                let times = if *n > 1 {
+                    format!(", {n} channels")
+                } else {
+                    String::new()
+                };
+                format!("\"{pointer}\" ({why}{times})")
+            })
+            .collect();
+        let more = skipped.len().saturating_sub(8);
+        warnings.push(format!(
+            "{label}: skipped KHR_animation_pointer channel(s) animating {}{}, which soupray does not animate",
+            list.join(", "),
+            if more > 0 { format!(" and {more} more pointer(s)") } else { String::new() }
+        ));
     }
     Ok(Clip {
         index: anim.index(),
         name: anim.name().map(str::to_owned),
         channels,
+        pointer_channels,
         duration,
     })
+}
+
+/// How a channel's output accessor is read and checked.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum ValueKind {
+    /// Translation or scale: FLOAT vec3.
+    Vector,
+    /// Unit quaternions: FLOAT or normalized integer vec4.
+    Rotation,
+    /// Morph weights: FLOAT or normalized integer scalars.
+    Weights,
+    /// A KHR_animation_pointer factor: FLOAT (or normalized integer)
+    /// scalars or vectors of the property's width.
+    Factor,
+}
+
+fn property_kind(property: Property) -> ValueKind {
+    match property {
+        Property::Translation | Property::Scale => ValueKind::Vector,
+        Property::Rotation => ValueKind::Rotation,
+        Property::Weights => ValueKind::Weights,
+    }
+}
+
+/// A channel's sampler, as `read_keys` needs it.
+struct KeySource<'a, 'd> {
+    label: &'a str,
+    channel: usize,
+    input: gltf::Accessor<'d>,
+    output: gltf::Accessor<'d>,
+    interpolation: Interpolation,
+}
+
+/// Reads and checks a channel's keyframes: `Ok(None)` (with a warning) for
+/// a channel without keys.
+fn read_keys(
+    reader: &Reader,
+    keys: &KeySource,
+    kind: ValueKind,
+    width: usize,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Sampler>> {
+    let file = &reader.src.file;
+    let (label, c, interpolation) = (keys.label, keys.channel, keys.interpolation);
+    let (input, output) = (&keys.input, &keys.output);
+    let in_usage = format!("keyframe times of {label} channel {c}");
+    let out_usage = format!("keyframe values of {label} channel {c}");
+    reader.expect(input, &in_usage, &[Dimensions::Scalar], &[DataType::F32])?;
+    let times = reader.finite_floats(input, &in_usage)?;
+    if times.is_empty() {
+        warnings.push(format!(
+            "{label} channel {c} has no keyframes and is ignored"
+        ));
+        return Ok(None);
+    }
+    if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(reader.error(
+            input,
+            &in_usage,
+            format!(
+                "key times do not increase at key {} ({} after {}); glTF requires strictly increasing times. \
+                 Fix: re-export the animation.",
+                k + 1,
+                times[k + 1],
+                times[k]
+            ),
+        ));
+    }
+    const NORMALIZED: &[DataType] = &[
+        DataType::F32,
+        DataType::I8,
+        DataType::U8,
+        DataType::I16,
+        DataType::U16,
+    ];
+    let factor_dims = match width {
+        1 => Dimensions::Scalar,
+        2 => Dimensions::Vec2,
+        3 => Dimensions::Vec3,
+        _ => Dimensions::Vec4,
+    };
+    let (dims, types): (&[Dimensions], &[DataType]) = match kind {
+        ValueKind::Vector => (&[Dimensions::Vec3], &[DataType::F32]),
+        ValueKind::Rotation => (&[Dimensions::Vec4], NORMALIZED),
+        ValueKind::Weights => (&[Dimensions::Scalar], NORMALIZED),
+        ValueKind::Factor => (std::slice::from_ref(&factor_dims), NORMALIZED),
+    };
+    reader.expect(output, &out_usage, dims, types)?;
+    let values = reader.finite_floats(output, &out_usage)?;
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    let expected = times.len() * per_key * width;
+    if values.len() != expected {
+        return Err(reader.error(
+            output,
+            &out_usage,
+            format!(
+                "holds {} floats but {} keys of {} interpolation need {expected} ({per_key} x {width} per key). \
+                 Fix: re-export the animation.",
+                values.len(),
+                times.len(),
+                interpolation.name()
+            ),
+        ));
+    }
+    let mut values = values;
+    if kind == ValueKind::Rotation && interpolation != Interpolation::CubicSpline {
+        // Keys must be unit quaternions, but exporters round them (e.g.
+        // to 3 decimals); slerp's angle is only right for unit inputs.
+        for (k, q) in values.chunks_exact_mut(4).enumerate() {
+            let len = q
+                .iter()
+                .map(|&x| (x as f64) * (x as f64))
+                .sum::<f64>()
+                .sqrt();
+            if len < 1e-6 {
+                return Err(SceneError::invalid(
+                    file,
+                    format!("{label} channel {c} key {k} is a zero quaternion, which is no rotation. Fix: re-export the animation."),
+                ));
+            }
+            for x in q {
+                *x = (*x as f64 / len) as f32;
+            }
+        }
+    }
+    Ok(Some(Sampler {
+        times,
+        values,
+        width,
+        interpolation,
+    }))
 }
 
 #[cfg(test)]

@@ -100,7 +100,7 @@ impl Scene {
                 FrameCamera {
                     name: def.name.clone(),
                     world_from_camera: rigid(&pose.world_from_node[node]),
-                    projection: def.projection,
+                    projection: self.projection_at(camera, pose.time),
                     from_file: true,
                 }
             }
@@ -115,7 +115,13 @@ impl Scene {
     pub fn frame_lights(&self, pose: &Pose) -> Vec<FrameLight> {
         self.light_instances()
             .iter()
-            .map(|&(node, light)| place(&self.lights()[light], node, &pose.world_from_node[node]))
+            .map(|&(node, light)| {
+                place(
+                    &self.light_at(light, pose.time),
+                    node,
+                    &pose.world_from_node[node],
+                )
+            })
             .collect()
     }
 

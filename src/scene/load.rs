@@ -260,9 +260,20 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 
     // Animations: all are read (for `info`), one is applied.
     let mut clips = Vec::new();
+    let targets_of = |node: usize| nodes[node].mesh.map_or(0, |m| meshes[m].target_count);
+    let clip_targets = super::animation::ClipTargets {
+        targets_of_node: &targets_of,
+        mesh_targets: meshes.iter().map(|m| m.target_count).collect(),
+        mesh_weight_nodes: (0..meshes.len())
+            .map(|m| {
+                (0..nodes.len())
+                    .filter(|&n| nodes[n].mesh == Some(m) && nodes[n].weights.is_none())
+                    .collect()
+            })
+            .collect(),
+    };
     for anim in doc.animations() {
-        let targets_of = |node: usize| nodes[node].mesh.map_or(0, |m| meshes[m].target_count);
-        clips.push(load_clip(&reader, &anim, &targets_of, &mut warnings)?);
+        clips.push(load_clip(&reader, &anim, &clip_targets, &mut warnings)?);
     }
     let clip = select_clip(&file, &clips, opts.animation.as_deref())?;
     if let Some(c) = clip {

@@ -6,7 +6,9 @@
 //! and KHR_materials_specular, KHR_materials_clearcoat (with its normal
 //! map), KHR_materials_sheen, KHR_materials_diffuse_transmission and
 //! KHR_materials_iridescence, KHR_materials_anisotropy and
-//! KHR_materials_dispersion, with their textures, and KHR_materials_unlit. Every other `KHR_materials_*`
+//! KHR_materials_dispersion, with their textures, and KHR_materials_unlit;
+//! KHR_materials_pbrSpecularGlossiness is converted to these on load
+//! (`apply_specular_glossiness`). Every other `KHR_materials_*`
 //! extension a scene uses is
 //! named in one warning (`ignored_material_extensions`). Images are kept as handles and decoded only when
 //! asked for, so scenes whose textures nobody samples never pay for them.
@@ -326,6 +328,132 @@ impl Material {
     }
 }
 
+pub(crate) const SPECULAR_GLOSSINESS: &str = "KHR_materials_pbrSpecularGlossiness";
+
+/// KHR_materials_pbrSpecularGlossiness, converted to soupray's
+/// metallic-roughness model on load (the extension wins over the
+/// material's `pbrMetallicRoughness`, which exporters write as a fallback):
+///
+/// - `diffuseFactor` / `diffuseTexture` (sRGB RGBA) become the base colour
+///   and alpha, with metallic 0: the surface is a dielectric;
+/// - `glossinessFactor` and the texture's A become roughness = 1 -
+///   glossiness (an image derived from the texture, since a factor alone
+///   cannot invert it);
+/// - `specularFactor` and the texture's RGB (sRGB) become
+///   KHR_materials_specular's specular colour, scaled by 1 / 0.04 so that
+///   the dielectric F0 at ior 1.5, `min(0.04 * specularColor, 1)`, is the
+///   specular colour itself: the normal reflectance spec-gloss defines.
+///
+/// This is the mapping KHR_materials_specular describes for spec-gloss
+/// content, chosen over `gltf-transform metalrough` (which guesses a
+/// metalness from the specular colour and re-bakes the textures) because
+/// it keeps F0 and the diffuse colour exactly. It is approximate where the
+/// specular colour sits above dielectric F0 (metal-like, coloured
+/// specular): the reflection is right at normal incidence, but the diffuse
+/// lobe is weighted by the dielectric's Fresnel rather than spec-gloss's
+/// `1 - max(specular)`, and grazing reflectance tends to white.
+///
+/// Returns the texture whose roughness image is still to be derived.
+fn apply_specular_glossiness(
+    src: &Source,
+    material: usize,
+    m: &mut Material,
+) -> Option<(TextureRef, f32)> {
+    let sg = material_extension(src, material, SPECULAR_GLOSSINESS)?;
+    let diffuse = sg.get("diffuseFactor").and_then(|a| a.as_array());
+    let c = |k: usize| {
+        diffuse
+            .and_then(|a| a.get(k))
+            .and_then(|x| x.as_f64())
+            .map_or(1.0, |x| x as f32)
+    };
+    m.base_color_factor = [c(0), c(1), c(2), c(3)];
+    m.base_color_texture = extension_texture(src, material, SPECULAR_GLOSSINESS, "diffuseTexture");
+    let glossiness = number(Some(sg), "glossinessFactor", 1.0);
+    let specular = rgb(Some(sg), "specularFactor", 1.0);
+    m.metallic_factor = 0.0;
+    m.metallic_roughness_texture = None;
+    m.specular_factor = 1.0;
+    m.specular_texture = None;
+    m.specular_color = specular.map(|s| s / DIELECTRIC_F0);
+    let texture = extension_texture(
+        src,
+        material,
+        SPECULAR_GLOSSINESS,
+        "specularGlossinessTexture",
+    );
+    m.specular_color_texture = texture.clone();
+    match texture {
+        Some(t) => {
+            // The derived texture carries the glossiness factor.
+            m.roughness_factor = 1.0;
+            Some((t, glossiness))
+        }
+        None => {
+            m.roughness_factor = 1.0 - glossiness;
+            None
+        }
+    }
+}
+
+/// The normal reflectance of KHR_materials_specular's dielectric at the
+/// default ior 1.5: `((1.5 - 1) / (1.5 + 1))^2`.
+const DIELECTRIC_F0: f32 = 0.04;
+
+/// Gives each spec-gloss material with a `specularGlossinessTexture` a
+/// metallic-roughness texture derived from it (one per texture and
+/// glossiness factor): same sampler, same texture coordinates and
+/// transform, its image converted by `roughness_from_glossiness` when
+/// decoded.
+fn add_roughness_textures(
+    materials: &mut [Material],
+    textures: &mut Vec<Texture>,
+    images: &mut Vec<Image>,
+    gloss_textures: &[(usize, (TextureRef, f32))],
+) {
+    let mut derived: Vec<((usize, u32), usize)> = Vec::new();
+    for (material, (reference, glossiness)) in gloss_textures {
+        let key = (reference.texture, glossiness.to_bits());
+        let texture = match derived.iter().find(|(k, _)| *k == key) {
+            Some(&(_, t)) => t,
+            None => {
+                let Some(source_texture) = textures.get(reference.texture).cloned() else {
+                    continue;
+                };
+                let Some(source_image) = images.get(source_texture.image) else {
+                    continue;
+                };
+                let image = Image {
+                    name: Some(format!(
+                        "roughness from the glossiness of image {}{}",
+                        source_texture.image,
+                        source_image
+                            .name
+                            .as_deref()
+                            .map(|n| format!(" \"{n}\""))
+                            .unwrap_or_default()
+                    )),
+                    source: source_image.source.clone(),
+                    file: source_image.file.clone(),
+                    roughness_from_glossiness: Some(*glossiness),
+                    decoded: OnceLock::new(),
+                };
+                images.push(image);
+                textures.push(Texture {
+                    image: images.len() - 1,
+                    ..source_texture
+                });
+                derived.push((key, textures.len() - 1));
+                textures.len() - 1
+            }
+        };
+        materials[*material].metallic_roughness_texture = Some(TextureRef {
+            texture,
+            ..reference.clone()
+        });
+    }
+}
+
 /// The `KHR_materials_*` extensions soupray renders (the rest are named in
 /// a warning when a scene uses them).
 pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
@@ -342,6 +470,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
     "KHR_materials_dispersion",
+    SPECULAR_GLOSSINESS,
 ];
 
 /// Every texture the supported material extensions read, as (extension,
@@ -360,6 +489,8 @@ pub(crate) const EXTENSION_TEXTURES: &[(&str, &str)] = &[
     (IRIDESCENCE, "iridescenceTexture"),
     (IRIDESCENCE, "iridescenceThicknessTexture"),
     (ANISOTROPY, "anisotropyTexture"),
+    (SPECULAR_GLOSSINESS, "diffuseTexture"),
+    (SPECULAR_GLOSSINESS, "specularGlossinessTexture"),
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -563,6 +694,10 @@ pub struct Image {
     pub name: Option<String>,
     pub source: ImageSource,
     file: String,
+    /// Set on the image soupray derives from a KHR_materials_pbrSpecularGlossiness
+    /// `specularGlossinessTexture`: the glossiness factor, baked with the
+    /// image's alpha (glossiness) into a metallic-roughness texture.
+    roughness_from_glossiness: Option<f32>,
     decoded: OnceLock<std::result::Result<Arc<DecodedImage>, String>>,
 }
 
@@ -598,7 +733,26 @@ impl Image {
             }
             ImageSource::Bytes(b) => (&b[..]).into(),
         };
-        super::image_decode::decode(&bytes).map(Arc::new)
+        let mut image = super::image_decode::decode(&bytes)?;
+        if let Some(glossiness) = self.roughness_from_glossiness {
+            roughness_from_glossiness(&mut image, glossiness);
+        }
+        Ok(Arc::new(image))
+    }
+}
+
+/// Rewrites a specular-glossiness texture (RGB specular, A glossiness) as a
+/// metallic-roughness one: G = roughness = 1 - glossinessFactor * A, B =
+/// metalness = 0 (R and A unused, set to 0 and 1). Glossiness is linear,
+/// so no colour-space conversion is involved.
+fn roughness_from_glossiness(image: &mut DecodedImage, glossiness_factor: f32) {
+    for px in image.rgba8.chunks_exact_mut(4) {
+        let gloss = glossiness_factor * px[3] as f32 / 255.0;
+        let roughness = (1.0 - gloss).clamp(0.0, 1.0);
+        px[0] = 0;
+        px[1] = (roughness * 255.0).round() as u8;
+        px[2] = 0;
+        px[3] = 255;
     }
 }
 
@@ -693,6 +847,9 @@ fn info_ref(
 pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
     let doc = &src.document;
     let mut materials = Vec::new();
+    // (material, its specularGlossinessTexture and glossinessFactor) for
+    // the roughness textures derived once the textures are read.
+    let mut gloss_textures: Vec<(usize, (TextureRef, f32))> = Vec::new();
     for m in doc.materials() {
         let i = m.index().unwrap_or(0);
         let pbr = m.pbr_metallic_roughness();
@@ -913,6 +1070,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 0.0,
             ),
         });
+        if let Some(material) = materials.last_mut() {
+            if let Some(gloss) = apply_specular_glossiness(src, i, material) {
+                gloss_textures.push((materials.len() - 1, gloss));
+            }
+        }
     }
 
     let wrap = |w: gltf::texture::WrappingMode| match w {
@@ -920,7 +1082,7 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
     };
-    let textures = doc
+    let mut textures: Vec<Texture> = doc
         .textures()
         .map(|t| {
             let s = t.sampler();
@@ -977,9 +1139,11 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
             name: img.name().map(str::to_owned),
             source,
             file: src.file.clone(),
+            roughness_from_glossiness: None,
             decoded: OnceLock::new(),
         });
     }
+    add_roughness_textures(&mut materials, &mut textures, &mut images, &gloss_textures);
 
     Ok(MaterialTable {
         materials,

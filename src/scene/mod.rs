@@ -21,6 +21,7 @@ mod load;
 pub mod material;
 pub mod mesh;
 mod meshopt_views;
+pub mod pointer;
 pub mod pose;
 mod ranges;
 pub mod soup_size;

@@ -16,6 +16,7 @@ use super::texture_source;
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "KHR_animation_pointer",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -24,6 +25,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_iridescence",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -40,12 +42,14 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 const READ_FROM_RAW_JSON: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "KHR_animation_pointer",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
     "KHR_materials_dispersion",
     "KHR_materials_ior",
     "KHR_materials_iridescence",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -172,6 +176,18 @@ pub fn load(path: &Path) -> Result<Source> {
             !e.as_str()
                 .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
         });
+    }
+    // KHR_animation_pointer channels (`scene::pointer`) are read from the
+    // raw JSON; the crate knows no "pointer" path.
+    if let Some(animations) = for_crate
+        .get_mut("animations")
+        .and_then(|a| a.as_array_mut())
+    {
+        for animation in animations {
+            if let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) {
+                channels.retain(|ch| super::pointer::channel_pointer(ch).is_none());
+            }
+        }
     }
     // The `gltf` crate needs every texture's `source`; it gets the image
     // soupray samples, which a texture-source extension may have chosen.

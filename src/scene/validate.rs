@@ -13,11 +13,12 @@
 //! light objects have the parts their type needs; animation outputs have
 //! the component types the spec allows for their path.
 //!
-//! Channels that target a path soupray does not implement (for example
-//! `"pointer"` from `KHR_animation_pointer`, or a channel without a node)
-//! are removed from the document with one warning per animation and path:
-//! the spec says such channels are to be ignored by a loader that does not
-//! know them. If the extension is *required*, the file was refused before.
+//! Channels that target a path soupray does not implement (or a channel
+//! without a node, or a `"pointer"` channel without its
+//! `KHR_animation_pointer` pointer) are removed from the document with one
+//! warning per animation and path: the spec says such channels are to be
+//! ignored by a loader that does not know them. `"pointer"` channels stay
+//! (`scene::pointer` reads them); the pointer itself is resolved there.
 
 use std::collections::BTreeMap;
 
@@ -293,6 +294,11 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
                 let target = ch.get("target");
                 let path = target.and_then(|t| t.get("path")).and_then(Value::as_str);
                 let reason = match path {
+                    Some("pointer") if super::pointer::channel_pointer(ch).is_some() => None,
+                    Some("pointer") => Some(
+                        "target path \"pointer\" but no KHR_animation_pointer pointer string"
+                            .to_owned(),
+                    ),
                     Some(p) if !KNOWN_PATHS.contains(&p) => Some(format!("target path \"{p}\"")),
                     Some(_) if target.and_then(|t| t.get("node")).is_none() => {
                         Some("no target node".to_owned())
@@ -934,12 +940,16 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
             let target = object(file, ch.get("target").unwrap_or(&Value::Null), &|| {
                 format!("{}.target", at())
             })?;
-            c.index(
-                target.get("node").unwrap_or(&Value::Null),
-                &|| format!("{}.target.node", at()),
-                "nodes",
-            )?;
             let path = target.get("path").and_then(Value::as_str).unwrap_or("");
+            // A pointer channel names no node (what it animates is its
+            // pointer's business).
+            if path != "pointer" {
+                c.index(
+                    target.get("node").unwrap_or(&Value::Null),
+                    &|| format!("{}.target.node", at()),
+                    "nodes",
+                )?;
+            }
             let (ct, normalized) = accessor_types[outputs[s]];
             let ok = match path {
                 "translation" | "scale" => ct == 5126,

@@ -49,6 +49,27 @@ fn same_pose(a: &Pose, b: &Pose) -> bool {
         && a.morph_weights == b.morph_weights
 }
 
+/// Whether KHR_animation_pointer channels change a light or the camera's
+/// projection between the probes (the camera then blurs its zoom, and each
+/// step's lights take their values at the step).
+fn pointer_values_change(scene: &Scene, poses: &[Pose]) -> bool {
+    if !scene.has_light_or_camera_animation() {
+        return false;
+    }
+    let first = &poses[0];
+    let lights = scene.frame_lights(first);
+    let camera = scene
+        .camera_instance()
+        .map(|(_, c)| scene.projection_at(c, first.time));
+    poses[1..].iter().any(|p| {
+        scene.frame_lights(p) != lights
+            || scene
+                .camera_instance()
+                .map(|(_, c)| scene.projection_at(c, p.time))
+                != camera
+    })
+}
+
 /// The largest rotation any node or joint turns through over `poses`, in
 /// degrees (summed pose to pose).
 fn largest_turn(poses: &[Pose]) -> f64 {
@@ -98,7 +119,7 @@ pub fn motion_steps(scene: &Scene, open: f64, close: f64, requested: Option<u32>
     let poses: Vec<Pose> = (0..=PROBES)
         .map(|i| scene.pose(open + (close - open) * i as f64 / PROBES as f64))
         .collect();
-    if poses[1..].iter().all(|p| same_pose(&poses[0], p)) {
+    if poses[1..].iter().all(|p| same_pose(&poses[0], p)) && !pointer_values_change(scene, &poses) {
         return still;
     }
     let turn = largest_turn(&poses);

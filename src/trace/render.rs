@@ -563,6 +563,56 @@ pub fn material_features(
 /// camera at each step and the lights at each step (or none: the frame's).
 type MotionSteps<'a> = (u32, &'a [FrameCamera], &'a [Vec<FrameLight>]);
 
+/// The texture bindings of `materials` in `set`: four per material
+/// (`PtMaterial`), then `Slot::EXT.len()` per material for `PtMaterialExt`
+/// when compiled in (those of slots outside the set's stay -1). The
+/// materials' records get their binding indices.
+fn bind_textures(
+    set: &TextureSet,
+    materials: &[crate::scene::Material],
+    host_materials: &mut [DeviceMaterial],
+    host_exts: Option<&mut [DeviceMaterialExt]>,
+) -> Vec<TextureBinding> {
+    let n = materials.len();
+    let mut bindings = Vec::with_capacity((4 + Slot::EXT.len()) * n);
+    let mut bind = |m: &crate::scene::Material, slot: Slot, index: usize| {
+        let b = set.slot_binding(m, slot);
+        bindings.push(b);
+        if b.is_none() {
+            -1
+        } else {
+            index as i32
+        }
+    };
+    for (i, m) in materials.iter().enumerate() {
+        let dm = &mut host_materials[i];
+        dm.base_color_tex = bind(m, Slot::BaseColor, 4 * i);
+        dm.metallic_roughness_tex = bind(m, Slot::MetallicRoughness, 4 * i + 1);
+        dm.normal_tex = bind(m, Slot::Normal, 4 * i + 2);
+        dm.emissive_tex = bind(m, Slot::Emissive, 4 * i + 3);
+    }
+    if let Some(exts) = host_exts {
+        for (i, m) in materials.iter().enumerate() {
+            let x = &mut exts[i];
+            let at = 4 * n + Slot::EXT.len() * i;
+            x.transmission_tex = bind(m, Slot::Transmission, at);
+            x.specular_tex = bind(m, Slot::Specular, at + 1);
+            x.specular_color_tex = bind(m, Slot::SpecularColor, at + 2);
+            x.clearcoat_tex = bind(m, Slot::Clearcoat, at + 3);
+            x.clearcoat_roughness_tex = bind(m, Slot::ClearcoatRoughness, at + 4);
+            x.clearcoat_normal_tex = bind(m, Slot::ClearcoatNormal, at + 5);
+            x.sheen_color_tex = bind(m, Slot::SheenColor, at + 6);
+            x.sheen_roughness_tex = bind(m, Slot::SheenRoughness, at + 7);
+            x.diffuse_transmission_tex = bind(m, Slot::DiffuseTransmission, at + 8);
+            x.diffuse_transmission_color_tex = bind(m, Slot::DiffuseTransmissionColor, at + 9);
+            x.iridescence_tex = bind(m, Slot::Iridescence, at + 10);
+            x.iridescence_thickness_tex = bind(m, Slot::IridescenceThickness, at + 11);
+            x.anisotropy_tex = bind(m, Slot::Anisotropy, at + 12);
+        }
+    }
+    bindings
+}
+
 /// The path tracer of one scene on one device.
 pub struct PathTracer<'d> {
     device: &'d Device,
@@ -678,13 +728,38 @@ impl<'d> PathTracer<'d> {
         scene: &Scene,
         settings: &RenderSettings,
     ) -> Result<Self, TraceError> {
-        Self::with_materials(device, scene.materials(), settings)
+        // A scene that animates its materials (KHR_animation_pointer)
+        // compiles in every feature the materials have at some key, and
+        // has them re-uploaded per frame (`set_materials`).
+        let animated: Vec<crate::scene::Material> = if scene.has_material_animation() {
+            scene
+                .material_key_times()
+                .into_iter()
+                .filter_map(|t| scene.materials_at(t))
+                .flatten()
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self::with_animated_materials(device, scene.materials(), &animated, settings)
     }
 
     /// As `new`, from a material table alone (scenes made in code).
     pub fn with_materials(
         device: &'d Device,
         table: &MaterialTable,
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        Self::with_animated_materials(device, table, &[], settings)
+    }
+
+    /// As `with_materials`, compiling in also the features of `animated`:
+    /// other values the table's materials take over the clip, which
+    /// `set_materials` uploads later.
+    pub fn with_animated_materials(
+        device: &'d Device,
+        table: &MaterialTable,
+        animated: &[crate::scene::Material],
         settings: &RenderSettings,
     ) -> Result<Self, TraceError> {
         if settings.width == 0
@@ -712,10 +787,24 @@ impl<'d> PathTracer<'d> {
             }
         }
 
-        let transmission = table.materials.iter().any(|m| m.needs_transmission());
+        // What the kernels are compiled for: the table's materials and the
+        // values animation gives them.
+        let with_animated;
+        let features_of = if animated.is_empty() {
+            table
+        } else {
+            with_animated = MaterialTable {
+                materials: table.materials.iter().chain(animated).cloned().collect(),
+                textures: table.textures.clone(),
+                images: Vec::new(),
+                default_material: table.default_material,
+            };
+            &with_animated
+        };
+        let transmission = features_of.materials.iter().any(|m| m.needs_transmission());
         // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
         // its texture slots filled below.
-        let layers = LayerDefines::of(table);
+        let layers = LayerDefines::of(features_of);
         let mut host_exts = (transmission || layers.any()).then(|| device_material_exts(table));
         // The slots the kernels read: the extensions' only where their code
         // is compiled in.
@@ -753,45 +842,12 @@ impl<'d> PathTracer<'d> {
                     // Four bindings per material (`PtMaterial`), then
                     // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
                     // (those of slots outside `slots` stay -1).
-                    let n = table.materials.len();
-                    let mut bindings = Vec::with_capacity(slots.len() * n);
-                    let mut bind = |m: &crate::scene::Material, slot: Slot, index: usize| {
-                        let b = set.slot_binding(m, slot);
-                        bindings.push(b);
-                        if b.is_none() {
-                            -1
-                        } else {
-                            index as i32
-                        }
-                    };
-                    for (i, m) in table.materials.iter().enumerate() {
-                        let dm = &mut host_materials[i];
-                        dm.base_color_tex = bind(m, Slot::BaseColor, 4 * i);
-                        dm.metallic_roughness_tex = bind(m, Slot::MetallicRoughness, 4 * i + 1);
-                        dm.normal_tex = bind(m, Slot::Normal, 4 * i + 2);
-                        dm.emissive_tex = bind(m, Slot::Emissive, 4 * i + 3);
-                    }
-                    if let Some(exts) = host_exts.as_mut() {
-                        for (i, m) in table.materials.iter().enumerate() {
-                            let x = &mut exts[i];
-                            let at = 4 * n + Slot::EXT.len() * i;
-                            x.transmission_tex = bind(m, Slot::Transmission, at);
-                            x.specular_tex = bind(m, Slot::Specular, at + 1);
-                            x.specular_color_tex = bind(m, Slot::SpecularColor, at + 2);
-                            x.clearcoat_tex = bind(m, Slot::Clearcoat, at + 3);
-                            x.clearcoat_roughness_tex = bind(m, Slot::ClearcoatRoughness, at + 4);
-                            x.clearcoat_normal_tex = bind(m, Slot::ClearcoatNormal, at + 5);
-                            x.sheen_color_tex = bind(m, Slot::SheenColor, at + 6);
-                            x.sheen_roughness_tex = bind(m, Slot::SheenRoughness, at + 7);
-                            x.diffuse_transmission_tex = bind(m, Slot::DiffuseTransmission, at + 8);
-                            x.diffuse_transmission_color_tex =
-                                bind(m, Slot::DiffuseTransmissionColor, at + 9);
-                            x.iridescence_tex = bind(m, Slot::Iridescence, at + 10);
-                            x.iridescence_thickness_tex =
-                                bind(m, Slot::IridescenceThickness, at + 11);
-                            x.anisotropy_tex = bind(m, Slot::Anisotropy, at + 12);
-                        }
-                    }
+                    let bindings = bind_textures(
+                        &set,
+                        &table.materials,
+                        &mut host_materials,
+                        host_exts.as_deref_mut(),
+                    );
                     let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
                     device.write(&mut buf, &bindings)?;
                     textures = Some((set, buf));
@@ -805,14 +861,14 @@ impl<'d> PathTracer<'d> {
 
         // Clay is a pure Lambertian: no GGX lobe to compensate.
         let compensation = settings.energy_compensation && !settings.clay;
-        let features = material_features(table, textures.is_some(), compensation);
+        let features = material_features(features_of, textures.is_some(), compensation);
         let defines = pathtrace_defines(
             settings.traversal,
             textures.is_some(),
             settings.sampler,
             transmission,
             compensation,
-            table.materials.iter().any(|m| m.unlit),
+            features_of.materials.iter().any(|m| m.unlit),
             layers,
         );
         let kernels = Kernels::build(device, &defines)?;
@@ -894,6 +950,44 @@ impl<'d> PathTracer<'d> {
             motion_kernels: None,
             motion_cameras: GrowBuffer::new(),
         })
+    }
+
+    /// Replaces the materials' factors (and texture transforms) with
+    /// `materials`, the same materials at another time of an animation
+    /// (`Scene::materials_at`): the material buffers, the extension table
+    /// and the texture bindings are written again. Only scenes that
+    /// animate materials call it, once per frame; the kernels were
+    /// compiled for every value (`with_animated_materials`).
+    pub fn set_materials(
+        &mut self,
+        materials: &[crate::scene::Material],
+    ) -> Result<(), TraceError> {
+        let table = MaterialTable {
+            materials: materials.to_vec(),
+            ..MaterialTable::default()
+        };
+        let mut host = device_materials(&table);
+        if host.len() as u32 != self.material_count {
+            return Err(usage(format!(
+                "set_materials: {} materials given, the tracer was made for {}",
+                materials.len(),
+                self.material_count.saturating_sub(1)
+            )));
+        }
+        let mut exts = self
+            .material_exts
+            .is_some()
+            .then(|| device_material_exts(&table));
+        if let Some((set, buf)) = &mut self.textures {
+            let bindings = bind_textures(set, materials, &mut host, exts.as_deref_mut());
+            self.device.write(buf, &bindings)?;
+        }
+        self.device.write(&mut self.materials, &host)?;
+        if let (Some(buf), Some(e)) = (&mut self.material_exts, &exts) {
+            self.device.write(buf, e)?;
+        }
+        self.any_emissive = host.iter().any(DeviceMaterial::emits);
+        Ok(())
     }
 
     /// Changes how frames are cut into launches (the image does not change).
