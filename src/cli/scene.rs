@@ -133,6 +133,11 @@ pub fn describe(scene: &Scene) -> String {
     );
     for (i, mesh) in scene.meshes().iter().enumerate() {
         let tris: usize = mesh.primitives.iter().map(|p| p.triangles.len()).sum();
+        let draco = mesh
+            .primitives
+            .iter()
+            .filter(|p| p.draco_compressed)
+            .count();
         let placed: Vec<String> = scene
             .instances()
             .iter()
@@ -141,9 +146,14 @@ pub fn describe(scene: &Scene) -> String {
             .collect();
         let _ = writeln!(
             o,
-            "  mesh {}: {} primitive(s), {tris} triangles{}{}",
+            "  mesh {}: {} primitive(s){}, {tris} triangles{}{}",
             named(i, mesh.name.as_deref()),
             mesh.primitives.len(),
+            match draco {
+                0 => String::new(),
+                n if n == mesh.primitives.len() => " (Draco-compressed)".to_owned(),
+                n => format!(" ({n} Draco-compressed)"),
+            },
             if mesh.target_count > 0 {
                 format!(
                     ", {} morph targets (default weights {:?})",

@@ -15,6 +15,7 @@ use super::texture_source;
 /// optional by definition and are ignored when unknown.)
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -38,6 +39,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// crate (`scene::material`; `scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
     "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
@@ -184,6 +186,9 @@ pub fn load(path: &Path) -> Result<Source> {
     }
     let compressed = super::meshopt_views::compressed_views(&file, &json)?;
     super::meshopt_views::redirect_views(&mut for_crate, &compressed);
+    // Draco primitives decode into buffers appended after those.
+    let mut draco = super::draco::draco_primitives(&file, &json)?;
+    super::draco::redirect(&mut for_crate, &mut draco);
     let root: gltf::json::Root = serde_json::from_value(for_crate).map_err(|e| not_json(&e))?;
 
     let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
@@ -201,7 +206,7 @@ pub fn load(path: &Path) -> Result<Source> {
     let mut glb_bin = glb_bin;
     let mut buffers = Vec::new();
     let mut short_buffers = Vec::new();
-    let file_buffers = document.buffers().len() - compressed.len();
+    let file_buffers = document.buffers().len() - compressed.len() - draco.len();
     for buffer in document.buffers().take(file_buffers) {
         let raw = &json["buffers"][buffer.index()];
         if super::meshopt_views::is_fallback_buffer(raw) {
@@ -269,6 +274,11 @@ pub fn load(path: &Path) -> Result<Source> {
     // Compressed views decode into the buffers `redirect_views` appended.
     for c in &compressed {
         let decoded = super::meshopt_views::decode(&file, c, &buffers, &short_buffers)?;
+        buffers.push(decoded);
+        short_buffers.push(None);
+    }
+    for d in &draco {
+        let decoded = super::draco::decode(&file, d, &document, &buffers, &short_buffers)?;
         buffers.push(decoded);
         short_buffers.push(None);
     }
