@@ -356,3 +356,149 @@ fn synthetic_meshopt_quad_decodes_every_codec_and_filter() {
     let soup = scene.evaluate(0.0).unwrap().soup;
     assert_eq!(soup_set_distance(&soup, &reference, "meshopt quad"), 0.0);
 }
+
+/// The step of the quantization grid a Draco encoder put positions on,
+/// recovered from the decoded positions themselves: Draco dequantizes
+/// component c as min_c + q * range / (2^bits - 1), with one range (the
+/// largest extent) for all components, so the smallest `bits` for which
+/// every component sits on that grid is the one the encoder used.
+fn draco_position_step(positions: &[glam::Vec3]) -> (u32, f64) {
+    let lo: Vec<f64> = (0..3)
+        .map(|k| {
+            positions
+                .iter()
+                .map(|p| f64::from(p[k]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let range = (0..3)
+        .map(|k| {
+            positions
+                .iter()
+                .map(|p| f64::from(p[k]) - lo[k])
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    for bits in 1..=20u32 {
+        let step = range / f64::from((1u32 << bits) - 1);
+        // f32 dequantization is off the grid by a few ulps of the value.
+        let slack = 1e-6 * (range + lo.iter().map(|v| v.abs()).fold(0.0, f64::max));
+        let on_grid = positions.iter().all(|p| {
+            (0..3).all(|k| {
+                let q = (f64::from(p[k]) - lo[k]) / step;
+                (q - q.round()).abs() * step <= slack
+            })
+        });
+        if on_grid {
+            return (bits, step);
+        }
+    }
+    panic!("the decoded positions are on no Draco quantization grid of up to 20 bits");
+}
+
+#[test]
+fn draco_rigged_simple_matches_its_plain_twin_while_skinned() {
+    let (Some(compressed), Some(plain)) = (
+        khronos("RiggedSimple/glTF-Draco/RiggedSimple.gltf"),
+        khronos("RiggedSimple/glTF-Binary/RiggedSimple.glb"),
+    ) else {
+        return;
+    };
+    let compressed_scene = load(&compressed, None);
+    let plain_scene = load(&plain, None);
+    let prim = &compressed_scene.meshes()[0].primitives[0];
+    assert!(prim.draco_compressed);
+    assert!(prim.influences.is_some(), "JOINTS_0/WEIGHTS_0 decoded");
+    let (bits, step) = draco_position_step(&prim.positions);
+    // The payload keeps positions on an 11-bit grid (gltf-pipeline's
+    // default) and the skin weights as exact floats; the joints are rigid
+    // (their animated scale is 1 to 2e-7), so a corner is off by at most
+    // half a step per component, sqrt(3)/2 step in length, plus f32
+    // rounding of the world positions.
+    assert!(bits <= 16, "{bits}-bit grid");
+    let bound = 3f64.sqrt() / 2.0 * step * (1.0 + 1e-6) + 1e-5;
+    for f in [0, 12, 25, 37, 50] {
+        let t = plain_scene.time_of_frame(f);
+        let a = compressed_scene.evaluate(t).unwrap().soup;
+        let b = plain_scene.evaluate(t).unwrap().soup;
+        // Draco reorders vertices and triangles: match triangles as sets.
+        let d = soup_set_distance(&a, &b, &format!("frame {f}"));
+        eprintln!(
+            "Draco RiggedSimple frame {f}: max matched distance {d:.3e} (bound {bound:.3e}, {bits}-bit grid, step {step:.3e})"
+        );
+        assert!(
+            d <= bound,
+            "frame {f}: a triangle is {d} from the plain twin's nearest, more than {bound}"
+        );
+    }
+    // The skin moves the mesh: frames differ by far more than the bound.
+    let off = soup_set_distance(
+        &compressed_scene
+            .evaluate(plain_scene.time_of_frame(25))
+            .unwrap()
+            .soup,
+        &plain_scene
+            .evaluate(plain_scene.time_of_frame(0))
+            .unwrap()
+            .soup,
+        "frames 25 and 0",
+    );
+    assert!(
+        off > 10.0 * bound,
+        "the comparison cannot tell frames apart ({off})"
+    );
+}
+
+#[test]
+fn synthetic_draco_grid_matches_its_plain_twin_with_every_connectivity_coder() {
+    let dir = tempfile::tempdir().unwrap();
+    // Sequential, EdgeBreaker and EdgeBreaker valence connectivity.
+    for speed in [10, 5, 1] {
+        let pair = scene_support::draco_grid(12, speed);
+        let (root, bin) = pair.plain.clone();
+        let plain_scene = load(
+            &scene_support::write_with_buffer(root, &bin, dir.path(), &format!("plain{speed}")),
+            None,
+        );
+        let (root, bin) = pair.draco.clone();
+        let draco_path =
+            scene_support::write_with_buffer(root, &bin, dir.path(), &format!("draco{speed}"));
+        let draco_scene = load(&draco_path, None);
+        let prim = &draco_scene.meshes()[0].primitives[0];
+        assert!(prim.draco_compressed);
+        assert_eq!(prim.positions.len(), pair.points);
+        assert_eq!(prim.triangles.len(), pair.faces);
+        // Texture coordinates (12 bits over [0, 1]) follow their vertices:
+        // uv = (x / 5, y / 2) of the (quantized) position.
+        let step = pair.position_step;
+        for (p, uv) in prim.positions.iter().zip(prim.uvs.as_ref().unwrap()) {
+            let want = [p.x / 5.0, p.y / 2.0];
+            for k in 0..2 {
+                let slack = 0.5 / 4095.0 + step / 2.0 / [5.0, 2.0][k] + 1e-6;
+                assert!(
+                    f64::from((uv[k] - want[k]).abs()) <= slack,
+                    "speed {speed}: uv {uv:?} at {p:?}"
+                );
+            }
+        }
+        // Each position component is off by at most half a step; the
+        // skin's joints are rigid and its weights exact, and the morph
+        // delta (0.1 x, weight 0.5) adds 0.05 of the x error.
+        let bound = 3f64.sqrt() / 2.0 * step + 0.05 * step / 2.0 + 1e-5;
+        let a = draco_scene.evaluate(0.0).unwrap().soup;
+        let b = plain_scene.evaluate(0.0).unwrap().soup;
+        let d = soup_set_distance(&a, &b, &format!("speed {speed}"));
+        eprintln!("Draco grid, speed {speed}: max matched distance {d:.3e} (bound {bound:.3e})");
+        assert!(d <= bound, "speed {speed}: {d} > {bound}");
+        // The skin bends the grid: unskinned, the far corners are off by
+        // far more (joint 2 turns them 30 degrees).
+        let unbent = soupray::soup::Soup::from_triangles(
+            &prim
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| prim.positions[v as usize].to_array()))
+                .collect::<Vec<_>>(),
+        );
+        assert!(soup_set_distance(&a, &unbent, "unskinned") > 100.0 * bound);
+    }
+}

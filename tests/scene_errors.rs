@@ -154,17 +154,17 @@ fn required_unknown_extension_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let path = triangle_file(
         dir.path(),
-        "draco",
+        "specgloss",
         &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
         &[0, 1, 2],
-        json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]}),
+        json!({"extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"], "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"]}),
     );
     let msg = load_err(&path, &LoadOptions::default());
     assert_mentions(
         &msg,
         &[
-            "draco.gltf",
-            "KHR_draco_mesh_compression",
+            "specgloss.gltf",
+            "KHR_materials_pbrSpecularGlossiness",
             "does not implement",
             "Fix",
         ],
