@@ -170,10 +170,14 @@ fn check_primitive(
     let ext = ext
         .as_object()
         .ok_or_else(|| fail("its extension object is not a JSON object".into()))?;
-    let view = ext
-        .get("bufferView")
-        .and_then(Value::as_u64)
-        .ok_or_else(|| fail("its extension has no bufferView (a non-negative integer)".into()))?;
+    let view = match ext.get("bufferView") {
+        None => return Err(fail("its extension has no bufferView".into())),
+        Some(v) => v.as_u64().ok_or_else(|| {
+            fail(format!(
+                "its extension's bufferView is {v}, not a non-negative integer"
+            ))
+        })?,
+    };
     if view as usize >= views.len() || view > u64::from(u32::MAX) {
         return Err(fail(format!(
             "its extension names bufferView {view}, and the file has {} bufferViews",
@@ -232,8 +236,8 @@ fn check_primitive(
         }
         if acc.get("sparse").is_some() {
             return Err(fail(format!(
-                "its {what} accessor {accessor} is sparse; the extension fills such accessors from the Draco \
-                 data, which has nothing to substitute into"
+                "its {what} accessor {accessor} is sparse; the extension fills the accessor from the Draco \
+                 data, and such an accessor must have no sparse substitutions"
             )));
         }
         let fill = Fill {
