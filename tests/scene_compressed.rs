@@ -502,3 +502,117 @@ fn synthetic_draco_grid_matches_its_plain_twin_with_every_connectivity_coder() {
         assert!(soup_set_distance(&a, &unbent, "unskinned") > 100.0 * bound);
     }
 }
+
+/// Appends `bytes` to `bin` as a new bufferView of `root`'s buffer 0.
+fn append_view(root: &mut serde_json::Value, bin: &mut Vec<u8>, bytes: &[u8]) -> usize {
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let views = root["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+    let view = views.len() - 1;
+    bin.extend_from_slice(bytes);
+    root["buffers"][0]["byteLength"] = bin.len().into();
+    view
+}
+
+#[test]
+fn optional_draco_is_decoded_in_preference_to_the_fallback_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let pair = scene_support::draco_grid(12, 5);
+    let (root, bin) = pair.plain.clone();
+    let plain_scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "plain"),
+        None,
+    );
+    // Draco listed as used only, and POSITION given a fallback bufferView
+    // that is all zeros: the decoded positions must win.
+    let (mut root, mut bin) = pair.draco.clone();
+    root.as_object_mut().unwrap().remove("extensionsRequired");
+    let pos = root["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+        .as_u64()
+        .unwrap() as usize;
+    let zeros = vec![0u8; pair.points * 12];
+    let view = append_view(&mut root, &mut bin, &zeros);
+    root["accessors"][pos]["bufferView"] = view.into();
+    let scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "fallback"),
+        None,
+    );
+    let bound = 3f64.sqrt() / 2.0 * pair.position_step + 0.05 * pair.position_step / 2.0 + 1e-5;
+    let d = soup_set_distance(
+        &scene.evaluate(0.0).unwrap().soup,
+        &plain_scene.evaluate(0.0).unwrap().soup,
+        "fallback",
+    );
+    assert!(d <= bound, "{d} > {bound}");
+}
+
+#[test]
+fn draco_primitives_sharing_accessors_each_read_their_own_payload() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two primitives naming the same accessors, compressed by different
+    // connectivity coders into two payloads; each morph target in its own
+    // payload's vertex order.
+    let first = scene_support::draco_grid(12, 10);
+    let second = scene_support::draco_grid(12, 5);
+    let (mut root, mut bin) = first.draco.clone();
+    let (root2, bin2) = &second.draco;
+    let payload2 = {
+        let v = &root2["bufferViews"][second.payload_view];
+        let at = v["byteOffset"].as_u64().unwrap() as usize;
+        bin2[at..at + v["byteLength"].as_u64().unwrap() as usize].to_vec()
+    };
+    let target2 = {
+        let t = root2["meshes"][0]["primitives"][0]["targets"][0]["POSITION"]
+            .as_u64()
+            .unwrap() as usize;
+        let v =
+            &root2["bufferViews"][root2["accessors"][t]["bufferView"].as_u64().unwrap() as usize];
+        let at = v["byteOffset"].as_u64().unwrap() as usize;
+        (
+            root2["accessors"][t].clone(),
+            bin2[at..at + v["byteLength"].as_u64().unwrap() as usize].to_vec(),
+        )
+    };
+    let payload_view = append_view(&mut root, &mut bin, &payload2);
+    let target_view = append_view(&mut root, &mut bin, &target2.1);
+    let mut target_acc = target2.0;
+    target_acc["bufferView"] = target_view.into();
+    let accessors = root["accessors"].as_array_mut().unwrap();
+    accessors.push(target_acc);
+    let target = accessors.len() - 1;
+    let mut prim = root["meshes"][0]["primitives"][0].clone();
+    prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"] = payload_view.into();
+    prim["targets"][0]["POSITION"] = target.into();
+    root["meshes"][0]["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(prim);
+    let scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "shared"),
+        None,
+    );
+    let prims = &scene.meshes()[0].primitives;
+    assert_eq!(prims.len(), 2);
+    assert!(prims.iter().all(|p| p.draco_compressed));
+
+    let (mut plain, plain_bin) = first.plain.clone();
+    let p0 = plain["meshes"][0]["primitives"][0].clone();
+    plain["meshes"][0]["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(p0);
+    let plain_scene = load(
+        &scene_support::write_with_buffer(plain, &plain_bin, dir.path(), "plain2"),
+        None,
+    );
+    let step = first.position_step.max(second.position_step);
+    let bound = 3f64.sqrt() / 2.0 * step + 0.05 * step / 2.0 + 1e-5;
+    let d = soup_set_distance(
+        &scene.evaluate(0.0).unwrap().soup,
+        &plain_scene.evaluate(0.0).unwrap().soup,
+        "shared accessors",
+    );
+    assert!(d <= bound, "{d} > {bound}");
+}
