@@ -461,6 +461,9 @@ fn structured_mutation_fuzz() {
     assert!(failures.is_empty(), "seed {seed}:\n{}", failures.join("\n"));
 }
 
+/// A change to a glTF document.
+type Edit = dyn Fn(&mut Value);
+
 /// Hostile KHR_draco_mesh_compression payloads and JSON around them, made
 /// from a generated Draco grid (every connectivity coder): the payload cut
 /// at every length, every byte with a bit flipped, random bytes, accessor
@@ -588,7 +591,7 @@ fn draco_payload_mutations_are_refused_cleanly() {
 
         // Broken extension objects and accessors.
         let ext = "/meshes/0/primitives/0/extensions/KHR_draco_mesh_compression";
-        let edits: Vec<(&str, Box<dyn Fn(&mut Value)>)> = vec![
+        let edits: Vec<(&str, Box<Edit>)> = vec![
             (
                 "bufferView 99",
                 Box::new(|r| r.pointer_mut(ext).unwrap()["bufferView"] = 99.into()),

@@ -776,18 +776,26 @@ pub struct DracoPair {
     pub faces: usize,
 }
 
-/// The grid's vertex `i`: position, normal, uv, joints, weights.
-fn grid_vertex(i: usize) -> ([f32; 3], [f32; 3], [f32; 2], [u8; 4], [f32; 4]) {
+struct GridVertex {
+    position: [f32; 3],
+    normal: [f32; 3],
+    uv: [f32; 2],
+    joints: [u8; 4],
+    weights: [f32; 4],
+}
+
+/// The grid's vertex `i`: row i / 6, column i % 6, gently waved in z;
+/// weighted from joint 0 at x = 0 to joint 1 at x = 5.
+fn grid_vertex(i: usize) -> GridVertex {
     let (x, y) = ((i % 6) as f32, (i / 6) as f32);
-    let z = 0.25 * (x * 0.7).sin() * y;
     let w = x / 5.0;
-    (
-        [x, y, z],
-        [0.0, 0.0, 1.0],
-        [x / 5.0, y / 2.0],
-        [0, 1, 0, 0],
-        [1.0 - w, w, 0.0, 0.0],
-    )
+    GridVertex {
+        position: [x, y, 0.25 * (x * 0.7).sin() * y],
+        normal: [0.0, 0.0, 1.0],
+        uv: [x / 5.0, y / 2.0],
+        joints: [0, 1, 0, 0],
+        weights: [1.0 - w, w, 0.0, 0.0],
+    }
 }
 
 /// The morph target's delta at a (decoded) position: 0.1 x along z.
@@ -865,21 +873,21 @@ pub fn draco_grid(position_bits: i32, encoding_speed: i32) -> DracoPair {
         verts
             .iter()
             .flat_map(|v| match k {
-                0 => v.0.to_vec(),
-                1 => v.1.to_vec(),
-                2 => v.2.to_vec(),
-                _ => v.4.to_vec(),
+                0 => v.position.to_vec(),
+                1 => v.normal.to_vec(),
+                2 => v.uv.to_vec(),
+                _ => v.weights.to_vec(),
             })
             .collect()
     };
     let pos = b.floats(&flat(0), 3);
     let nrm = b.floats(&flat(1), 3);
     let uv = b.floats(&flat(2), 2);
-    let joints: Vec<u8> = verts.iter().flat_map(|v| v.3).collect();
+    let joints: Vec<u8> = verts.iter().flat_map(|v| v.joints).collect();
     let jnt = b.u8s(&joints, 4, false);
     let wgt = b.floats(&flat(3), 4);
     let idx = b.u32s(&tris);
-    let deltas: Vec<f32> = verts.iter().flat_map(|v| grid_delta(v.0)).collect();
+    let deltas: Vec<f32> = verts.iter().flat_map(|v| grid_delta(v.position)).collect();
     let tgt = b.floats(&deltas, 3);
     let ibm_acc = b.floats(&ibm, 16);
     let attributes = json!({"POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": uv, "JOINTS_0": jnt, "WEIGHTS_0": wgt});
