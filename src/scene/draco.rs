@@ -541,7 +541,8 @@ fn write_attribute(
         let element = (value < attr.size())
             .then(|| value.checked_mul(stride))
             .flatten()
-            .and_then(|s| values.get(s..s + width * fill.components))
+            .and_then(|s| Some(s..s.checked_add(width * fill.components)?))
+            .and_then(|range| values.get(range))
             .ok_or_else(|| {
                 format!(
                     "Draco attribute {id} ({}) has no value for point {point}",
