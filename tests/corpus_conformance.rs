@@ -93,10 +93,7 @@ const CORPUS: &[(&str, Expect)] = &[
     ),
     ("RiggedFigure/glTF-Binary/RiggedFigure.glb", Expect::Clean),
     ("RiggedSimple/glTF-Binary/RiggedSimple.glb", Expect::Clean),
-    (
-        "RiggedSimple/glTF-Draco/RiggedSimple.gltf",
-        Expect::Refused("KHR_draco_mesh_compression"),
-    ),
+    ("RiggedSimple/glTF-Draco/RiggedSimple.gltf", Expect::Clean),
     (
         "SimpleInstancing/glTF-Binary/SimpleInstancing.glb",
         Expect::Clean,

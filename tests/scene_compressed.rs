@@ -356,3 +356,263 @@ fn synthetic_meshopt_quad_decodes_every_codec_and_filter() {
     let soup = scene.evaluate(0.0).unwrap().soup;
     assert_eq!(soup_set_distance(&soup, &reference, "meshopt quad"), 0.0);
 }
+
+/// The step of the quantization grid a Draco encoder put positions on,
+/// recovered from the decoded positions themselves: Draco dequantizes
+/// component c as min_c + q * range / (2^bits - 1), with one range (the
+/// largest extent) for all components, so the smallest `bits` for which
+/// every component sits on that grid is the one the encoder used.
+fn draco_position_step(positions: &[glam::Vec3]) -> (u32, f64) {
+    let lo: Vec<f64> = (0..3)
+        .map(|k| {
+            positions
+                .iter()
+                .map(|p| f64::from(p[k]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let range = (0..3)
+        .map(|k| {
+            positions
+                .iter()
+                .map(|p| f64::from(p[k]) - lo[k])
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    for bits in 1..=20u32 {
+        let step = range / f64::from((1u32 << bits) - 1);
+        // f32 dequantization is off the grid by a few ulps of the value.
+        let slack = 1e-6 * (range + lo.iter().map(|v| v.abs()).fold(0.0, f64::max));
+        let on_grid = positions.iter().all(|p| {
+            (0..3).all(|k| {
+                let q = (f64::from(p[k]) - lo[k]) / step;
+                (q - q.round()).abs() * step <= slack
+            })
+        });
+        if on_grid {
+            return (bits, step);
+        }
+    }
+    panic!("the decoded positions are on no Draco quantization grid of up to 20 bits");
+}
+
+#[test]
+fn draco_rigged_simple_matches_its_plain_twin_while_skinned() {
+    let (Some(compressed), Some(plain)) = (
+        khronos("RiggedSimple/glTF-Draco/RiggedSimple.gltf"),
+        khronos("RiggedSimple/glTF-Binary/RiggedSimple.glb"),
+    ) else {
+        return;
+    };
+    let compressed_scene = load(&compressed, None);
+    let plain_scene = load(&plain, None);
+    let prim = &compressed_scene.meshes()[0].primitives[0];
+    assert!(prim.draco_compressed);
+    assert!(prim.influences.is_some(), "JOINTS_0/WEIGHTS_0 decoded");
+    let (bits, step) = draco_position_step(&prim.positions);
+    // The payload keeps positions on an 11-bit grid (gltf-pipeline's
+    // default) and the skin weights as exact floats; the joints are rigid
+    // (their animated scale is 1 to 2e-7), so a corner is off by at most
+    // half a step per component, sqrt(3)/2 step in length, plus f32
+    // rounding of the world positions.
+    assert!(bits <= 16, "{bits}-bit grid");
+    let bound = 3f64.sqrt() / 2.0 * step * (1.0 + 1e-6) + 1e-5;
+    for f in [0, 12, 25, 37, 50] {
+        let t = plain_scene.time_of_frame(f);
+        let a = compressed_scene.evaluate(t).unwrap().soup;
+        let b = plain_scene.evaluate(t).unwrap().soup;
+        // Draco reorders vertices and triangles: match triangles as sets.
+        let d = soup_set_distance(&a, &b, &format!("frame {f}"));
+        eprintln!(
+            "Draco RiggedSimple frame {f}: max matched distance {d:.3e} (bound {bound:.3e}, {bits}-bit grid, step {step:.3e})"
+        );
+        assert!(
+            d <= bound,
+            "frame {f}: a triangle is {d} from the plain twin's nearest, more than {bound}"
+        );
+    }
+    // The skin moves the mesh: frames differ by far more than the bound.
+    let off = soup_set_distance(
+        &compressed_scene
+            .evaluate(plain_scene.time_of_frame(25))
+            .unwrap()
+            .soup,
+        &plain_scene
+            .evaluate(plain_scene.time_of_frame(0))
+            .unwrap()
+            .soup,
+        "frames 25 and 0",
+    );
+    assert!(
+        off > 10.0 * bound,
+        "the comparison cannot tell frames apart ({off})"
+    );
+}
+
+#[test]
+fn synthetic_draco_grid_matches_its_plain_twin_with_every_connectivity_coder() {
+    let dir = tempfile::tempdir().unwrap();
+    // Sequential, EdgeBreaker and EdgeBreaker valence connectivity.
+    for speed in [10, 5, 1] {
+        let pair = scene_support::draco_grid(12, speed);
+        let (root, bin) = pair.plain.clone();
+        let plain_scene = load(
+            &scene_support::write_with_buffer(root, &bin, dir.path(), &format!("plain{speed}")),
+            None,
+        );
+        let (root, bin) = pair.draco.clone();
+        let draco_path =
+            scene_support::write_with_buffer(root, &bin, dir.path(), &format!("draco{speed}"));
+        let draco_scene = load(&draco_path, None);
+        let prim = &draco_scene.meshes()[0].primitives[0];
+        assert!(prim.draco_compressed);
+        assert_eq!(prim.positions.len(), pair.points);
+        assert_eq!(prim.triangles.len(), pair.faces);
+        // Texture coordinates (12 bits over [0, 1]) follow their vertices:
+        // uv = (x / 5, y / 2) of the (quantized) position.
+        let step = pair.position_step;
+        for (p, uv) in prim.positions.iter().zip(prim.uvs.as_ref().unwrap()) {
+            let want = [p.x / 5.0, p.y / 2.0];
+            for k in 0..2 {
+                let slack = 0.5 / 4095.0 + step / 2.0 / [5.0, 2.0][k] + 1e-6;
+                assert!(
+                    f64::from((uv[k] - want[k]).abs()) <= slack,
+                    "speed {speed}: uv {uv:?} at {p:?}"
+                );
+            }
+        }
+        // Each position component is off by at most half a step; the
+        // skin's joints are rigid and its weights exact, and the morph
+        // delta (0.1 x, weight 0.5) adds 0.05 of the x error.
+        let bound = 3f64.sqrt() / 2.0 * step + 0.05 * step / 2.0 + 1e-5;
+        let a = draco_scene.evaluate(0.0).unwrap().soup;
+        let b = plain_scene.evaluate(0.0).unwrap().soup;
+        let d = soup_set_distance(&a, &b, &format!("speed {speed}"));
+        eprintln!("Draco grid, speed {speed}: max matched distance {d:.3e} (bound {bound:.3e})");
+        assert!(d <= bound, "speed {speed}: {d} > {bound}");
+        // The skin bends the grid: unskinned, the far corners are off by
+        // far more (joint 2 turns them 30 degrees).
+        let unbent = soupray::soup::Soup::from_triangles(
+            &prim
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| prim.positions[v as usize].to_array()))
+                .collect::<Vec<_>>(),
+        );
+        assert!(soup_set_distance(&a, &unbent, "unskinned") > 100.0 * bound);
+    }
+}
+
+/// Appends `bytes` to `bin` as a new bufferView of `root`'s buffer 0.
+fn append_view(root: &mut serde_json::Value, bin: &mut Vec<u8>, bytes: &[u8]) -> usize {
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let views = root["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+    let view = views.len() - 1;
+    bin.extend_from_slice(bytes);
+    root["buffers"][0]["byteLength"] = bin.len().into();
+    view
+}
+
+#[test]
+fn optional_draco_is_decoded_in_preference_to_the_fallback_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let pair = scene_support::draco_grid(12, 5);
+    let (root, bin) = pair.plain.clone();
+    let plain_scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "plain"),
+        None,
+    );
+    // Draco listed as used only, and POSITION given a fallback bufferView
+    // that is all zeros: the decoded positions must win.
+    let (mut root, mut bin) = pair.draco.clone();
+    root.as_object_mut().unwrap().remove("extensionsRequired");
+    let pos = root["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+        .as_u64()
+        .unwrap() as usize;
+    let zeros = vec![0u8; pair.points * 12];
+    let view = append_view(&mut root, &mut bin, &zeros);
+    root["accessors"][pos]["bufferView"] = view.into();
+    let scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "fallback"),
+        None,
+    );
+    let bound = 3f64.sqrt() / 2.0 * pair.position_step + 0.05 * pair.position_step / 2.0 + 1e-5;
+    let d = soup_set_distance(
+        &scene.evaluate(0.0).unwrap().soup,
+        &plain_scene.evaluate(0.0).unwrap().soup,
+        "fallback",
+    );
+    assert!(d <= bound, "{d} > {bound}");
+}
+
+#[test]
+fn draco_primitives_sharing_accessors_each_read_their_own_payload() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two primitives naming the same accessors, compressed by different
+    // connectivity coders into two payloads; each morph target in its own
+    // payload's vertex order.
+    let first = scene_support::draco_grid(12, 10);
+    let second = scene_support::draco_grid(12, 5);
+    let (mut root, mut bin) = first.draco.clone();
+    let (root2, bin2) = &second.draco;
+    let payload2 = {
+        let v = &root2["bufferViews"][second.payload_view];
+        let at = v["byteOffset"].as_u64().unwrap() as usize;
+        bin2[at..at + v["byteLength"].as_u64().unwrap() as usize].to_vec()
+    };
+    let target2 = {
+        let t = root2["meshes"][0]["primitives"][0]["targets"][0]["POSITION"]
+            .as_u64()
+            .unwrap() as usize;
+        let v =
+            &root2["bufferViews"][root2["accessors"][t]["bufferView"].as_u64().unwrap() as usize];
+        let at = v["byteOffset"].as_u64().unwrap() as usize;
+        (
+            root2["accessors"][t].clone(),
+            bin2[at..at + v["byteLength"].as_u64().unwrap() as usize].to_vec(),
+        )
+    };
+    let payload_view = append_view(&mut root, &mut bin, &payload2);
+    let target_view = append_view(&mut root, &mut bin, &target2.1);
+    let mut target_acc = target2.0;
+    target_acc["bufferView"] = target_view.into();
+    let accessors = root["accessors"].as_array_mut().unwrap();
+    accessors.push(target_acc);
+    let target = accessors.len() - 1;
+    let mut prim = root["meshes"][0]["primitives"][0].clone();
+    prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"] = payload_view.into();
+    prim["targets"][0]["POSITION"] = target.into();
+    root["meshes"][0]["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(prim);
+    let scene = load(
+        &scene_support::write_with_buffer(root, &bin, dir.path(), "shared"),
+        None,
+    );
+    let prims = &scene.meshes()[0].primitives;
+    assert_eq!(prims.len(), 2);
+    assert!(prims.iter().all(|p| p.draco_compressed));
+
+    let (mut plain, plain_bin) = first.plain.clone();
+    let p0 = plain["meshes"][0]["primitives"][0].clone();
+    plain["meshes"][0]["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(p0);
+    let plain_scene = load(
+        &scene_support::write_with_buffer(plain, &plain_bin, dir.path(), "plain2"),
+        None,
+    );
+    let step = first.position_step.max(second.position_step);
+    let bound = 3f64.sqrt() / 2.0 * step + 0.05 * step / 2.0 + 1e-5;
+    let d = soup_set_distance(
+        &scene.evaluate(0.0).unwrap().soup,
+        &plain_scene.evaluate(0.0).unwrap().soup,
+        "shared accessors",
+    );
+    assert!(d <= bound, "{d} > {bound}");
+}

@@ -154,17 +154,17 @@ fn required_unknown_extension_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let path = triangle_file(
         dir.path(),
-        "draco",
+        "volume_scatter",
         &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
         &[0, 1, 2],
-        json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]}),
+        json!({"extensionsUsed": ["KHR_materials_volume_scatter"], "extensionsRequired": ["KHR_materials_volume_scatter"]}),
     );
     let msg = load_err(&path, &LoadOptions::default());
     assert_mentions(
         &msg,
         &[
-            "draco.gltf",
-            "KHR_draco_mesh_compression",
+            "volume_scatter.gltf",
+            "KHR_materials_volume_scatter",
             "does not implement",
             "Fix",
         ],

@@ -133,6 +133,11 @@ pub fn describe(scene: &Scene) -> String {
     );
     for (i, mesh) in scene.meshes().iter().enumerate() {
         let tris: usize = mesh.primitives.iter().map(|p| p.triangles.len()).sum();
+        let draco = mesh
+            .primitives
+            .iter()
+            .filter(|p| p.draco_compressed)
+            .count();
         // One entry per node; an EXT_mesh_gpu_instancing node says how
         // many instances it draws (its instances are adjacent).
         let mut by_node: Vec<(usize, usize)> = Vec::new();
@@ -155,9 +160,14 @@ pub fn describe(scene: &Scene) -> String {
             .collect();
         let _ = writeln!(
             o,
-            "  mesh {}: {} primitive(s), {tris} triangles{}{}",
+            "  mesh {}: {} primitive(s){}, {tris} triangles{}{}",
             named(i, mesh.name.as_deref()),
             mesh.primitives.len(),
+            match draco {
+                0 => String::new(),
+                n if n == mesh.primitives.len() => " (Draco-compressed)".to_owned(),
+                n => format!(" ({n} Draco-compressed)"),
+            },
             if mesh.target_count > 0 {
                 format!(
                     ", {} morph targets (default weights {:?})",

@@ -12,7 +12,7 @@ use super::source::Source;
 
 /// A count beyond this is a broken file, not a real mesh, and must not
 /// exhaust memory.
-const MAX_ELEMENTS: usize = 1 << 28;
+pub(crate) const MAX_ELEMENTS: usize = 1 << 28;
 
 /// Accessors with no backing bytes (all zeros, or sparse over zeros) cost
 /// memory the file does not pay for in bytes: at most this many components

@@ -43,6 +43,9 @@ pub struct Primitive {
     pub targets: Vec<MorphTarget>,
     pub influences: Option<Influences>,
     pub material: Option<usize>,
+    /// Whether the file stores it compressed with KHR_draco_mesh_compression
+    /// (decoded at load), for `soupray info`.
+    pub draco_compressed: bool,
 }
 
 /// Per-vertex deltas of one morph target; absent attributes are all zero.
@@ -163,7 +166,11 @@ pub(crate) fn load_mesh(
             }
         }
         match load_primitive(reader, &prim, &where_, sanitize, second_uv_set, warnings)? {
-            Some(p) => primitives.push(p),
+            Some(mut p) => {
+                p.draco_compressed =
+                    super::draco::is_draco_primitive(&reader.src.json, mesh.index(), prim.index());
+                primitives.push(p)
+            }
             None => warnings.push(format!(
                 "{where_} has no POSITION attribute and is skipped, as glTF 2.0 §3.7.2.1 allows"
             )),
@@ -385,6 +392,7 @@ fn load_primitive(
         targets,
         influences,
         material: prim.material().index(),
+        draco_compressed: false,
     }))
 }
 

@@ -12,6 +12,7 @@ mod accessor;
 pub mod animation;
 pub mod camera;
 pub mod deform;
+mod draco;
 pub mod error;
 mod evaluate;
 mod image_decode;

@@ -17,6 +17,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_animation_pointer",
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -43,6 +44,7 @@ const READ_FROM_RAW_JSON: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_animation_pointer",
+    "KHR_draco_mesh_compression",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_diffuse_transmission",
@@ -202,6 +204,9 @@ pub fn load(path: &Path) -> Result<Source> {
     }
     let compressed = super::meshopt_views::compressed_views(&file, &json)?;
     super::meshopt_views::redirect_views(&mut for_crate, &compressed);
+    // Draco primitives decode into buffers appended after those.
+    let mut draco = super::draco::draco_primitives(&file, &json)?;
+    super::draco::redirect(&mut for_crate, &mut draco);
     let root: gltf::json::Root = serde_json::from_value(for_crate).map_err(|e| not_json(&e))?;
 
     let document = gltf::Document::from_json(root).map_err(|e| SceneError::Malformed {
@@ -219,7 +224,7 @@ pub fn load(path: &Path) -> Result<Source> {
     let mut glb_bin = glb_bin;
     let mut buffers = Vec::new();
     let mut short_buffers = Vec::new();
-    let file_buffers = document.buffers().len() - compressed.len();
+    let file_buffers = document.buffers().len() - compressed.len() - draco.len();
     for buffer in document.buffers().take(file_buffers) {
         let raw = &json["buffers"][buffer.index()];
         if super::meshopt_views::is_fallback_buffer(raw) {
@@ -287,6 +292,11 @@ pub fn load(path: &Path) -> Result<Source> {
     // Compressed views decode into the buffers `redirect_views` appended.
     for c in &compressed {
         let decoded = super::meshopt_views::decode(&file, c, &buffers, &short_buffers)?;
+        buffers.push(decoded);
+        short_buffers.push(None);
+    }
+    for d in &draco {
+        let decoded = super::draco::decode(&file, d, &document, &buffers, &short_buffers)?;
         buffers.push(decoded);
         short_buffers.push(None);
     }
