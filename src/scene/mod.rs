@@ -15,6 +15,7 @@ pub mod deform;
 pub mod error;
 mod evaluate;
 mod image_decode;
+mod ktx2_basis;
 pub mod light;
 mod load;
 pub mod material;
