@@ -141,7 +141,7 @@ fn check(bytes: &[u8]) -> Result<(u32, u32, bool), String> {
         return Err(format!(
             "is a KTX2 file of {width}x{height} texels, which would decode to {} MiB, more than \
              soupray's {} MiB for one image. Fix: downscale the texture.",
-            texels * 4 >> 20,
+            (texels * 4) >> 20,
             MAX_DECODED_IMAGE_BYTES >> 20
         ));
     }
