@@ -1,7 +1,8 @@
-//! Texture formats beyond PNG and JPEG: EXT_texture_webp (decoded),
-//! EXT_texture_avif (no decoder: fallback or a clear refusal),
-//! KHR_texture_basisu (KTX2 with Basis Universal, transcoded at load) and
-//! KHR_materials_pbrSpecularGlossiness (converted to metallic-roughness).
+//! Texture formats beyond PNG and JPEG: EXT_texture_webp and
+//! KHR_texture_basisu (KTX2 with Basis Universal, transcoded at load), each
+//! decoded in preference to the texture's fallback image, and
+//! EXT_texture_avif (no decoder: the fallback with a warning, or a clear
+//! refusal).
 //! Third-party files are read in place from the shared folder; the
 //! synthetic ones are made here.
 
@@ -430,5 +431,104 @@ fn anisotropy_barn_lamp_textures_are_used() {
             [65, 63, 59, 255],
             [163, 120, 100, 255],
         ],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// EXT_texture_avif: not decoded (see image_decode), so the fallback image
+// is sampled with one warning, and a file that requires AVIF without one
+// is refused with the fix.
+
+#[test]
+fn avif_required_without_fallback_is_refused_with_the_fix() {
+    let Some(path) = khronos("derived/BoxTextured/glTF-AVIF-derived/BoxTextured.glb") else {
+        return;
+    };
+    let msg = load_err(&path);
+    for part in [
+        "BoxTextured.glb",
+        "requires EXT_texture_avif",
+        "texture 0: image 0",
+        "cannot decode",
+        "Fix:",
+        "gltf-transform",
+    ] {
+        assert!(msg.contains(part), "{part:?} missing from: {msg}");
+    }
+}
+
+/// A glTF of two textures whose AVIF images (made here, see
+/// scene_support::avif) have a PNG fallback, and a third without one.
+fn avif_with_fallbacks(dir: &Path, required: bool, third: bool) -> PathBuf {
+    use scene_support::avif::{bytes, GRADIENT_LOSSLESS};
+    std::fs::write(dir.join("logo.avif"), bytes(GRADIENT_LOSSLESS)).unwrap();
+    std::fs::write(dir.join("fallback.png"), png(4, 2, &checker())).unwrap();
+    let avif = |fallback: Option<u32>| {
+        let mut t = json!({"extensions": {"EXT_texture_avif": {"source": 1}}});
+        if let Some(f) = fallback {
+            t["source"] = f.into();
+        }
+        t
+    };
+    let mut textures = vec![avif(Some(0)), avif(Some(0))];
+    if third {
+        textures.push(avif(None));
+    }
+    let mut root = json!({
+        "extensionsUsed": ["EXT_texture_avif"],
+        "images": [{"uri": "fallback.png"}, {"uri": "logo.avif", "mimeType": "image/avif"}],
+        "textures": textures,
+    });
+    if required {
+        root["extensionsRequired"] = json!(["EXT_texture_avif"]);
+    }
+    write_gltf(dir, &format!("avif_{required}_{third}.gltf"), root)
+}
+
+#[test]
+fn avif_textures_sample_their_fallback_with_one_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    for required in [false, true] {
+        let scene = load(&avif_with_fallbacks(dir.path(), required, false));
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        let w = &scene.warnings()[0];
+        for part in [
+            "EXT_texture_avif",
+            "no AVIF decoder",
+            "texture 0 (AVIF image 1, fallback image 0)",
+            "texture 1",
+            "Fix:",
+        ] {
+            assert!(w.contains(part), "{part:?} missing from: {w}");
+        }
+        for t in 0..2 {
+            assert_eq!(
+                texture_pixels(&scene, t).rgba8,
+                checker(),
+                "texture {t} samples the PNG"
+            );
+        }
+    }
+}
+
+#[test]
+fn avif_without_fallback_renders_with_factors_or_is_refused_when_required() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&avif_with_fallbacks(dir.path(), false, true));
+    let w = scene.warnings().join("\n");
+    assert!(
+        w.contains("cannot texture with texture 2 (AVIF image 1)"),
+        "{w}"
+    );
+    let table = scene.materials();
+    let e = table.images[1].decoded(1).err().unwrap().to_string();
+    assert!(
+        e.contains("image 1") && e.contains("is AVIF") && e.contains("Fix:"),
+        "{e}"
+    );
+    let msg = load_err(&avif_with_fallbacks(dir.path(), true, true));
+    assert!(
+        msg.contains("requires EXT_texture_avif") && msg.contains("texture 2: image 1"),
+        "{msg}"
     );
 }

@@ -19,6 +19,7 @@ use serde_json::{json, Value};
 #[path = "../common/shared.rs"]
 pub mod shared;
 
+pub mod avif;
 pub mod ktx2;
 
 /// A sample model's file (`"Fox/Fox.glb"`), read in place from the shared
