@@ -1,12 +1,14 @@
-//! Texture formats beyond PNG and JPEG: EXT_texture_webp (decoded),
-//! EXT_texture_avif (no decoder: fallback or a clear refusal),
-//! KHR_texture_basisu (KTX2 with Basis Universal, transcoded at load) and
-//! KHR_materials_pbrSpecularGlossiness (converted to metallic-roughness).
+//! Texture formats beyond PNG and JPEG: EXT_texture_webp and
+//! KHR_texture_basisu (KTX2 with Basis Universal, transcoded at load), each
+//! decoded in preference to the texture's fallback image, and
+//! EXT_texture_avif (no decoder: the fallback with a warning, or a clear
+//! refusal).
 //! Third-party files are read in place from the shared folder; the
 //! synthetic ones are made here.
 
 mod scene_support;
 
+use scene_support::ktx2::uastc_ktx2;
 use scene_support::shared::khronos;
 use serde_json::{json, Value};
 use soupray::scene::material::DecodedImage;
@@ -202,4 +204,331 @@ fn a_texture_source_extension_out_of_range_is_refused() {
     ] {
         assert!(msg.contains(part), "{part:?} missing from: {msg}");
     }
+}
+
+// ---------------------------------------------------------------------------
+// KHR_texture_basisu
+
+/// Four distinct colours, with alpha, for 2x2 blocks.
+const BLOCK_COLOURS: [[u8; 4]; 4] = [
+    [255, 0, 0, 255],
+    [0, 200, 0, 128],
+    [10, 20, 250, 255],
+    [90, 90, 90, 0],
+];
+
+/// What `BLOCK_COLOURS` as 2x2 blocks decode to: `w` x `h` texels (at most
+/// 8x8), rows top to bottom, upside down if `flipped`.
+fn block_texels(w: u32, h: u32, flipped: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    for y in 0..h {
+        let y = if flipped { h - 1 - y } else { y };
+        for x in 0..w {
+            out.extend_from_slice(&BLOCK_COLOURS[(y / 4 * 2 + x / 4) as usize]);
+        }
+    }
+    out
+}
+
+/// The image a glTF of one texture whose only image is `bytes` (a
+/// KHR_texture_basisu source) decodes to.
+fn ktx2_texture(dir: &Path, bytes: &[u8], name: &str) -> Arc<DecodedImage> {
+    std::fs::write(dir.join(format!("{name}.ktx2")), bytes).unwrap();
+    let path = write_gltf(
+        dir,
+        &format!("{name}.gltf"),
+        json!({
+            "extensionsUsed": ["KHR_texture_basisu"],
+            "extensionsRequired": ["KHR_texture_basisu"],
+            "images": [{"uri": format!("{name}.ktx2"), "mimeType": "image/ktx2"}],
+            "textures": [{"extensions": {"KHR_texture_basisu": {"source": 0}}}],
+        }),
+    );
+    let scene = load(&path);
+    assert!(scene.warnings().is_empty(), "{:?}", scene.warnings());
+    texture_pixels(&scene, 0)
+}
+
+#[test]
+fn uastc_ktx2_decodes_exactly_rows_top_to_bottom() {
+    let dir = tempfile::tempdir().unwrap();
+    for zstd in [false, true] {
+        let bytes = uastc_ktx2(8, 8, &BLOCK_COLOURS, zstd, None);
+        let img = ktx2_texture(dir.path(), &bytes, if zstd { "zstd" } else { "raw" });
+        assert_eq!((img.width, img.height), (8, 8));
+        assert_eq!(img.rgba8, block_texels(8, 8, false), "zstd {zstd}");
+        assert_eq!(
+            texel(&img, 0, 0),
+            BLOCK_COLOURS[0],
+            "top left is the first block"
+        );
+        assert_eq!(texel(&img, 7, 7), BLOCK_COLOURS[3]);
+    }
+    // Sizes that are not whole blocks keep only the texels inside.
+    let img = ktx2_texture(
+        dir.path(),
+        &uastc_ktx2(6, 5, &BLOCK_COLOURS, true, Some("rd")),
+        "odd",
+    );
+    assert_eq!((img.width, img.height), (6, 5));
+    assert_eq!(img.rgba8, block_texels(6, 5, false));
+}
+
+#[test]
+fn ktx2_stored_bottom_up_is_flipped_to_gltf_orientation() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = ktx2_texture(
+        dir.path(),
+        &uastc_ktx2(8, 8, &BLOCK_COLOURS, false, Some("ru")),
+        "ru",
+    );
+    assert_eq!(img.rgba8, block_texels(8, 8, true));
+}
+
+#[test]
+fn ktx2_matches_its_png_twin_and_is_preferred_over_it() {
+    // The PNG holds the KTX2's texels; the texture names both, and samples
+    // the KTX2 (its extension source) rather than the PNG fallback, which
+    // is here made different to tell them apart.
+    let dir = tempfile::tempdir().unwrap();
+    let pixels = block_texels(8, 8, false);
+    let twin = dir.path().join("twin.png");
+    std::fs::write(&twin, png(8, 8, &pixels)).unwrap();
+    std::fs::write(dir.path().join("fallback.png"), png(1, 1, &[1, 2, 3, 4])).unwrap();
+    std::fs::write(
+        dir.path().join("t.ktx2"),
+        uastc_ktx2(8, 8, &BLOCK_COLOURS, true, None),
+    )
+    .unwrap();
+    let path = write_gltf(
+        dir.path(),
+        "twin.gltf",
+        json!({
+            "extensionsUsed": ["KHR_texture_basisu"],
+            "images": [{"uri": "fallback.png"}, {"uri": "t.ktx2"}, {"uri": "twin.png"}],
+            "textures": [
+                {"source": 0, "extensions": {"KHR_texture_basisu": {"source": 1}}},
+                {"source": 2},
+            ],
+        }),
+    );
+    let scene = load(&path);
+    assert_eq!(
+        texture_pixels(&scene, 0).rgba8,
+        texture_pixels(&scene, 1).rgba8
+    );
+    assert_eq!(texture_pixels(&scene, 0).rgba8, pixels);
+}
+
+/// The decoded pixels of the image whose file is `name` in `scene`.
+fn image_named(scene: &Scene, name: &str) -> Arc<DecodedImage> {
+    let table = scene.materials();
+    let index = table
+        .images
+        .iter()
+        .position(|i| match &i.source {
+            soupray::scene::material::ImageSource::File(p) => p.ends_with(name),
+            _ => false,
+        })
+        .unwrap_or_else(|| panic!("no image {name}"));
+    table.images[index]
+        .decoded(index)
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// `img` against what Binomial's C++ transcoder (Basis Universal 2.x,
+/// through basisu_c_sys 0.9.1) gives for the same file: its per-channel
+/// means and four texels. The pure-Rust transcoder soupray uses was
+/// byte-identical to it on all 23 KTX2 textures of the two lamps, so the
+/// bounds are tight.
+fn assert_like_reference(
+    img: &DecodedImage,
+    size: (u32, u32),
+    mean: [f64; 4],
+    texels: [[u8; 4]; 4],
+) {
+    assert_eq!((img.width, img.height), size);
+    let (got, _) = stats(img);
+    for c in 0..4 {
+        assert!(
+            (got[c] - mean[c]).abs() < 0.001,
+            "channel {c}: mean {} vs {}",
+            got[c],
+            mean[c]
+        );
+    }
+    let (w, h) = size;
+    for ((x, y), want) in [(0, 0), (w / 2, h / 2), (w - 1, h - 1), (w / 4, 3 * h / 4)]
+        .into_iter()
+        .zip(texels)
+    {
+        assert_eq!(texel(img, x, y), want, "texel ({x}, {y})");
+    }
+}
+
+#[test]
+fn stained_glass_lamp_requires_basisu_and_transcodes_etc1s_and_uastc() {
+    let Some(path) = khronos("StainedGlassLamp/glTF-KTX-BasisU/StainedGlassLamp.gltf") else {
+        return;
+    };
+    let scene = load(&path);
+    for w in scene.warnings() {
+        assert!(!w.contains("decode") && !w.contains("KTX2"), "{w}");
+    }
+    scene
+        .materials()
+        .decode_used_images()
+        .unwrap_or_else(|e| panic!("{e}"));
+    soupray::trace::texture::HostTextures::new(scene.materials()).unwrap_or_else(|e| panic!("{e}"));
+    // ETC1S under BasisLZ, opaque and with alpha, then UASTC under Zstandard.
+    assert_like_reference(
+        &image_named(&scene, "StainedGlassLamp_base_basecolor.ktx2"),
+        (2048, 2048),
+        [39.561, 35.641, 30.876, 255.0],
+        [[31, 31, 31, 255]; 4],
+    );
+    assert_like_reference(
+        &image_named(&scene, "StainedGlassLamp_grill_basecolor-alpha.ktx2"),
+        (1024, 1024),
+        [48.076, 39.028, 38.454, 210.233],
+        [
+            [46, 38, 38, 200],
+            [46, 37, 37, 247],
+            [46, 37, 37, 255],
+            [46, 37, 37, 103],
+        ],
+    );
+    assert_like_reference(
+        &image_named(&scene, "StainedGlassLamp_glass_basecolor-alpha.ktx2"),
+        (2048, 1024),
+        [110.274, 87.177, 72.146, 253.038],
+        [
+            [64, 64, 64, 255],
+            [64, 64, 64, 255],
+            [64, 64, 64, 255],
+            [255, 197, 190, 255],
+        ],
+    );
+}
+
+#[test]
+fn anisotropy_barn_lamp_textures_are_used() {
+    let Some(path) = khronos("AnisotropyBarnLamp/glTF-KTX2-Basisu/AnisotropyBarnLamp.gltf") else {
+        return;
+    };
+    let scene = load(&path);
+    for w in scene.warnings() {
+        assert!(!w.contains("decode") && !w.contains("KTX2"), "{w}");
+    }
+    soupray::trace::texture::HostTextures::new(scene.materials()).unwrap_or_else(|e| panic!("{e}"));
+    assert_like_reference(
+        &image_named(&scene, "AnisotropyBarnLamp_basecolor.ktx2"),
+        (2048, 2048),
+        [191.055, 148.759, 125.826, 255.0],
+        [
+            [229, 166, 133, 255],
+            [218, 158, 126, 255],
+            [65, 63, 59, 255],
+            [163, 120, 100, 255],
+        ],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// EXT_texture_avif: not decoded (see image_decode), so the fallback image
+// is sampled with one warning, and a file that requires AVIF without one
+// is refused with the fix.
+
+#[test]
+fn avif_required_without_fallback_is_refused_with_the_fix() {
+    let Some(path) = khronos("derived/BoxTextured/glTF-AVIF-derived/BoxTextured.glb") else {
+        return;
+    };
+    let msg = load_err(&path);
+    for part in [
+        "BoxTextured.glb",
+        "requires EXT_texture_avif",
+        "texture 0: image 0",
+        "cannot decode",
+        "Fix:",
+        "gltf-transform",
+    ] {
+        assert!(msg.contains(part), "{part:?} missing from: {msg}");
+    }
+}
+
+/// A glTF of two textures whose AVIF images (made here, see
+/// scene_support::avif) have a PNG fallback, and a third without one.
+fn avif_with_fallbacks(dir: &Path, required: bool, third: bool) -> PathBuf {
+    use scene_support::avif::{bytes, GRADIENT_LOSSLESS};
+    std::fs::write(dir.join("logo.avif"), bytes(GRADIENT_LOSSLESS)).unwrap();
+    std::fs::write(dir.join("fallback.png"), png(4, 2, &checker())).unwrap();
+    let avif = |fallback: Option<u32>| {
+        let mut t = json!({"extensions": {"EXT_texture_avif": {"source": 1}}});
+        if let Some(f) = fallback {
+            t["source"] = f.into();
+        }
+        t
+    };
+    let mut textures = vec![avif(Some(0)), avif(Some(0))];
+    if third {
+        textures.push(avif(None));
+    }
+    let mut root = json!({
+        "extensionsUsed": ["EXT_texture_avif"],
+        "images": [{"uri": "fallback.png"}, {"uri": "logo.avif", "mimeType": "image/avif"}],
+        "textures": textures,
+    });
+    if required {
+        root["extensionsRequired"] = json!(["EXT_texture_avif"]);
+    }
+    write_gltf(dir, &format!("avif_{required}_{third}.gltf"), root)
+}
+
+#[test]
+fn avif_textures_sample_their_fallback_with_one_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    for required in [false, true] {
+        let scene = load(&avif_with_fallbacks(dir.path(), required, false));
+        assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+        let w = &scene.warnings()[0];
+        for part in [
+            "EXT_texture_avif",
+            "no AVIF decoder",
+            "texture 0 (AVIF image 1, fallback image 0)",
+            "texture 1",
+            "Fix:",
+        ] {
+            assert!(w.contains(part), "{part:?} missing from: {w}");
+        }
+        for t in 0..2 {
+            assert_eq!(
+                texture_pixels(&scene, t).rgba8,
+                checker(),
+                "texture {t} samples the PNG"
+            );
+        }
+    }
+}
+
+#[test]
+fn avif_without_fallback_renders_with_factors_or_is_refused_when_required() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&avif_with_fallbacks(dir.path(), false, true));
+    let w = scene.warnings().join("\n");
+    assert!(
+        w.contains("cannot texture with texture 2 (AVIF image 1)"),
+        "{w}"
+    );
+    let table = scene.materials();
+    let e = table.images[1].decoded(1).err().unwrap().to_string();
+    assert!(
+        e.contains("image 1") && e.contains("is AVIF") && e.contains("Fix:"),
+        "{e}"
+    );
+    let msg = load_err(&avif_with_fallbacks(dir.path(), true, true));
+    assert!(
+        msg.contains("requires EXT_texture_avif") && msg.contains("texture 2: image 1"),
+        "{msg}"
+    );
 }

@@ -17,6 +17,7 @@ pub mod error;
 mod evaluate;
 mod image_decode;
 mod instancing;
+mod ktx2_basis;
 pub mod light;
 mod load;
 pub mod material;

@@ -36,6 +36,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_texture_transform",
     "EXT_texture_webp",
+    "KHR_texture_basisu",
 ];
 
 /// Supported extensions read from the raw JSON rather than by the `gltf`

@@ -3,10 +3,12 @@
 //! image in `textures[i].extensions.EXT.source` that a renderer should
 //! prefer over `textures[i].source`, which is then an optional fallback in
 //! a format every viewer reads (PNG or JPEG). soupray decodes KTX2/Basis
-//! Universal and WebP, and has no AVIF decoder (no AV1 decoder builds here
-//! from crates.io without a system library that setup does not install), so
-//! an AVIF texture falls back to `source` with a warning, and a file that
-//! requires AVIF without a fallback is refused with the way out.
+//! Universal and WebP, and has no AVIF decoder, so an AVIF texture falls
+//! back to `source` with a warning, and a file that requires AVIF without a
+//! fallback is refused with the way out. (The `image` crate's AVIF decoding
+//! needs the system dav1d; rav1d 1.1, the Rust port, builds with cargo alone
+//! and decodes correctly, but aborts the process on some corrupt files, a
+//! panic inside its C API, which untrusted textures must not be able to do.)
 
 use serde_json::Value;
 

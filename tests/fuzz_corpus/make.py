@@ -386,6 +386,97 @@ def _(d):
     d["meshes"][0]["primitives"][0]["material"] = 0
 
 
+# KHR_texture_basisu payloads: an 8x8 UASTC KTX2 of four solid-colour
+# blocks (UASTC mode 8, which needs no encoder), raw or under a Zstandard
+# frame of stored blocks; the same layout as tests/scene_support/ktx2.rs.
+def uastc_solid(r, g, b, a):
+    return (0x17 | r << 5 | g << 13 | b << 21 | a << 29).to_bytes(16, "little")
+
+
+def zstd_stored(data):
+    return (b"\x28\xb5\x2f\xfd\xa0" + struct.pack("<I", len(data))
+            + (len(data) << 3 | 1).to_bytes(3, "little") + data)
+
+
+def ktx2(zstd=False, width=8, height=8):
+    raw = b"".join(uastc_solid(*c) for c in
+                   [(255, 0, 0, 255), (0, 200, 0, 128), (10, 20, 250, 255), (90, 90, 90, 0)])
+    level = zstd_stored(raw) if zstd else raw
+    dfd = struct.pack("<7I", 44, 0, 2 | 40 << 16, 166 | 1 << 8 | 2 << 16, 3 | 3 << 8, 16, 0)
+    dfd += struct.pack("<4I", 127 << 16 | 3 << 24, 0, 0, 0xFFFFFFFF)
+    dfd_at = 80 + 24
+    level_at = (dfd_at + len(dfd) + 15) // 16 * 16
+    out = b"\xabKTX 20\xbb\r\n\x1a\n"
+    out += struct.pack("<9I", 0, 1, width, height, 0, 0, 1, 1, 2 if zstd else 0)
+    out += struct.pack("<4I", dfd_at, len(dfd), 0, 0)
+    out += struct.pack("<5Q", 0, 0, level_at, len(level), len(raw))
+    out += dfd
+    out += b"\0" * (level_at - len(out)) + level
+    return bytearray(out)
+
+
+# An 8x8 lossless WebP, made by the `image` crate's encoder (as in
+# tests/fuzz_scene.rs damaged_webp_is_refused).
+WEBP_8x8 = bytes.fromhex(
+    "524946469a000000574542505650384c8d0000002f07c00110cd552022021ec8260000000000"
+    "000000000000000000000000000000000000000000000000000000000000808041c001c00391"
+    "0000000000387f63000000000200000000000000000000000000000000000000000000000000"
+    "007820010000000000e72f100000000000000000000000000000000000000000000000000000"
+    "0000000010a9f6330300")
+
+
+def textured(d, uri, basisu):
+    """The triangle's material samples `uri` as its base colour."""
+    d["images"][0] = {"uri": uri}
+    if basisu:
+        d["extensionsUsed"].append("KHR_texture_basisu")
+        d["textures"] = [{"extensions": {"KHR_texture_basisu": {"source": 0}}}]
+    else:
+        d["textures"] = [{"source": 0}]
+    d["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    d["meshes"][0]["primitives"][0]["material"] = 0
+
+
+def ktx2_case(name, outcome, mentions, bytes_):
+    @case(name, outcome, (["image 0"] if outcome == "error" else []) + mentions)
+    def _(d):
+        textured(d, "data:image/ktx2;base64," + base64.b64encode(bytes(bytes_)).decode(), True)
+
+
+def webp_case(name, outcome, mentions, bytes_):
+    @case(name, outcome, (["image 0"] if outcome == "error" else []) + mentions)
+    def _(d):
+        textured(d, "data:image/webp;base64," + base64.b64encode(bytes(bytes_)).decode(), False)
+
+
+def patched(b, at, fmt, value):
+    b = bytearray(b)
+    struct.pack_into(fmt, b, at, value)
+    return b
+
+
+LEVEL_AT = 160  # level 0's data in ktx2(): after the 44-byte DFD at 104, 16-aligned
+ktx2_case("ktx2_valid", "ok", [], ktx2())
+ktx2_case("ktx2_valid_zstd", "ok", [], ktx2(zstd=True))
+ktx2_case("ktx2_truncated", "error", ["damaged KTX2"], ktx2()[:LEVEL_AT + 20])
+ktx2_case("ktx2_truncated_header", "error", ["damaged KTX2"], ktx2()[:50])
+ktx2_case("ktx2_level_length_past_file", "error", ["damaged KTX2"], patched(ktx2(), 88, "<Q", 1 << 40))
+ktx2_case("ktx2_level_offset_wraps", "error", ["damaged KTX2"], patched(ktx2(), 80, "<Q", 2**64 - 8))
+ktx2_case("ktx2_level_length_short", "error", ["mip level 0", "needs 64"], patched(ktx2(), 88, "<Q", 48))
+ktx2_case("ktx2_uncompressed_length_lies", "error", ["uncompressed length", "needs 64"],
+          patched(ktx2(zstd=True), 96, "<Q", 1 << 62))
+ktx2_case("ktx2_pixel_width_absurd", "error", ["4294967295x8", "MiB"], patched(ktx2(), 20, "<I", 2**32 - 1))
+ktx2_case("ktx2_level_count_lies", "error", ["damaged KTX2"], patched(ktx2(), 40, "<I", 100000))
+ktx2_case("ktx2_bitflipped_format", "error", ["vkFormat 37"], patched(ktx2(), 12, "<I", 37))
+ktx2_case("ktx2_bitflipped_scheme", "error", ["scheme 1"], patched(ktx2(), 44, "<I", 1))
+webp_case("webp_valid", "ok", [], WEBP_8x8)
+webp_case("webp_truncated", "error", ["cannot be decoded"], WEBP_8x8[:len(WEBP_8x8) // 2])
+webp_case("webp_header_only", "error", ["cannot be decoded"], WEBP_8x8[:12])
+webp_case("webp_bitflipped_signature", "error", ["cannot be decoded"], patched(WEBP_8x8, 20, "<B", 0x3f))
+webp_case("webp_bitflipped_size", "error", ["cannot be decoded"], patched(WEBP_8x8, 21, "<B", WEBP_8x8[21] ^ 0x10))
+ktx2_case("ktx2_bitflipped_block_mode", "error", ["cannot be transcoded"], patched(ktx2(), LEVEL_AT, "<B", 69))  # mode code 69: no UASTC mode
+
+
 def main():
     for f in os.listdir(HERE):
         if f.endswith(".gltf"):

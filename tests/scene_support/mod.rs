@@ -19,6 +19,9 @@ use serde_json::{json, Value};
 #[path = "../common/shared.rs"]
 pub mod shared;
 
+pub mod avif;
+pub mod ktx2;
+
 /// A sample model's file (`"Fox/Fox.glb"`), read in place from the shared
 /// folder; `None` (the caller skips) after naming it when it is absent.
 #[track_caller]
