@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Start-up of `soupray render` with a cold and a warm driver program cache,
-# as BENCHMARKS.md "Start-up (issue 15)" measures it:
+# as BENCHMARKS.md "Start-up" measures it:
 #
 #   scripts/startup.sh [SOUPRAY] [RUNS] [FRAMES] [-- RENDER FLAGS...]
 #

@@ -1,4 +1,4 @@
-//! Numerics at the extremes (issue 6), end to end: every scene is a glTF
+//! Numerics at the extremes, end to end: every scene is a glTF
 //! file written here, evaluated into a soup on the device, given a BVH built
 //! on the device (checked with `bvh::validate` against the read-back soup)
 //! and path traced, or rendered through the `soupray` binary where the exit
@@ -700,7 +700,7 @@ fn slivers_of_aspect_ratio_1e6_leave_no_cracks() {
     reference.assert_matches(&f.image, "slivers of aspect ratio 2.5e4");
 }
 
-/// Issue 6: at aspect ratio 1e6 the image was darker than the plane's (mean
+/// At aspect ratio 1e6 the image was darker than the plane's (mean
 /// 0.218 against 0.256; direct light alone 0.055 against 0.100). The
 /// watertight test's edge functions are differences of products of
 /// coordinates relative to the ray origin (up to 125 here), rounded in float

@@ -180,7 +180,7 @@ impl Slot {
         Slot::IridescenceThickness,
         Slot::Anisotropy,
     ];
-    /// The slots a path tracer shades with (issue 4): all but occlusion.
+    /// The slots a path tracer shades with: all but occlusion.
     pub const SHADED: [Slot; 17] = [
         Slot::BaseColor,
         Slot::MetallicRoughness,
