@@ -134,7 +134,7 @@ pub struct RenderArgs {
     #[arg(long, help_heading = "Output")]
     pub denoise: bool,
     /// OIDN's filter quality with --denoise: `high` (the default, for final
-    /// frames), `balanced` or `fast` (previews: about 2-3x faster on CPUs).
+    /// frames), `balanced` or `fast` (previews: faster, a little less sharp).
     #[arg(
         long,
         default_value = "high",
@@ -189,10 +189,9 @@ pub struct RenderArgs {
     pub adaptive_allocation: String,
     /// With --noise-threshold: samples every pixel takes before its first
     /// convergence check. 8 saves time on frames that are mostly cheap,
-    /// smooth background (the shipped animation reaches uniform 64 spp's
-    /// error in 0.40x its time instead of 0.50x) at a little more bias from
-    /// stopping on the evidence of fewer samples. (Cycles' automatic minimum
-    /// is 64 at its default threshold 0.01, 32 at 0.1.)
+    /// smooth background, at a little more bias from stopping on the
+    /// evidence of fewer samples (BENCHMARKS.md measures both). Cycles'
+    /// automatic minimum is 64 at its default threshold 0.01, 32 at 0.1.
     #[arg(long, default_value_t = 16, value_name = "N", help_heading = "Image")]
     pub min_spp: u32,
     /// Stop sampling each frame after this many seconds of path tracing,
@@ -333,7 +332,7 @@ pub struct RenderArgs {
     /// Whether the noise changes from frame to frame: `fixed` (the default,
     /// as in Cycles, "animated seed" off) draws the same samples every
     /// frame, so where nothing moves consecutive frames have the same noise
-    /// and still regions flicker 1.7-6.6x less, raw, adaptive or denoised;
+    /// and still regions flicker far less, raw, adaptive or denoised;
     /// `per-frame` seeds each frame's samples with its frame number, so its
     /// noise is new (averaging frames then averages their noise away). The
     /// README's "Flicker" section has the measurements.
