@@ -376,17 +376,17 @@ impl Image {
     /// nearly black there: a scene with no light that reaches the camera,
     /// which would otherwise pass unnoticed with exit code 0.
     pub fn darkness_warning(&self) -> Option<String> {
-        let covered: Vec<&[f32; 4]> = self.rgba.iter().filter(|p| p[3] > 0.0).collect();
-        if covered.is_empty() {
+        let (mut covered, mut sum, mut max) = (0usize, 0.0f64, 0.0f32);
+        for p in self.rgba.iter().filter(|p| p[3] > 0.0) {
+            covered += 1;
+            sum += crate::trace::sampling::luminance(glam::Vec3::new(p[0], p[1], p[2])) as f64;
+            max = max.max(p[0]).max(p[1]).max(p[2]);
+        }
+        if covered == 0 {
             return None;
         }
-        let lum = |p: &[f32; 4]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
-        let mean = covered.iter().map(|p| lum(p)).sum::<f64>() / covered.len() as f64;
-        let max = covered
-            .iter()
-            .map(|p| p[0].max(p[1]).max(p[2]))
-            .fold(0.0f32, f32::max);
-        let share = 100.0 * covered.len() as f64 / self.rgba.len() as f64;
+        let mean = sum / covered as f64;
+        let share = 100.0 * covered as f64 / self.rgba.len() as f64;
         let fix =
             "Fix: light the scene (--env-color R,G,B, --env FILE.exr, or lights in the file), \
                    or check the exposure of the lights it has";

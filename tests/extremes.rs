@@ -810,6 +810,16 @@ fn closed_box(h: f32, inward: bool, material: Value) -> Part {
     }
 }
 
+/// Every pixel covered (nothing leaks through the mesh around the camera),
+/// lit and finite under the brightness-5 sky.
+fn assert_closed(image: &Image, what: &str) {
+    assert_eq!(coverage(image).0, image.rgba.len(), "{what}");
+    assert!(
+        image.rgba.iter().all(|p| grey(p) > 0.0 && grey(p) < 5.0),
+        "{what}"
+    );
+}
+
 #[test]
 fn camera_inside_closed_meshes_sees_only_the_mesh() {
     let d = common::device();
@@ -883,12 +893,7 @@ fn camera_inside_closed_meshes_sees_only_the_mesh() {
         &st,
         Tree::Device,
     );
-    assert_eq!(coverage(&room.image).0, room.image.rgba.len(), "room leaks");
-    assert!(room
-        .image
-        .rgba
-        .iter()
-        .all(|p| grey(p) > 0.0 && grey(p) < 5.0));
+    assert_closed(&room.image, "room leaks");
     // The same box double-sided but facing outwards: also closed.
     let shell = render(
         &d,
@@ -900,16 +905,7 @@ fn camera_inside_closed_meshes_sees_only_the_mesh() {
         &st,
         Tree::Device,
     );
-    assert_eq!(
-        coverage(&shell.image).0,
-        shell.image.rgba.len(),
-        "shell leaks"
-    );
-    assert!(shell
-        .image
-        .rgba
-        .iter()
-        .all(|p| grey(p) > 0.0 && grey(p) < 5.0));
+    assert_closed(&shell.image, "shell leaks");
     // Single-sided and facing outwards, every face is a back face from
     // inside. By default back faces are shaded (as in Cycles), so the box
     // is as closed as the double-sided one...
@@ -919,16 +915,7 @@ fn camera_inside_closed_meshes_sees_only_the_mesh() {
         "outward",
     );
     let flipped = render(&d, &outward, &st, Tree::Device);
-    assert_eq!(
-        coverage(&flipped.image).0,
-        flipped.image.rgba.len(),
-        "a single-sided box seen from inside leaks"
-    );
-    assert!(flipped
-        .image
-        .rgba
-        .iter()
-        .all(|p| grey(p) > 0.0 && grey(p) < 5.0));
+    assert_closed(&flipped.image, "a single-sided box seen from inside leaks");
     // ...and with --backface-culling they are culled as a rasterizer does,
     // so the camera sees the sky through the box (this pins the culling,
     // it is not a leak).

@@ -14,6 +14,16 @@ use std::process::Command;
 use scene_support::{assert_soup_matches, load, Raw};
 use soupray::scene::{LightKind, LoadOptions, Projection, Scene};
 
+/// Every file the generator writes, without its `.gltf`.
+const SCENES: [&str; 6] = [
+    "skin_chain",
+    "morph_sparse",
+    "interpolation",
+    "cameras_lights",
+    "texture_transform",
+    "materials",
+];
+
 /// Runs the generator into a temporary directory.
 fn generate() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
@@ -36,14 +46,7 @@ fn generate() -> (tempfile::TempDir, PathBuf) {
 fn the_generator_is_deterministic() {
     let (_a, one) = generate();
     let (_b, two) = generate();
-    for name in [
-        "skin_chain",
-        "morph_sparse",
-        "interpolation",
-        "cameras_lights",
-        "texture_transform",
-        "materials",
-    ] {
+    for name in SCENES {
         let f = format!("{name}.gltf");
         assert_eq!(
             std::fs::read(one.join(&f)).unwrap(),
@@ -220,14 +223,7 @@ fn each_material_extension_is_read() {
 fn every_feature_scene_renders_cleanly() {
     let (_dir, out) = generate();
     let render_dir = tempfile::tempdir().unwrap();
-    for name in [
-        "skin_chain",
-        "morph_sparse",
-        "interpolation",
-        "cameras_lights",
-        "texture_transform",
-        "materials",
-    ] {
+    for name in SCENES {
         let o = Command::new(env!("CARGO_BIN_EXE_soupray"))
             .args([
                 "render", "--quiet", "--frame", "6", "--spp", "4", "--width", "48", "--height",

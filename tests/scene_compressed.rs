@@ -227,6 +227,43 @@ fn soup_set_distance(a: &soupray::soup::Soup, b: &soupray::soup::Soup, what: &st
     max_matched_distance(a, b).max(max_matched_distance(b, a))
 }
 
+/// A compressed file's soup against its plain twin's at `frames`, matched
+/// as triangle sets (decoders may reorder them), each within `bound`; and
+/// frame `moved` against frame 0, which must differ by far more, so the
+/// comparison can tell frames apart.
+fn assert_skinned_twin(
+    compressed: &soupray::scene::Scene,
+    plain: &soupray::scene::Scene,
+    frames: &[i64],
+    moved: i64,
+    bound: f64,
+    what: &str,
+) {
+    for &f in frames {
+        let t = plain.time_of_frame(f);
+        let a = compressed.evaluate(t).unwrap().soup;
+        let b = plain.evaluate(t).unwrap().soup;
+        let d = soup_set_distance(&a, &b, &format!("frame {f}"));
+        eprintln!("{what} frame {f}: max matched distance {d:.3e} (bound {bound:.3e})");
+        assert!(
+            d <= bound,
+            "frame {f}: a triangle is {d} from the plain twin's nearest, more than {bound}"
+        );
+    }
+    let off = soup_set_distance(
+        &compressed
+            .evaluate(plain.time_of_frame(moved))
+            .unwrap()
+            .soup,
+        &plain.evaluate(plain.time_of_frame(0)).unwrap().soup,
+        &format!("frames {moved} and 0"),
+    );
+    assert!(
+        off > 10.0 * bound,
+        "the comparison cannot tell frames apart ({off})"
+    );
+}
+
 #[test]
 fn meshopt_cesium_man_matches_its_plain_twin_while_skinned() {
     let (Some(compressed), Some(plain)) = (
@@ -248,31 +285,13 @@ fn meshopt_cesium_man_matches_its_plain_twin_while_skinned() {
     // largest measured is 1.6e-3. A wrong decode (or a wrong frame, checked
     // last) is off by far more.
     let bound = 3e-3;
-    for f in [0, 9, 20, 33, 48] {
-        let t = plain_scene.time_of_frame(f);
-        let a = compressed_scene.evaluate(t).unwrap().soup;
-        let b = plain_scene.evaluate(t).unwrap().soup;
-        let d = soup_set_distance(&a, &b, &format!("frame {f}"));
-        eprintln!("meshopt CesiumMan frame {f}: max matched distance {d:.3e} (bound {bound:.1e})");
-        assert!(
-            d <= bound,
-            "frame {f}: a triangle is {d} from the plain twin's nearest, more than {bound}"
-        );
-    }
-    let off = soup_set_distance(
-        &compressed_scene
-            .evaluate(plain_scene.time_of_frame(20))
-            .unwrap()
-            .soup,
-        &plain_scene
-            .evaluate(plain_scene.time_of_frame(0))
-            .unwrap()
-            .soup,
-        "frames 20 and 0",
-    );
-    assert!(
-        off > 10.0 * bound,
-        "the comparison cannot tell frames apart ({off})"
+    assert_skinned_twin(
+        &compressed_scene,
+        &plain_scene,
+        &[0, 9, 20, 33, 48],
+        20,
+        bound,
+        "meshopt CesiumMan",
     );
 }
 
@@ -417,35 +436,14 @@ fn draco_rigged_simple_matches_its_plain_twin_while_skinned() {
     // rounding of the world positions.
     assert!(bits <= 16, "{bits}-bit grid");
     let bound = 3f64.sqrt() / 2.0 * step * (1.0 + 1e-6) + 1e-5;
-    for f in [0, 12, 25, 37, 50] {
-        let t = plain_scene.time_of_frame(f);
-        let a = compressed_scene.evaluate(t).unwrap().soup;
-        let b = plain_scene.evaluate(t).unwrap().soup;
-        // Draco reorders vertices and triangles: match triangles as sets.
-        let d = soup_set_distance(&a, &b, &format!("frame {f}"));
-        eprintln!(
-            "Draco RiggedSimple frame {f}: max matched distance {d:.3e} (bound {bound:.3e}, {bits}-bit grid, step {step:.3e})"
-        );
-        assert!(
-            d <= bound,
-            "frame {f}: a triangle is {d} from the plain twin's nearest, more than {bound}"
-        );
-    }
-    // The skin moves the mesh: frames differ by far more than the bound.
-    let off = soup_set_distance(
-        &compressed_scene
-            .evaluate(plain_scene.time_of_frame(25))
-            .unwrap()
-            .soup,
-        &plain_scene
-            .evaluate(plain_scene.time_of_frame(0))
-            .unwrap()
-            .soup,
-        "frames 25 and 0",
-    );
-    assert!(
-        off > 10.0 * bound,
-        "the comparison cannot tell frames apart ({off})"
+    eprintln!("Draco RiggedSimple: {bits}-bit grid, step {step:.3e}");
+    assert_skinned_twin(
+        &compressed_scene,
+        &plain_scene,
+        &[0, 12, 25, 37, 50],
+        25,
+        bound,
+        "Draco RiggedSimple",
     );
 }
 

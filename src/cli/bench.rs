@@ -340,7 +340,7 @@ fn bench_gltf(
     let render = |tree: &Tree, s: &RenderSettings| -> anyhow::Result<(Image, f64, f64, u64, f64)> {
         let mut tracer = PathTracer::new(device, &scene, s)?;
         if let Some(materials) = scene.materials_at(time) {
-            tracer.set_materials(&materials)?;
+            tracer.set_materials(materials)?;
         }
         let input = FrameInput {
             frame,
@@ -389,7 +389,7 @@ fn bench_gltf(
             },
         )?;
         if let Some(materials) = scene.materials_at(time) {
-            tracer.set_materials(&materials)?;
+            tracer.set_materials(materials)?;
         }
         let input = FrameInput {
             frame,

@@ -913,7 +913,7 @@ impl<'d> Pipeline<'d> {
     ) -> Result<RenderOutput, anyhow::Error> {
         // KHR_animation_pointer material channels: the frame's materials.
         if let Some(materials) = self.scene.materials_at(ev.info.time) {
-            self.tracer.set_materials(&materials)?;
+            self.tracer.set_materials(materials)?;
         }
         let prim_ids = self
             .builder

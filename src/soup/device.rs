@@ -196,7 +196,7 @@ pub struct FrameInfo {
 struct InstanceSlot {
     instance: MeshInstance,
     /// Index into the frame's joint matrices of its skin's first joint.
-    skin: Option<(usize, u32)>,
+    joint_base: Option<u32>,
     /// Where its morph weights go in the frame's weight array, and how many.
     weights: Option<(u32, usize)>,
 }
@@ -365,25 +365,23 @@ impl<'d> DeviceSoup<'d> {
 
         for (ii, inst) in scene.instances().iter().enumerate() {
             let mesh = &scene.meshes()[inst.mesh];
-            let skin = match inst.skin {
-                // An EXT_mesh_gpu_instancing instance of a skinned mesh has
-                // joint matrices of its own (`MeshInstance::joint_matrices`).
-                Some(s) if inst.node_from_instance.is_some() => {
-                    let b = as_u32(&file, "joint matrices", joint_count)?;
-                    joint_count += scene.skins()[s].joints.len();
-                    Some((s, b))
-                }
+            let joint_base = match inst.skin {
                 Some(s) => {
-                    let base = match skin_base.get(&s) {
-                        Some(&b) => b,
+                    // Instances of a skin share its joint matrices, except an
+                    // EXT_mesh_gpu_instancing instance, which has its own
+                    // (`MeshInstance::joint_matrices`).
+                    let shared = inst.node_from_instance.is_none().then_some(s);
+                    match shared.and_then(|s| skin_base.get(&s)) {
+                        Some(&b) => Some(b),
                         None => {
                             let b = as_u32(&file, "joint matrices", joint_count)?;
                             joint_count += scene.skins()[s].joints.len();
-                            skin_base.insert(s, b);
-                            b
+                            if let Some(s) = shared {
+                                skin_base.insert(s, b);
+                            }
+                            Some(b)
                         }
-                    };
-                    Some((s, base))
+                    }
                 }
                 None => None,
             };
@@ -396,7 +394,7 @@ impl<'d> DeviceSoup<'d> {
             };
             instances.push(InstanceSlot {
                 instance: *inst,
-                skin,
+                joint_base,
                 weights,
             });
 
@@ -469,7 +467,7 @@ impl<'d> DeviceSoup<'d> {
                     }
                 };
                 let (src_vertex, morph_base, mut influence_base) = entry;
-                let skinned = skin.is_some() && prim.influences.is_some();
+                let skinned = joint_base.is_some() && prim.influences.is_some();
                 if let (true, Some(inf)) =
                     (skinned && influence_base == SOUP_NONE, &prim.influences)
                 {
@@ -526,8 +524,8 @@ impl<'d> DeviceSoup<'d> {
                     vertex_count: as_u32(&file, "vertices", n)?,
                     instance: as_u32(&file, "mesh instances", ii)?,
                     influence_base: if skinned { influence_base } else { SOUP_NONE },
-                    joint_base: match (skinned, skin) {
-                        (true, Some((_, base))) => base,
+                    joint_base: match (skinned, joint_base) {
+                        (true, Some(base)) => base,
                         _ => SOUP_NONE,
                     },
                     morph_base,
@@ -694,7 +692,8 @@ impl<'d> DeviceSoup<'d> {
                 det,
                 pad: [0; 3],
             });
-            if let (Some((_, base)), Some(joints)) = (slot.skin, slot.instance.joint_matrices(pose))
+            if let (Some(base), Some(joints)) =
+                (slot.joint_base, slot.instance.joint_matrices(pose))
             {
                 for (j, m) in joints.iter().enumerate() {
                     let at = 4 * (base as usize + j);

@@ -960,12 +960,13 @@ impl<'d> PathTracer<'d> {
     /// compiled for every value (`with_animated_materials`).
     pub fn set_materials(
         &mut self,
-        materials: &[crate::scene::Material],
+        materials: Vec<crate::scene::Material>,
     ) -> Result<(), TraceError> {
         let table = MaterialTable {
-            materials: materials.to_vec(),
+            materials,
             ..MaterialTable::default()
         };
+        let materials = &table.materials;
         let mut host = device_materials(&table);
         if host.len() as u32 != self.material_count {
             return Err(usage(format!(
