@@ -49,6 +49,7 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+#include "pt_types.h"
 #include "sampling.h"
 #if (defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE) || defined(HAS_ANISOTROPY) || \
      defined(HAS_DISPERSION)) &&                                                                  \
@@ -73,91 +74,6 @@
 #if defined(HAS_TRANSMISSION) || defined(HAS_LAYERS)
 #define HAS_MATERIAL_EXT
 #endif
-
-// Material flags (PtMaterial.flags).
-#define MAT_DOUBLE_SIDED 1u
-#define MAT_ALPHA_MASK 2u
-#define MAT_ALPHA_BLEND 4u
-#define MAT_EMISSIVE 8u
-#define MAT_UNLIT 16u // read only with HAS_UNLIT
-#define MAT_CULL_BACK 32u // --backface-culling, on single-sided materials
-
-// One material as the device shades it (mirrored by `DeviceMaterial` in
-// src/trace/material.rs; `pt_layout_probe` compares the layouts). Texture
-// slots index the texture bindings, -1 for none.
-typedef struct {
-    float base_color[4];
-    float emissive[4];
-    float metallic;
-    float roughness;
-    float alpha_cutoff;
-    float normal_scale;
-    uint flags;
-    int base_color_tex;
-    int metallic_roughness_tex;
-    int normal_tex;
-    int emissive_tex;
-    uint pad[3];
-} PtMaterial;
-
-// A material's extension factors (mirrored by `DeviceMaterialExt`), in a
-// table beside the materials that only HAS_MATERIAL_EXT kernels take.
-typedef struct {
-    float transmission;
-    float ior;
-    float volume; // 1: refracting volume with attenuation; 0: thin-walled
-    float specular; // KHR_materials_specular specularFactor
-    float sigma[4]; // attenuation per unit length, rgb
-    float specular_color[4]; // KHR_materials_specular specularColorFactor, rgb
-    // Texture bindings (-1: none): transmission (R), specular (A),
-    // specular colour (RGB, sRGB), read by HAS_TEXTURES kernels.
-    int transmission_tex;
-    int specular_tex;
-    int specular_color_tex;
-    float clearcoat; // KHR_materials_clearcoat clearcoatFactor
-    float clearcoat_roughness; // KHR_materials_clearcoat clearcoatRoughnessFactor
-    float sheen_roughness; // KHR_materials_sheen sheenRoughnessFactor
-    // Texture bindings (-1: none): clearcoatTexture (R),
-    // clearcoatRoughnessTexture (G).
-    int clearcoat_tex;
-    int clearcoat_roughness_tex;
-    float sheen_color[4]; // KHR_materials_sheen sheenColorFactor, rgb
-    // Texture bindings (-1: none): sheenColorTexture (RGB, sRGB),
-    // sheenRoughnessTexture (A), clearcoatNormalTexture; and the latter's scale.
-    int sheen_color_tex;
-    int sheen_roughness_tex;
-    int clearcoat_normal_tex;
-    float clearcoat_normal_scale;
-    // KHR_materials_diffuse_transmission diffuseTransmissionFactor, and the
-    // texture bindings (-1: none) of diffuseTransmissionTexture (A) and
-    // diffuseTransmissionColorTexture (RGB, sRGB).
-    float diffuse_transmission;
-    int diffuse_transmission_tex;
-    int diffuse_transmission_color_tex;
-    float pad;
-    float diffuse_transmission_color[4]; // diffuseTransmissionColorFactor, rgb
-    // KHR_materials_iridescence: iridescenceFactor, iridescenceIor, the
-    // thickness range in nm, and the texture bindings (-1: none) of
-    // iridescenceTexture (R) and iridescenceThicknessTexture (G).
-    float iridescence;
-    float iridescence_ior;
-    float iridescence_thickness_min;
-    float iridescence_thickness_max;
-    int iridescence_tex;
-    int iridescence_thickness_tex;
-    // KHR_materials_anisotropy: anisotropyStrength, the cosine and sine of
-    // anisotropyRotation (counter-clockwise from the tangent; taken once on
-    // the host, not per hit), and the texture binding (-1: none) of
-    // anisotropyTexture (RG: direction, B: strength).
-    float anisotropy_strength;
-    float anisotropy_cos;
-    float anisotropy_sin;
-    int anisotropy_tex;
-    // KHR_materials_dispersion `dispersion` (20 / Abbe number; 0: none),
-    // read by HAS_DISPERSION kernels (media.h media_channel_ior).
-    float dispersion;
-    float pad2;
-} PtMaterialExt;
 
 // The material's parameters at one surface point, after textures.
 typedef struct {

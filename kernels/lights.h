@@ -11,40 +11,9 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+#include "pt_types.h"
 #include "sampling.h"
 
-#define LIGHT_POINT 0u
-#define LIGHT_SPOT 1u
-#define LIGHT_DIRECTIONAL 2u
-
-// One punctual light (mirrored by `DeviceLight` in src/trace/lights.rs).
-// `intensity` is color * intensity; range <= 0 means unlimited; the spot
-// falloff is saturate(cos * angle_scale + angle_offset)^2, the extension's
-// formula with its precomputed scale and offset.
-typedef struct {
-    float position[3];
-    uint kind;
-    float direction[3];
-    float range;
-    float intensity[3];
-    float angle_scale;
-    float angle_offset;
-    float pad[3];
-} PtLight;
-
-#define ENV_NONE 0u
-#define ENV_CONSTANT 1u
-#define ENV_MAP 2u
-
-// The environment (mirrored by `DeviceEnv`): kind, the constant radiance
-// (or the map's multiplier), and the map's size.
-typedef struct {
-    float color[4];
-    uint kind;
-    uint width;
-    uint height;
-    uint pad;
-} PtEnv;
 
 // The light a punctual light sends to point p: the unit direction to the
 // light, its distance (INFINITY for directional), and the incident

@@ -1,6 +1,6 @@
 // Probes for the path tracer's device functions, for the tests that hold
 // them to their Rust references (src/trace/material.rs, lights.rs,
-// sampling.rs): the struct layouts, the BSDF (eval, pdf, sample), the
+// sampling.rs): the BSDF (eval, pdf, sample), the
 // punctual lights, the environment map and the random numbers, each on
 // arrays of inputs the host makes.
 #pragma OPENCL FP_CONTRACT OFF
@@ -13,48 +13,6 @@
 #include "media.h"
 #endif
 
-#ifndef offsetof
-#define offsetof(T, field) __builtin_offsetof(T, field)
-#endif
-
-// The layouts: sizes and offsets of PtMaterial, PtLight, PtEnv, PtCamera,
-// PtFrame, ended by
-// 0xFFFFFFFF.
-__kernel void pt_layout_probe(__global uint* out) {
-    uint i = 0;
-    out[i++] = (uint)sizeof(PtMaterial);
-    out[i++] = (uint)offsetof(PtMaterial, emissive);
-    out[i++] = (uint)offsetof(PtMaterial, metallic);
-    out[i++] = (uint)offsetof(PtMaterial, flags);
-    out[i++] = (uint)offsetof(PtMaterial, base_color_tex);
-    out[i++] = (uint)offsetof(PtMaterial, emissive_tex);
-    out[i++] = (uint)sizeof(PtLight);
-    out[i++] = (uint)offsetof(PtLight, kind);
-    out[i++] = (uint)offsetof(PtLight, direction);
-    out[i++] = (uint)offsetof(PtLight, range);
-    out[i++] = (uint)offsetof(PtLight, intensity);
-    out[i++] = (uint)offsetof(PtLight, angle_scale);
-    out[i++] = (uint)offsetof(PtLight, angle_offset);
-    out[i++] = (uint)sizeof(PtEnv);
-    out[i++] = (uint)offsetof(PtEnv, kind);
-    out[i++] = (uint)offsetof(PtEnv, width);
-    out[i++] = (uint)offsetof(PtEnv, height);
-    out[i++] = (uint)sizeof(PtCamera);
-    out[i++] = (uint)offsetof(PtCamera, right);
-    out[i++] = (uint)offsetof(PtCamera, up);
-    out[i++] = (uint)offsetof(PtCamera, forward);
-    out[i++] = (uint)offsetof(PtCamera, ortho);
-    out[i++] = (uint)offsetof(PtCamera, znear);
-    out[i++] = (uint)sizeof(PtFrame);
-    out[i++] = (uint)offsetof(PtFrame, width);
-    out[i++] = (uint)offsetof(PtFrame, flags);
-    out[i++] = (uint)offsetof(PtFrame, light_count);
-    out[i++] = (uint)offsetof(PtFrame, select_count);
-    out[i++] = (uint)offsetof(PtFrame, light_loop);
-    out[i++] = (uint)offsetof(PtFrame, emit_select_pmf);
-    out[i++] = (uint)offsetof(PtFrame, env_select_pmf);
-    out[i++] = 0xFFFFFFFFu;
-}
 
 // A BSDF probe's first 12 outputs for `p` at wo, wi, sampling with the
 // random numbers u (lobe, u1, u2): eval rgb, pdf, sampled (ok: 1, or 2
@@ -92,39 +50,6 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
 }
 
 #ifdef HAS_MATERIAL_EXT
-// Layout of PtMaterialExt: size, offsets of volume, sigma, specular_color,
-// the texture bindings, clearcoat and sheen_color, the layers' texture
-// bindings and the coat normal's scale, the diffuse transmission's, the
-// film's and the anisotropy's fields, and the size again (27 outputs).
-__kernel void pt_ext_layout_probe(__global uint* out) {
-    out[0] = (uint)sizeof(PtMaterialExt);
-    out[1] = (uint)offsetof(PtMaterialExt, volume);
-    out[2] = (uint)offsetof(PtMaterialExt, sigma);
-    out[3] = (uint)offsetof(PtMaterialExt, specular_color);
-    out[4] = (uint)offsetof(PtMaterialExt, transmission_tex);
-    out[5] = (uint)offsetof(PtMaterialExt, specular_tex);
-    out[6] = (uint)offsetof(PtMaterialExt, specular_color_tex);
-    out[7] = (uint)offsetof(PtMaterialExt, clearcoat);
-    out[8] = (uint)offsetof(PtMaterialExt, sheen_color);
-    out[9] = (uint)offsetof(PtMaterialExt, clearcoat_tex);
-    out[10] = (uint)offsetof(PtMaterialExt, clearcoat_roughness_tex);
-    out[11] = (uint)offsetof(PtMaterialExt, sheen_color_tex);
-    out[12] = (uint)offsetof(PtMaterialExt, sheen_roughness_tex);
-    out[13] = (uint)offsetof(PtMaterialExt, clearcoat_normal_tex);
-    out[14] = (uint)offsetof(PtMaterialExt, clearcoat_normal_scale);
-    out[15] = (uint)offsetof(PtMaterialExt, diffuse_transmission);
-    out[16] = (uint)offsetof(PtMaterialExt, diffuse_transmission_tex);
-    out[17] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color_tex);
-    out[18] = (uint)offsetof(PtMaterialExt, diffuse_transmission_color);
-    out[19] = (uint)offsetof(PtMaterialExt, iridescence);
-    out[20] = (uint)offsetof(PtMaterialExt, iridescence_thickness_max);
-    out[21] = (uint)offsetof(PtMaterialExt, iridescence_tex);
-    out[22] = (uint)offsetof(PtMaterialExt, iridescence_thickness_tex);
-    out[23] = (uint)offsetof(PtMaterialExt, anisotropy_strength);
-    out[24] = (uint)offsetof(PtMaterialExt, anisotropy_sin);
-    out[25] = (uint)offsetof(PtMaterialExt, anisotropy_tex);
-    out[26] = (uint)sizeof(PtMaterialExt);
-}
 #endif
 
 #ifdef HAS_TRANSMISSION

@@ -22,51 +22,6 @@ use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::ptr;
 
-/// The OpenCL C sources, embedded so the binary runs from anywhere. Headers
-/// are inlined by `assemble_source` where a program `#include`s them.
-pub const KERNEL_SOURCES: &[(&str, &str)] = &[
-    ("bvh_types.h", include_str!("../kernels/bvh_types.h")),
-    ("bvh_common.h", include_str!("../kernels/bvh_common.h")),
-    ("bvh_build.cl", include_str!("../kernels/bvh_build.cl")),
-    (
-        "layout_probe.cl",
-        include_str!("../kernels/layout_probe.cl"),
-    ),
-    ("soup_types.h", include_str!("../kernels/soup_types.h")),
-    ("soup_eval.cl", include_str!("../kernels/soup_eval.cl")),
-    (
-        "soup_layout_probe.cl",
-        include_str!("../kernels/soup_layout_probe.cl"),
-    ),
-    ("trace_types.h", include_str!("../kernels/trace_types.h")),
-    ("trace_common.h", include_str!("../kernels/trace_common.h")),
-    ("trace.cl", include_str!("../kernels/trace.cl")),
-    (
-        "texture_types.h",
-        include_str!("../kernels/texture_types.h"),
-    ),
-    ("texture.h", include_str!("../kernels/texture.h")),
-    (
-        "texture_layout_probe.cl",
-        include_str!("../kernels/texture_layout_probe.cl"),
-    ),
-    ("pt_types.h", include_str!("../kernels/pt_types.h")),
-    ("sampling.h", include_str!("../kernels/sampling.h")),
-    ("ggx_energy.h", include_str!("../kernels/ggx_energy.h")),
-    (
-        "ggx_aniso_energy.h",
-        include_str!("../kernels/ggx_aniso_energy.h"),
-    ),
-    ("sheen_energy.h", include_str!("../kernels/sheen_energy.h")),
-    ("bsdf.h", include_str!("../kernels/bsdf.h")),
-    ("lights.h", include_str!("../kernels/lights.h")),
-    ("media.h", include_str!("../kernels/media.h")),
-    ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
-    ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
-    ("motion.h", include_str!("../kernels/motion.h")),
-    ("motion.cl", include_str!("../kernels/motion.cl")),
-];
-
 /// Why the device layer failed. Messages say what to do about it.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
@@ -295,9 +250,28 @@ impl Device {
     /// build returns the device compiler's log, whose line markers name the
     /// original files.
     pub fn build_program(&self, entry: &str, defines: &[(&str, String)]) -> Result<Program> {
-        let source = assemble_source(entry);
+        self.build_assembled(entry, &assemble_source(entry), defines)
+    }
+
+    /// As [`Device::build_program`], for a program made at run time
+    /// (`text`, named `name` in messages) that includes embedded headers.
+    pub fn build_program_text(
+        &self,
+        name: &str,
+        text: &str,
+        defines: &[(&str, String)],
+    ) -> Result<Program> {
+        self.build_assembled(name, &assemble_text(name, text), defines)
+    }
+
+    fn build_assembled(
+        &self,
+        entry: &str,
+        source: &str,
+        defines: &[(&str, String)],
+    ) -> Result<Program> {
         let options = build_options(defines, self.info.correctly_rounded_divide_sqrt);
-        let program = Program::create_and_build_from_source(&self.context, &source, &options)
+        let program = Program::create_and_build_from_source(&self.context, source, &options)
             .map_err(|log| DeviceError::Build {
                 program: entry.to_owned(),
                 device: self.info.name.clone(),
@@ -524,19 +498,18 @@ impl Device {
         Ok(std::mem::take(&mut *self.timings.borrow_mut()))
     }
 
-    /// Runs a layout probe: a one-work-item kernel of `file` that writes
-    /// the `sizeof`/`offsetof` of the structs it names, ended by
-    /// 0xFFFFFFFF. Tests compare the result with the Rust mirrors.
-    pub fn run_layout_probe(&self, file: &str, kernel: &str) -> Result<Vec<u32>> {
-        let program = self.build_program(file, &[])?;
+    /// Runs a layout probe: a one-work-item kernel `kernel` of the program
+    /// `text` that writes `count` sizes and offsets of the structs it
+    /// names. Tests compare the result with the Rust definitions.
+    pub fn run_layout_probe(&self, text: &str, kernel: &str, count: usize) -> Result<Vec<u32>> {
+        let program = self.build_program_text("layout_probe.cl", text, &[])?;
         let kernel = self.kernel(&program, kernel)?;
-        let mut out = self.buffer::<u32>(256)?;
-        self.write(&mut out, &[0u32; 256])?;
+        let mut out = self.buffer::<u32>(count.max(1))?;
+        self.write(&mut out, &vec![u32::MAX; count.max(1)])?;
         self.launch("layout_probe", &kernel, 1, 1, &[Arg::Buf(&out)])?;
-        let mut got = vec![0u32; 256];
+        let mut got = vec![0u32; count.max(1)];
         self.read(&out, &mut got)?;
-        let end = got.iter().position(|&v| v == u32::MAX).unwrap_or(got.len());
-        got.truncate(end);
+        got.truncate(count);
         Ok(got)
     }
 
@@ -624,23 +597,38 @@ pub fn build_options(defines: &[(&str, String)], correctly_rounded: bool) -> Str
 /// embedded header, wrapped in `#line` markers so that compiler messages
 /// name the original file and line. Each header is inlined once.
 pub fn assemble_source(entry: &str) -> String {
-    fn inline(name: &str, out: &mut String, seen: &mut Vec<String>) {
+    match crate::kernels::KERNEL_SOURCES
+        .iter()
+        .find(|(n, _)| *n == entry)
+    {
+        Some((_, text)) => assemble_text(entry, text),
+        None => format!("#error \"missing embedded kernel source {entry}\"\n"),
+    }
+}
+
+/// As [`assemble_source`], for a program's text `text` named `name`.
+pub fn assemble_text(name: &str, text: &str) -> String {
+    fn header(name: &str, out: &mut String, seen: &mut Vec<String>) {
         if seen.iter().any(|s| s == name) {
             return;
         }
         seen.push(name.to_owned());
-        let Some((_, text)) = KERNEL_SOURCES.iter().find(|(n, _)| *n == name) else {
-            out.push_str(&format!(
+        match crate::kernels::KERNEL_SOURCES
+            .iter()
+            .find(|(n, _)| *n == name)
+        {
+            Some((_, text)) => inline(name, text, out, seen),
+            None => out.push_str(&format!(
                 "#error \"missing embedded kernel source {name}\"\n"
-            ));
-            return;
-        };
+            )),
+        }
+    }
+    fn inline(name: &str, text: &str, out: &mut String, seen: &mut Vec<String>) {
         out.push_str(&format!("#line 1 \"{name}\"\n"));
         for (i, line) in text.lines().enumerate() {
             let trimmed = line.trim_start();
             if let Some(rest) = trimmed.strip_prefix("#include \"") {
-                let header = rest.trim_end_matches('"');
-                inline(header, out, seen);
+                header(rest.trim_end_matches('"'), out, seen);
                 out.push_str(&format!("#line {} \"{name}\"\n", i + 2));
             } else {
                 out.push_str(line);
@@ -649,7 +637,7 @@ pub fn assemble_source(entry: &str) -> String {
         }
     }
     let mut out = String::new();
-    inline(entry, &mut out, &mut Vec::new());
+    inline(name, text, &mut out, &mut vec![name.to_owned()]);
     out
 }
 

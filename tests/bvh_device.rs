@@ -6,18 +6,8 @@ mod common;
 
 use common::{device, mesh, random_soup, transformed};
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
-use soupray::bvh::layout::host_layout;
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams, Bvh, Child};
 use soupray::soup::Soup;
-
-#[test]
-fn layout_matches_device() {
-    let d = device();
-    let got = d
-        .run_layout_probe("layout_probe.cl", "layout_probe")
-        .unwrap();
-    assert_eq!(got, host_layout(), "kernel/host struct layouts differ");
-}
 
 /// The leaves' triangle sets, in node order; the order inside a leaf is
 /// whatever the device's atomics left, so it is sorted away.

@@ -27,7 +27,9 @@
 
 use soupray::bvh::device_builder::{program_defines, Mapping};
 use soupray::bvh::BuildParams;
-use soupray::device::{assemble_source, build_options, Device, KERNEL_SOURCES};
+use soupray::device::{assemble_source, assemble_text, build_options, Device};
+use soupray::device_struct::probe_source;
+use soupray::kernels::{generated_headers, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
@@ -53,6 +55,24 @@ const GPU_LOCAL_MEM: u64 = 48 * 1024;
 fn kernels_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels")
 }
+
+/// Every file under `dir`, its folders walked.
+fn kernel_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            out.extend(kernel_files(&path));
+        } else {
+            out.push(path);
+        }
+    }
+    out
+}
+
+/// The layout probe generated from the struct definitions
+/// (src/device_struct.rs), compiled like the files.
+const STRUCT_PROBE: &str = "struct_layout_probe.cl";
 
 /// One program as the host may build it.
 struct Variant {
@@ -334,11 +354,7 @@ fn variants() -> Vec<Variant> {
         ],
         codegen: true,
     });
-    for entry in [
-        "layout_probe.cl",
-        "soup_layout_probe.cl",
-        "texture_layout_probe.cl",
-    ] {
+    for entry in ["texture_probe.cl", STRUCT_PROBE] {
         v.push(Variant {
             entry,
             defines: Vec::new(),
@@ -466,11 +482,12 @@ fn shared_bytes_by_kernel(ptx: &str) -> Vec<(String, u64)> {
 #[test]
 fn every_kernel_file_is_covered() {
     let variants = variants();
-    for entry in std::fs::read_dir(kernels_dir()).unwrap() {
-        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+    for path in kernel_files(&kernels_dir()) {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
         assert!(
             KERNEL_SOURCES.iter().any(|(n, _)| *n == name),
-            "kernels/{name} is not embedded in src/device.rs KERNEL_SOURCES"
+            "{} is not embedded in src/kernels.rs KERNEL_SOURCES",
+            path.display()
         );
         if name.ends_with(".cl") {
             assert!(
@@ -514,7 +531,12 @@ fn kernels_compile_for_nvidia_with_every_define_combination() {
     entries.sort_unstable();
     entries.dedup();
     for entry in &entries {
-        std::fs::write(dir.path().join(entry), assemble_source(entry)).unwrap();
+        let text = if *entry == STRUCT_PROBE {
+            assemble_text(entry, &probe_source(&generated_headers()))
+        } else {
+            assemble_source(entry)
+        };
+        std::fs::write(dir.path().join(entry), text).unwrap();
     }
 
     let next = AtomicUsize::new(0);

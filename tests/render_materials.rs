@@ -9,16 +9,13 @@ mod common;
 mod render_support;
 mod scene_support;
 
-use common::{
-    albedo, check_bsdf_probe, close, run_probe, sphere_albedo, upload, BsdfProbeTally, Rng,
-};
+use common::{albedo, check_bsdf_probe, close, run_probe, sphere_albedo, BsdfProbeTally, Rng};
 use glam::Vec3;
 use render_support::*;
-use soupray::device::Arg;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::material::{
-    bsdf_eval, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, DeviceMaterialExt, Dielectric,
+    bsdf_eval, bsdf_pdf, bsdf_sample, f0_of_ior, BsdfParams, Dielectric,
 };
 use soupray::trace::render::{render_soup, Environment};
 
@@ -108,53 +105,6 @@ fn glass(transmission: f32, ior: f32, volume: bool) -> Material {
         double_sided: true,
         ..material([1.0; 4], 0.0, 0.0)
     }
-}
-
-#[test]
-fn material_ext_layout_matches() {
-    let d = common::device();
-    let program = d
-        .build_program("pt_probe.cl", &[("HAS_TRANSMISSION", "1".to_owned())])
-        .unwrap();
-    let k = d.kernel(&program, "pt_ext_layout_probe").unwrap();
-    let out = upload(&d, &[0u32; 27]);
-    d.launch("probe", &k, 1, 1, &[Arg::Buf(&out)]).unwrap();
-    d.finish().unwrap();
-    let mut got = [0u32; 27];
-    d.read(&out, &mut got).unwrap();
-    use std::mem::{offset_of, size_of};
-    assert_eq!(
-        got,
-        [
-            size_of::<DeviceMaterialExt>() as u32,
-            offset_of!(DeviceMaterialExt, volume) as u32,
-            offset_of!(DeviceMaterialExt, sigma) as u32,
-            offset_of!(DeviceMaterialExt, specular_color) as u32,
-            offset_of!(DeviceMaterialExt, transmission_tex) as u32,
-            offset_of!(DeviceMaterialExt, specular_tex) as u32,
-            offset_of!(DeviceMaterialExt, specular_color_tex) as u32,
-            offset_of!(DeviceMaterialExt, clearcoat) as u32,
-            offset_of!(DeviceMaterialExt, sheen_color) as u32,
-            offset_of!(DeviceMaterialExt, clearcoat_tex) as u32,
-            offset_of!(DeviceMaterialExt, clearcoat_roughness_tex) as u32,
-            offset_of!(DeviceMaterialExt, sheen_color_tex) as u32,
-            offset_of!(DeviceMaterialExt, sheen_roughness_tex) as u32,
-            offset_of!(DeviceMaterialExt, clearcoat_normal_tex) as u32,
-            offset_of!(DeviceMaterialExt, clearcoat_normal_scale) as u32,
-            offset_of!(DeviceMaterialExt, diffuse_transmission) as u32,
-            offset_of!(DeviceMaterialExt, diffuse_transmission_tex) as u32,
-            offset_of!(DeviceMaterialExt, diffuse_transmission_color_tex) as u32,
-            offset_of!(DeviceMaterialExt, diffuse_transmission_color) as u32,
-            offset_of!(DeviceMaterialExt, iridescence) as u32,
-            offset_of!(DeviceMaterialExt, iridescence_thickness_max) as u32,
-            offset_of!(DeviceMaterialExt, iridescence_tex) as u32,
-            offset_of!(DeviceMaterialExt, iridescence_thickness_tex) as u32,
-            offset_of!(DeviceMaterialExt, anisotropy_strength) as u32,
-            offset_of!(DeviceMaterialExt, anisotropy_sin) as u32,
-            offset_of!(DeviceMaterialExt, anisotropy_tex) as u32,
-            size_of::<DeviceMaterialExt>() as u32,
-        ]
-    );
 }
 
 #[test]

@@ -21,56 +21,6 @@ fn run(d: &Device, kernel: &str, args: &[Arg], n: usize) {
     d.finish().unwrap();
 }
 
-#[test]
-fn struct_layouts_match() {
-    let d = common::device();
-    let out = upload(&d, &[0u32; 32]);
-    run(&d, "pt_layout_probe", &[Arg::Buf(&out)], 1);
-    let mut got = vec![0u32; 32];
-    d.read(&out, &mut got).unwrap();
-    use soupray::trace::material::DeviceMaterial as M;
-    use soupray::trace::render::{DeviceCamera as C, DeviceFrame as F};
-    use std::mem::{offset_of, size_of};
-    let want: Vec<u32> = [
-        size_of::<M>(),
-        offset_of!(M, emissive),
-        offset_of!(M, metallic),
-        offset_of!(M, flags),
-        offset_of!(M, base_color_tex),
-        offset_of!(M, emissive_tex),
-        size_of::<DeviceLight>(),
-        offset_of!(DeviceLight, kind),
-        offset_of!(DeviceLight, direction),
-        offset_of!(DeviceLight, range),
-        offset_of!(DeviceLight, intensity),
-        offset_of!(DeviceLight, angle_scale),
-        offset_of!(DeviceLight, angle_offset),
-        size_of::<DeviceEnv>(),
-        offset_of!(DeviceEnv, kind),
-        offset_of!(DeviceEnv, width),
-        offset_of!(DeviceEnv, height),
-        size_of::<C>(),
-        offset_of!(C, right),
-        offset_of!(C, up),
-        offset_of!(C, forward),
-        offset_of!(C, ortho),
-        offset_of!(C, znear),
-        size_of::<F>(),
-        offset_of!(F, width),
-        offset_of!(F, flags),
-        offset_of!(F, light_count),
-        offset_of!(F, select_count),
-        offset_of!(F, light_loop),
-        offset_of!(F, emit_select_pmf),
-        offset_of!(F, env_select_pmf),
-    ]
-    .iter()
-    .map(|&v| v as u32)
-    .collect();
-    let end = got.iter().position(|&v| v == u32::MAX).unwrap();
-    assert_eq!(got[..end], want[..]);
-}
-
 /// Draws `n` cases of (seed, frame, pixel, sample, dim) on the device
 /// built for `sampler` and returns (device values, reference values).
 fn random_numbers(sampler: Sampler, samples: &[u32]) -> (Vec<f32>, Vec<f32>) {

@@ -15,7 +15,7 @@ use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{validate, BuildParams};
 use soupray::scene::{LoadOptions, Scene};
-use soupray::soup::device::{host_layout, DeviceSoup, SoupError};
+use soupray::soup::device::{DeviceSoup, SoupError};
 use soupray::soup::Soup;
 
 /// Clips with more frames than this are sampled evenly (ends included).
@@ -115,15 +115,6 @@ fn check_file(rel: &str) {
         let scene = load(&path, Some(&c.to_string()));
         check_scene(&scene, &format!("{rel} clip {c}"));
     }
-}
-
-#[test]
-fn soup_layout_matches_device() {
-    let d = common::device();
-    let got = d
-        .run_layout_probe("soup_layout_probe.cl", "soup_layout_probe")
-        .unwrap();
-    assert_eq!(got, host_layout(), "kernel/host soup struct layouts differ");
 }
 
 #[test]

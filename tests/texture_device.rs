@@ -115,19 +115,6 @@ fn compare(
     worst
 }
 
-#[test]
-fn texture_layout_matches_device() {
-    let d = common::device();
-    let got = d
-        .run_layout_probe("texture_layout_probe.cl", "texture_layout_probe")
-        .unwrap();
-    assert_eq!(
-        got,
-        texture_layout(),
-        "kernel/host texture struct layouts differ"
-    );
-}
-
 const WRAPS: [Wrap; 3] = [Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat];
 
 #[test]

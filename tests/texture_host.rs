@@ -9,7 +9,7 @@ mod scene_support;
 
 use scene_support::asset;
 use serde_json::{json, Value};
-use soupray::device::KERNEL_SOURCES;
+use soupray::kernels::KERNEL_SOURCES;
 use soupray::scene::material::{Filter, Wrap};
 use soupray::scene::{LoadOptions, MaterialTable, Scene, TextureRef, TextureTransform};
 use soupray::trace::texture::*;
@@ -285,7 +285,7 @@ fn material_table_becomes_records_and_bindings() {
     let scene = materials_of(&two_material_gltf(dir.path()));
     let h = HostTextures::new(table(&scene)).unwrap();
     // Textures 0, 1, 2 are sampled; 3 is unused and 4 is occlusion only.
-    assert_eq!(h.record_of_texture, [0, 1, 2, NO_TEXTURE, NO_TEXTURE]);
+    assert_eq!(h.record_of_texture, [0, 1, 2, TEXTURE_NONE, TEXTURE_NONE]);
     assert_eq!(
         h.info,
         [
@@ -293,26 +293,26 @@ fn material_table_becomes_records_and_bindings() {
                 offset: 0,
                 width: 3,
                 height: 5,
-                wrap_s: WRAP_CLAMP_TO_EDGE,
-                wrap_t: WRAP_MIRRORED_REPEAT,
-                filter: FILTER_NEAREST
+                wrap_s: TEXTURE_WRAP_CLAMP_TO_EDGE,
+                wrap_t: TEXTURE_WRAP_MIRRORED_REPEAT,
+                filter: TEXTURE_FILTER_NEAREST
             },
             // The same image: the same texels.
             TextureInfo {
                 offset: 0,
                 width: 3,
                 height: 5,
-                wrap_s: WRAP_REPEAT,
-                wrap_t: WRAP_REPEAT,
-                filter: FILTER_LINEAR
+                wrap_s: TEXTURE_WRAP_REPEAT,
+                wrap_t: TEXTURE_WRAP_REPEAT,
+                filter: TEXTURE_FILTER_LINEAR
             },
             TextureInfo {
                 offset: 15,
                 width: 2,
                 height: 2,
-                wrap_s: WRAP_REPEAT,
-                wrap_t: WRAP_REPEAT,
-                filter: FILTER_LINEAR
+                wrap_s: TEXTURE_WRAP_REPEAT,
+                wrap_t: TEXTURE_WRAP_REPEAT,
+                filter: TEXTURE_FILTER_LINEAR
             },
         ]
     );

@@ -15,19 +15,6 @@ use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
 use trace_support::{assert_any_agrees, assert_same, device, random_rays, trace_everything};
 
-#[test]
-fn trace_layout_matches_device() {
-    let d = device();
-    let got = d
-        .run_layout_probe("layout_probe.cl", "trace_layout_probe")
-        .unwrap();
-    assert_eq!(
-        got,
-        trace::trace_layout(),
-        "kernel/host trace struct layouts differ"
-    );
-}
-
 /// All ten tracings agree, and agree with brute force on a sample.
 fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
     let d = device();

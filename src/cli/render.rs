@@ -334,8 +334,8 @@ pub struct RenderArgs {
     /// frame, so where nothing moves consecutive frames have the same noise
     /// and still regions flicker far less, raw, adaptive or denoised;
     /// `per-frame` seeds each frame's samples with its frame number, so its
-    /// noise is new (averaging frames then averages their noise away). The
-    /// README's "Flicker" section has the measurements.
+    /// noise is new (averaging frames then averages their noise away). docs/noise.md
+    /// explains it; BENCHMARKS.md ("Flicker") measures it.
     #[arg(
         long,
         default_value = "fixed",

@@ -15,6 +15,7 @@
 //! The kernels mirror `scene::deform` and `Scene::evaluate` operation for
 //! operation; `tests/soup_device.rs` holds them to the CPU reference.
 
+use crate::device_struct::{device_consts, device_struct};
 use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
@@ -27,79 +28,74 @@ use crate::device::{build_options, Arg, Device, DeviceError};
 use crate::scene::deform::normal_matrix;
 use crate::scene::{FrameCamera, FrameLight, MeshInstance, Pose, Scene, SceneError};
 
-/// Marks an absent base index in [`SoupSegment`] (no skin, no morphs).
-pub const SOUP_NONE: u32 = u32::MAX;
-/// [`SoupSegment::flags`]: the primitive has NORMAL (else flat normals).
-pub const SEG_NORMALS: u32 = 1;
-/// [`SoupSegment::flags`]: the primitive has TEXCOORD_0 (else 0, 0).
-pub const SEG_UVS: u32 = 2;
-/// [`SoupSegment::flags`]: skinned by its instance's skin (else rigid).
-pub const SEG_SKINNED: u32 = 4;
-/// The primitive has the soup's second uv set (else 0, 0).
-pub const SEG_UVS1: u32 = 8;
-/// The primitive has COLOR_0 (else white).
-pub const SEG_COLORS: u32 = 16;
+device_consts! {
+    fn soup_consts;
+    /// Marks an absent base index in [`SoupSegment`] (no skin, no morphs).
+    pub const SOUP_NONE: u32 = u32::MAX;
+    /// [`SoupSegment::flags`]: the primitive has NORMAL (else flat normals).
+    pub const SEG_NORMALS: u32 = 1;
+    /// [`SoupSegment::flags`]: the primitive has TEXCOORD_0 (else 0, 0).
+    pub const SEG_UVS: u32 = 2;
+    /// [`SoupSegment::flags`]: skinned by its instance's skin (else rigid).
+    pub const SEG_SKINNED: u32 = 4;
+    /// The primitive has the soup's second uv set (else 0, 0).
+    pub const SEG_UVS1: u32 = 8;
+    /// The primitive has COLOR_0 (else white).
+    pub const SEG_COLORS: u32 = 16;
+}
 
 /// Work-items per work-group of both kernels; they are independent per item.
 const WORK_GROUP: usize = 64;
 
-/// One primitive as placed by one mesh instance (`kernels/soup_types.h`
-/// documents each field).
+device_struct! {
+/// One primitive as placed by one mesh instance: where its static data and its
+/// deformed vertices live. Static data is stored once per primitive and shared
+/// by every instance of its mesh; deformed vertices are per instance. Uploaded
+/// once per scene.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct SoupSegment {
+pub struct SoupSegment as "SoupSegment" {
+    /// first vertex of the primitive in the static arrays
     pub src_vertex: u32,
+    /// first deformed vertex of this instance's copy
     pub dst_vertex: u32,
     pub vertex_count: u32,
+    /// index into the frame's SoupInstancePose array
     pub instance: u32,
+    /// first influence record (INFLUENCE_SETS per vertex)
     pub influence_base: u32,
+    /// first joint matrix (4 float4 columns each) of the skin
     pub joint_base: u32,
+    /// first delta record (target_count per vertex)
     pub morph_base: u32,
+    /// first morph weight of the instance in the frame's weights
     pub weight_base: u32,
     pub target_count: u32,
+    /// SEG_*
     pub flags: u32,
     pub pad0: u32,
     pub pad1: u32,
 }
+}
 
-/// A mesh instance's rigid transform for one frame (`kernels/soup_types.h`).
+device_struct! {
+/// The rigid transform of one mesh instance for one frame, prepared on the
+/// host by the same code as the CPU reference: the node's world matrix, the
+/// matrix that carries normals (cofactor * sign(det)) and its determinant.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct SoupInstancePose {
-    pub world_from_mesh: [[f32; 4]; 4],
-    pub normal_matrix: [[f32; 4]; 3],
+pub struct SoupInstancePose as "SoupInstancePose" {
+    /// columns
+    pub world_from_mesh: [[f32; 4]; 4] as "float4",
+    /// columns; w unused
+    pub normal_matrix: [[f32; 4]; 3] as "float4",
     pub det: f32,
     pub pad: [u32; 3],
+}
 }
 
 const _: () = assert!(std::mem::size_of::<SoupSegment>() == 48);
 const _: () = assert!(std::mem::size_of::<SoupInstancePose>() == 128);
-
-/// The values `kernels/soup_layout_probe.cl` reports, in its order.
-pub fn host_layout() -> Vec<u32> {
-    use std::mem::{offset_of, size_of};
-    let v = |x: usize| x as u32;
-    vec![
-        v(size_of::<SoupSegment>()),
-        v(offset_of!(SoupSegment, src_vertex)),
-        v(offset_of!(SoupSegment, dst_vertex)),
-        v(offset_of!(SoupSegment, vertex_count)),
-        v(offset_of!(SoupSegment, instance)),
-        v(offset_of!(SoupSegment, influence_base)),
-        v(offset_of!(SoupSegment, joint_base)),
-        v(offset_of!(SoupSegment, morph_base)),
-        v(offset_of!(SoupSegment, weight_base)),
-        v(offset_of!(SoupSegment, target_count)),
-        v(offset_of!(SoupSegment, flags)),
-        v(size_of::<SoupInstancePose>()),
-        v(offset_of!(SoupInstancePose, world_from_mesh)),
-        v(offset_of!(SoupInstancePose, normal_matrix)),
-        v(offset_of!(SoupInstancePose, det)),
-        v(size_of::<[f32; 2]>()),
-        v(size_of::<[u32; 4]>()),
-        v(size_of::<[f32; 4]>()),
-    ]
-}
 
 /// What the soup program is compiled for: only what the scene uses.
 #[derive(Clone, Debug, PartialEq, Eq)]

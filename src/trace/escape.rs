@@ -14,20 +14,30 @@
 
 use super::TraceError;
 use crate::bvh::{Aabb, Bvh, Child};
+use crate::device_struct::{device_consts, device_struct};
 use bytemuck::{Pod, Zeroable};
 
-/// Bits of `StacklessNode::leaf` that hold the primitive count.
-pub const LEAF_COUNT_BITS: u32 = 7;
+device_consts! {
+    fn stackless_consts;
+    /// Bits of `StacklessNode::leaf` that hold the primitive count.
+    pub const LEAF_COUNT_BITS: u32 = 7;
+}
 
-/// One entry (`StacklessNode` in `kernels/trace_types.h`). `leaf == 0`: an
-/// inner entry; else `leaf = first << 7 | count` (count 1..=64, first < 2²⁵).
+device_struct! {
+/// One entry of the stackless (escape-index) layout, in depth-first preorder:
+/// a box, and the index of the entry to visit next when this one is missed or
+/// finished (`escape`; the entry count ends traversal). An inner entry's first
+/// child is the next entry. leaf == 0 marks an inner entry; otherwise
+/// leaf = (first << 7) | count, count in 1..=64 primitives from slot `first`
+/// of the primitive-index array (first < 2^25).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct StacklessNode {
+pub struct StacklessNode as "StacklessNode" {
     pub lo: [f32; 3],
     pub escape: u32,
     pub hi: [f32; 3],
     pub leaf: u32,
+}
 }
 
 /// The escape-index layout of `bvh`: the root's box first (the union of its

@@ -18,16 +18,31 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::sampling::{build_cdf, cdf_search, luminance, sample_uniform_sphere, PI, TWO_PI};
+use crate::device_struct::{device_consts, device_struct};
 use crate::scene::{FrameLight, LightKind};
 
-pub const LIGHT_POINT: u32 = 0;
-pub const LIGHT_SPOT: u32 = 1;
-pub const LIGHT_DIRECTIONAL: u32 = 2;
+device_consts! {
+    fn light_consts;
+    /// `PtLight.kind`: a KHR_lights_punctual point light.
+    pub const LIGHT_POINT: u32 = 0;
+    pub const LIGHT_SPOT: u32 = 1;
+    pub const LIGHT_DIRECTIONAL: u32 = 2;
+    /// `PtEnv.kind`: no environment (black).
+    pub const ENV_NONE: u32 = 0;
+    /// A constant radiance, `PtEnv.color`.
+    pub const ENV_CONSTANT: u32 = 1;
+    /// An equirectangular map times `PtEnv.color`.
+    pub const ENV_MAP: u32 = 2;
+}
 
-/// `PtLight` of `kernels/lights.h`.
+device_struct! {
+/// One punctual light.
+/// `intensity` is color * intensity; range <= 0 means unlimited; the spot
+/// falloff is saturate(cos * angle_scale + angle_offset)^2, the extension's
+/// formula with its precomputed scale and offset.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct DeviceLight {
+pub struct DeviceLight as "PtLight" {
     pub position: [f32; 3],
     pub kind: u32,
     pub direction: [f32; 3],
@@ -38,6 +53,7 @@ pub struct DeviceLight {
     pub angle_scale: f32,
     pub angle_offset: f32,
     pub pad: [f32; 3],
+}
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceLight>() == 64);
@@ -107,19 +123,18 @@ pub fn punctual_incident(l: &DeviceLight, p: Vec3) -> Option<(Vec3, f32, Vec3)> 
     Some((w, d, intensity * atten))
 }
 
-pub const ENV_NONE: u32 = 0;
-pub const ENV_CONSTANT: u32 = 1;
-pub const ENV_MAP: u32 = 2;
-
-/// `PtEnv` of `kernels/lights.h`.
+device_struct! {
+/// The environment: its kind, the constant radiance (or the map's
+/// multiplier), and the map's size.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct DeviceEnv {
+pub struct DeviceEnv as "PtEnv" {
     pub color: [f32; 4],
     pub kind: u32,
     pub width: u32,
     pub height: u32,
     pub pad: u32,
+}
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceEnv>() == 32);

@@ -1,5 +1,5 @@
 //! The materials as the path tracer shades them: the device table
-//! (`DeviceMaterial`, mirrored by `PtMaterial` in `kernels/bsdf.h`) made
+//! (`DeviceMaterial`, `PtMaterial` in the generated `kernels/generated/pt_types.h`) made
 //! from the scene's `MaterialTable`, and the plain Rust reference of the
 //! glTF metallic-roughness BSDF (`bsdf_eval`, `bsdf_pdf`, `bsdf_sample`)
 //! that `kernels/bsdf.h` mirrors operation for operation.
@@ -36,23 +36,29 @@ use super::energy::{ggx_albedo, sheen_albedo};
 use super::sampling::{
     cos_sin_turns, luminance, sample_cosine_hemisphere, sample_uniform_hemisphere, INV_PI, PI,
 };
+use crate::device_struct::{device_consts, device_struct};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 
-pub const MAT_DOUBLE_SIDED: u32 = 1;
-pub const MAT_ALPHA_MASK: u32 = 2;
-pub const MAT_ALPHA_BLEND: u32 = 4;
-pub const MAT_EMISSIVE: u32 = 8;
-/// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
-pub const MAT_UNLIT: u32 = 16;
-/// `--backface-culling`: rays pass through the material's back faces, as a
-/// rasterizer culls them (set on single-sided materials only).
-pub const MAT_CULL_BACK: u32 = 32;
+device_consts! {
+    fn material_consts;
+    /// Material flags (`PtMaterial.flags`): both faces are shaded.
+    pub const MAT_DOUBLE_SIDED: u32 = 1;
+    pub const MAT_ALPHA_MASK: u32 = 2;
+    pub const MAT_ALPHA_BLEND: u32 = 4;
+    pub const MAT_EMISSIVE: u32 = 8;
+    /// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
+    pub const MAT_UNLIT: u32 = 16;
+    /// `--backface-culling`: rays pass through the material's back faces, as a
+    /// rasterizer culls them (set on single-sided materials only).
+    pub const MAT_CULL_BACK: u32 = 32;
+}
 
-/// `PtMaterial` of `kernels/bsdf.h`: factors, flags and texture binding
-/// indices (-1: none).
+device_struct! {
+/// One material as the device shades it. Texture
+/// slots index the texture bindings, -1 for none.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct DeviceMaterial {
+pub struct DeviceMaterial as "PtMaterial" {
     pub base_color: [f32; 4],
     pub emissive: [f32; 4],
     pub metallic: f32,
@@ -65,6 +71,7 @@ pub struct DeviceMaterial {
     pub normal_tex: i32,
     pub emissive_tex: i32,
     pub pad: [u32; 3],
+}
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceMaterial>() == 80);
@@ -128,13 +135,13 @@ pub fn device_materials(table: &MaterialTable) -> Vec<DeviceMaterial> {
     v
 }
 
-/// `PtMaterialExt` of `kernels/bsdf.h`: a material's extension factors
-/// (dielectric, clear coat, sheen), a table beside the materials' that only
-/// kernels compiled with `HAS_TRANSMISSION`, `HAS_CLEARCOAT` or `HAS_SHEEN`
-/// read.
+device_struct! {
+/// A material's extension factors (dielectric, coats, sheen, diffuse
+/// transmission, iridescence, anisotropy, dispersion), in a table beside
+/// the materials that only kernels built with `HAS_MATERIAL_EXT` read.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct DeviceMaterialExt {
+pub struct DeviceMaterialExt as "PtMaterialExt" {
     /// KHR_materials_transmission `transmissionFactor`.
     pub transmission: f32,
     /// KHR_materials_ior `ior`.
@@ -205,6 +212,7 @@ pub struct DeviceMaterialExt {
     /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
     pub dispersion: f32,
     pub pad2: f32,
+}
 }
 
 const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 192);

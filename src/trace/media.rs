@@ -11,7 +11,7 @@
 //! entered from. A back face of a volume that is in the list but not
 //! innermost is a false interface, crossed unchanged. Liquid in a glass is
 //! modelled with the liquid's surface slightly overlapping the glass's wall
-//! (README, "Nested dielectrics").
+//! (docs/materials.md, "Nested dielectrics").
 
 /// Volumes a path can be inside at once (`MEDIUM_STACK`).
 pub const MEDIUM_STACK: usize = 4;

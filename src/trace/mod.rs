@@ -45,21 +45,28 @@ pub use traverse::{
 };
 pub use wide::{wide_layout, WideNode};
 
+use crate::device_struct::{device_consts, device_struct};
 use bytemuck::{Pod, Zeroable};
 
-/// `Hit::prim` of a ray that hit nothing.
-pub const MISS: u32 = u32::MAX;
+device_consts! {
+    fn trace_consts;
+    /// `Hit::prim` of a ray that hit nothing.
+    pub const MISS: u32 = u32::MAX;
+}
 
-/// One ray (`Ray` in `kernels/trace_types.h`): hits count when
-/// `tmin < t < tmax`, with `tmin >= 0`. The direction need not be unit
-/// length (t is measured in it); an all-zero direction hits nothing.
+device_struct! {
+/// One ray: hits count when tmin < t < tmax (tmin >= 0). The direction need
+/// not be normalised (t is in units of it); an all-zero direction never hits.
+/// Scalar arrays rather than float3 keep the struct 32 bytes with no padding
+/// rules that differ between compilers.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Ray {
+pub struct Ray as "Ray" {
     pub org: [f32; 3],
     pub tmin: f32,
     pub dir: [f32; 3],
     pub tmax: f32,
+}
 }
 
 impl Ray {
@@ -74,6 +81,7 @@ impl Ray {
     }
 }
 
+device_struct! {
 /// A hit record (`Hit` in `kernels/trace_types.h`): distance, triangle
 /// index in the soup, and the barycentrics of corners 1 and 2, so the hit
 /// point is `(1 - u - v) p0 + u p1 + v p2`. `prim == MISS` (and `t = tmax`)
@@ -81,11 +89,12 @@ impl Ray {
 /// from the triangle; it is never zero, as degenerate triangles are never hit.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct Hit {
+pub struct Hit as "Hit" {
     pub t: f32,
     pub prim: u32,
     pub u: f32,
     pub v: f32,
+}
 }
 
 impl Hit {
@@ -131,33 +140,4 @@ pub enum TraceError {
     /// `--env` cannot be read (exit 4, an input error).
     #[error(transparent)]
     Env(#[from] lights::EnvError),
-}
-
-/// The values the `trace_layout_probe` kernel of `kernels/layout_probe.cl`
-/// reports, in its order, for the Rust side.
-pub fn trace_layout() -> Vec<u32> {
-    use std::mem::{offset_of, size_of};
-    let v = |x: usize| x as u32;
-    vec![
-        v(size_of::<Ray>()),
-        v(offset_of!(Ray, org)),
-        v(offset_of!(Ray, tmin)),
-        v(offset_of!(Ray, dir)),
-        v(offset_of!(Ray, tmax)),
-        v(size_of::<Hit>()),
-        v(offset_of!(Hit, t)),
-        v(offset_of!(Hit, prim)),
-        v(offset_of!(Hit, u)),
-        v(offset_of!(Hit, v)),
-        v(size_of::<StacklessNode>()),
-        v(offset_of!(StacklessNode, lo)),
-        v(offset_of!(StacklessNode, escape)),
-        v(offset_of!(StacklessNode, hi)),
-        v(offset_of!(StacklessNode, leaf)),
-        v(size_of::<WideNode>()),
-        v(offset_of!(WideNode, lo)),
-        v(offset_of!(WideNode, hi)),
-        v(offset_of!(WideNode, child)),
-        v(offset_of!(WideNode, count)),
-    ]
 }

@@ -46,6 +46,7 @@ use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh, MAX_DEPTH};
 use crate::device::{Arg, Device, GrowBuffer};
+use crate::device_struct::{device_consts, device_struct};
 use crate::film::{self, noise_estimate, Aovs, Image, NoiseStats, BACKGROUND_DEPTH};
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, Projection, Scene};
 use crate::soup::device::DeviceSoup;
@@ -294,10 +295,13 @@ impl Default for Schedule {
 /// GPU, few enough that progress is reported often.
 const PATHS_PER_LAUNCH: u64 = 1 << 21;
 
-/// `PtCamera` of `kernels/pathtrace.cl`.
+device_struct! {
+/// The camera. For a perspective camera `right` and `up` are scaled by the
+/// half extents of the image plane at distance 1; for an orthographic one by
+/// xmag and ymag.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct DeviceCamera {
+pub struct DeviceCamera as "PtCamera" {
     pub origin: [f32; 4],
     pub right: [f32; 4],
     pub up: [f32; 4],
@@ -306,11 +310,20 @@ pub struct DeviceCamera {
     pub znear: f32,
     pub pad: [u32; 2],
 }
+}
 
-/// `PtFrame` of `kernels/pathtrace.cl`.
+device_struct! {
+/// Per-frame constants. Next-event estimation at a path vertex samples every
+/// punctual light when `light_loop` is set, then one light drawn from the
+/// selection distribution (`select_cdf`, `select_count` entries in this
+/// order: the punctual lights unless looped, the emissive triangles as one
+/// entry when there are any, the environment when it is sampled).
+/// `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
+/// the emissive triangles and the environment (0 when not an entry), which
+/// MIS needs when a BSDF-sampled ray hits them.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct DeviceFrame {
+pub struct DeviceFrame as "PtFrame" {
     pub seed_lo: u32,
     pub seed_hi: u32,
     pub frame_lo: u32,
@@ -329,12 +342,21 @@ pub struct DeviceFrame {
     pub env_select_pmf: f32,
     pub pad: u32,
 }
+}
 
-const FRAME_NORMALS: u32 = 1;
-const FRAME_UVS: u32 = 2;
-const FRAME_UVS1: u32 = 8;
-const FRAME_COLORS: u32 = 16;
-const FRAME_CLAY: u32 = 4;
+device_consts! {
+    fn frame_consts;
+    /// `PtFrame.flags`: the soup carries NORMAL.
+    pub const FRAME_NORMALS: u32 = 1;
+    /// The soup carries TEXCOORD_0.
+    pub const FRAME_UVS: u32 = 2;
+    /// `--clay`: every surface is a Lambertian of albedo 0.8.
+    pub const FRAME_CLAY: u32 = 4;
+    /// The soup carries a second uv set.
+    pub const FRAME_UVS1: u32 = 8;
+    /// The soup carries COLOR_0.
+    pub const FRAME_COLORS: u32 = 16;
+}
 
 /// The camera for a `width` x `height` image. The image's aspect ratio is
 /// used (a file's `aspectRatio` would stretch the picture); an

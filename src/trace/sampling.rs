@@ -71,7 +71,7 @@ impl std::str::FromStr for Sampler {
 pub enum NoisePattern {
     PerFrame,
     /// The default: it flickers 1.7-6.6x less in still regions at the same
-    /// per-frame error (`cargo bench --bench flicker`, README "Flicker").
+    /// per-frame error (`cargo bench --bench flicker`, BENCHMARKS.md "Flicker").
     #[default]
     Fixed,
 }

@@ -35,45 +35,60 @@ use opencl3::memory::Buffer;
 use opencl3::program::Program;
 
 use crate::device::{Arg, Device, DeviceError};
+use crate::device_struct::{device_consts, device_struct};
 use crate::scene::material::{Filter, Material, MaterialTable, TextureRef, TextureTransform, Wrap};
 use crate::scene::SceneError;
 
-/// [`TextureInfo::wrap_s`] / `wrap_t` values (`TEXTURE_WRAP_*` in the kernels).
-pub const WRAP_REPEAT: u32 = 0;
-pub const WRAP_CLAMP_TO_EDGE: u32 = 1;
-pub const WRAP_MIRRORED_REPEAT: u32 = 2;
-/// [`TextureInfo::filter`] values (`TEXTURE_FILTER_*` in the kernels).
-pub const FILTER_NEAREST: u32 = 0;
-pub const FILTER_LINEAR: u32 = 1;
-/// [`TextureBinding::texture`] of a slot without a texture (`TEXTURE_NONE`):
-/// it samples as (1, 1, 1, 1), which leaves a glTF factor unchanged.
-pub const NO_TEXTURE: u32 = u32::MAX;
+device_consts! {
+    fn texture_consts;
+    /// [`TextureInfo::wrap_s`] / `wrap_t` values.
+    pub const TEXTURE_WRAP_REPEAT: u32 = 0;
+    pub const TEXTURE_WRAP_CLAMP_TO_EDGE: u32 = 1;
+    pub const TEXTURE_WRAP_MIRRORED_REPEAT: u32 = 2;
+    /// [`TextureInfo::filter`] values.
+    pub const TEXTURE_FILTER_NEAREST: u32 = 0;
+    pub const TEXTURE_FILTER_LINEAR: u32 = 1;
+    /// [`TextureBinding::texture`] of a slot without a texture: it samples
+    /// as (1, 1, 1, 1), which leaves a glTF factor unchanged.
+    pub const TEXTURE_NONE: u32 = u32::MAX;
+}
 
-/// One uploaded texture (`TextureInfo` in `kernels/texture_types.h`): its
-/// texels are `texels[offset + y * width + x]`.
+device_struct! {
+/// One glTF texture (image + sampler) the scene samples. Its texels are
+/// texels[offset + y * width + x], rows top to bottom (uv (0, 0) is the
+/// image's upper left corner), each an RGBA8 texel packed as
+/// R | G << 8 | B << 16 | A << 24. Textures sharing an image share texels.
+/// Whether texels are sRGB is a property of the use, so it lives in
+/// TextureBinding, not here.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
-pub struct TextureInfo {
+pub struct TextureInfo as "TextureInfo" {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
     pub wrap_s: u32,
     pub wrap_t: u32,
-    /// The sampler's magFilter ([`FILTER_NEAREST`] or [`FILTER_LINEAR`]).
+    /// The sampler's magFilter ([`TEXTURE_FILTER_NEAREST`] or [`TEXTURE_FILTER_LINEAR`]).
     pub filter: u32,
 }
+}
 
-/// A material slot's use of a texture (`TextureBinding` in
-/// `kernels/texture_types.h`): the texture's record, the TEXCOORD set (0 or
-/// 1), the KHR_texture_transform as a row-major 2x3 matrix, and whether RGB
-/// is sRGB-encoded (1) or linear (0).
+device_struct! {
+/// A material slot's use of a texture: which texture, which TEXCOORD set
+/// (0 or 1, after KHR_texture_transform's texCoord override), the
+/// KHR_texture_transform as a row-major 2x3 matrix
+///   u' = transform[0] * u + transform[1] * v + transform[2]
+///   v' = transform[3] * u + transform[4] * v + transform[5]
+/// (identity without the extension), and whether RGB is sRGB-encoded (base
+/// colour and emissive textures; alpha and all other textures are linear).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct TextureBinding {
+pub struct TextureBinding as "TextureBinding" {
     pub transform: [f32; 6],
     pub texture: u32,
     pub tex_coord: u16,
     pub srgb: u16,
+}
 }
 
 const _: () = assert!(std::mem::size_of::<TextureInfo>() == 24);
@@ -86,7 +101,7 @@ impl TextureBinding {
     /// A slot without a texture: samples as (1, 1, 1, 1).
     pub const NONE: TextureBinding = TextureBinding {
         transform: IDENTITY,
-        texture: NO_TEXTURE,
+        texture: TEXTURE_NONE,
         tex_coord: 0,
         srgb: 0,
     };
@@ -108,7 +123,7 @@ impl TextureBinding {
     }
 
     pub fn is_none(&self) -> bool {
-        self.texture == NO_TEXTURE
+        self.texture == TEXTURE_NONE
     }
 }
 
@@ -393,22 +408,22 @@ pub struct HostTextures {
     /// RGBA8 texels, R in the low byte.
     pub texels: Vec<u32>,
     /// Per glTF texture of the material table: its record in `info`, or
-    /// [`NO_TEXTURE`] when no sampled slot uses it.
+    /// [`TEXTURE_NONE`] when no sampled slot uses it.
     pub record_of_texture: Vec<u32>,
 }
 
 fn wrap_code(w: Wrap) -> u32 {
     match w {
-        Wrap::Repeat => WRAP_REPEAT,
-        Wrap::ClampToEdge => WRAP_CLAMP_TO_EDGE,
-        Wrap::MirroredRepeat => WRAP_MIRRORED_REPEAT,
+        Wrap::Repeat => TEXTURE_WRAP_REPEAT,
+        Wrap::ClampToEdge => TEXTURE_WRAP_CLAMP_TO_EDGE,
+        Wrap::MirroredRepeat => TEXTURE_WRAP_MIRRORED_REPEAT,
     }
 }
 
 fn filter_code(f: Filter) -> u32 {
     match f {
-        Filter::Nearest => FILTER_NEAREST,
-        Filter::Linear => FILTER_LINEAR,
+        Filter::Nearest => TEXTURE_FILTER_NEAREST,
+        Filter::Linear => TEXTURE_FILTER_LINEAR,
     }
 }
 
@@ -504,7 +519,7 @@ impl HostTextures {
             offset_of_image[*image] =
                 Some(host.push_image(&name, pixels.width, pixels.height, &pixels.rgba8)?);
         }
-        host.record_of_texture = vec![NO_TEXTURE; textures.len()];
+        host.record_of_texture = vec![TEXTURE_NONE; textures.len()];
         for (ti, t) in textures.iter().enumerate() {
             if !used[ti] {
                 continue;
@@ -601,7 +616,7 @@ impl HostTextures {
 
 fn binding_of(record_of_texture: &[u32], t: &TextureRef, srgb: bool) -> TextureBinding {
     match record_of_texture.get(t.texture) {
-        Some(&record) if record != NO_TEXTURE => {
+        Some(&record) if record != TEXTURE_NONE => {
             TextureBinding::new(record, t.tex_coord, t.transform.as_ref(), srgb)
         }
         _ => TextureBinding::NONE,
@@ -620,8 +635,8 @@ pub fn texture_uv_ref(b: &TextureBinding, uv0: [f32; 2], uv1: [f32; 2]) -> [f32;
 fn wrap_coord(u: f32, wrap: u32) -> f32 {
     let u = if u.is_finite() { u } else { 0.0 };
     match wrap {
-        WRAP_REPEAT => u - u.floor(),
-        WRAP_MIRRORED_REPEAT => u - 2.0 * (u * 0.5).floor(),
+        TEXTURE_WRAP_REPEAT => u - u.floor(),
+        TEXTURE_WRAP_MIRRORED_REPEAT => u - 2.0 * (u * 0.5).floor(),
         // OpenCL's fmin(fmax(u, -1), 2); u is finite, so no NaN rules apply.
         _ => u.clamp(-1.0, 2.0),
     }
@@ -630,7 +645,7 @@ fn wrap_coord(u: f32, wrap: u32) -> f32 {
 /// `texture_wrap_index` of `kernels/texture.h` (Rust's `%` truncates like C's).
 fn wrap_index(i: i32, n: i32, wrap: u32) -> i32 {
     match wrap {
-        WRAP_REPEAT => {
+        TEXTURE_WRAP_REPEAT => {
             let m = i % n;
             if m < 0 {
                 m + n
@@ -638,7 +653,7 @@ fn wrap_index(i: i32, n: i32, wrap: u32) -> i32 {
                 m
             }
         }
-        WRAP_MIRRORED_REPEAT => {
+        TEXTURE_WRAP_MIRRORED_REPEAT => {
             let p = 2 * n;
             let mut m = i % p;
             if m < 0 {
@@ -683,7 +698,7 @@ pub fn sample_texture_ref(host: &HostTextures, b: &TextureBinding, uv: [f32; 2])
     let h = t.height as f32;
     let nw = t.width as i32;
     let nh = t.height as i32;
-    if t.filter == FILTER_NEAREST {
+    if t.filter == TEXTURE_FILTER_NEAREST {
         let x = wrap_index((su * w).floor() as i32, nw, t.wrap_s);
         let y = wrap_index((sv * h).floor() as i32, nh, t.wrap_t);
         return texel(host, t, x, y, srgb);
@@ -835,7 +850,7 @@ impl<'d> TextureSet<'d> {
             )));
         }
         if self.probe.get().is_none() {
-            let program = self.device.build_program("texture_layout_probe.cl", &[])?;
+            let program = self.device.build_program("texture_probe.cl", &[])?;
             let kernel = self.device.kernel(&program, "texture_sample_probe")?;
             let _ = self.probe.set((program, kernel));
         }
@@ -875,55 +890,34 @@ impl<'d> TextureSet<'d> {
     }
 }
 
-/// The values the `texture_layout_probe` kernel of
-/// `kernels/texture_layout_probe.cl` reports, in its order.
-pub fn texture_layout() -> Vec<u32> {
-    use std::mem::{offset_of, size_of};
-    let v = |x: usize| x as u32;
-    vec![
-        v(size_of::<TextureInfo>()),
-        v(offset_of!(TextureInfo, offset)),
-        v(offset_of!(TextureInfo, width)),
-        v(offset_of!(TextureInfo, height)),
-        v(offset_of!(TextureInfo, wrap_s)),
-        v(offset_of!(TextureInfo, wrap_t)),
-        v(offset_of!(TextureInfo, filter)),
-        v(size_of::<TextureBinding>()),
-        v(offset_of!(TextureBinding, transform)),
-        v(offset_of!(TextureBinding, texture)),
-        v(offset_of!(TextureBinding, tex_coord)),
-        v(offset_of!(TextureBinding, srgb)),
-        v(size_of::<[f32; 2]>()),
-        v(size_of::<[f32; 4]>()),
-    ]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn wrap_index_follows_opengl() {
-        let r: Vec<i32> = (-4..8).map(|i| wrap_index(i, 3, WRAP_REPEAT)).collect();
+        let r: Vec<i32> = (-4..8)
+            .map(|i| wrap_index(i, 3, TEXTURE_WRAP_REPEAT))
+            .collect();
         assert_eq!(r, [2, 0, 1, 2, 0, 1, 2, 0, 1, 2, 0, 1]);
         let m: Vec<i32> = (-4..8)
-            .map(|i| wrap_index(i, 3, WRAP_MIRRORED_REPEAT))
+            .map(|i| wrap_index(i, 3, TEXTURE_WRAP_MIRRORED_REPEAT))
             .collect();
         // Period 6: 0 1 2 | 2 1 0, and -1 mirrors to 0.
         assert_eq!(m, [2, 2, 1, 0, 0, 1, 2, 2, 1, 0, 0, 1]);
         let c: Vec<i32> = (-2..5)
-            .map(|i| wrap_index(i, 3, WRAP_CLAMP_TO_EDGE))
+            .map(|i| wrap_index(i, 3, TEXTURE_WRAP_CLAMP_TO_EDGE))
             .collect();
         assert_eq!(c, [0, 0, 0, 1, 2, 2, 2]);
     }
 
     #[test]
     fn wrap_coord_reduces_exactly() {
-        assert_eq!(wrap_coord(2.25, WRAP_REPEAT), 0.25);
-        assert_eq!(wrap_coord(-0.25, WRAP_REPEAT), 0.75);
-        assert_eq!(wrap_coord(-0.25, WRAP_MIRRORED_REPEAT), 1.75);
-        assert_eq!(wrap_coord(5.5, WRAP_MIRRORED_REPEAT), 1.5);
-        assert_eq!(wrap_coord(f32::NAN, WRAP_REPEAT), 0.0);
-        assert_eq!(wrap_coord(1e30, WRAP_CLAMP_TO_EDGE), 2.0);
+        assert_eq!(wrap_coord(2.25, TEXTURE_WRAP_REPEAT), 0.25);
+        assert_eq!(wrap_coord(-0.25, TEXTURE_WRAP_REPEAT), 0.75);
+        assert_eq!(wrap_coord(-0.25, TEXTURE_WRAP_MIRRORED_REPEAT), 1.75);
+        assert_eq!(wrap_coord(5.5, TEXTURE_WRAP_MIRRORED_REPEAT), 1.5);
+        assert_eq!(wrap_coord(f32::NAN, TEXTURE_WRAP_REPEAT), 0.0);
+        assert_eq!(wrap_coord(1e30, TEXTURE_WRAP_CLAMP_TO_EDGE), 2.0);
     }
 }

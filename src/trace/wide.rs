@@ -11,8 +11,10 @@
 
 use super::TraceError;
 use crate::bvh::{Aabb, Bvh, Child, EMPTY_CHILD};
+use crate::device_struct::device_struct;
 use bytemuck::{Pod, Zeroable};
 
+device_struct! {
 /// One 4-wide node (`WideNode` in `kernels/trace_types.h`): the boxes of its
 /// up to four children, `lo[axis][slot]` and `hi[axis][slot]`, and per slot
 /// `count == 0`: an inner node's index in `child` (or `EMPTY_CHILD`, an
@@ -20,11 +22,12 @@ use bytemuck::{Pod, Zeroable};
 /// primitives from slot `child` of the primitive-index array. 128 bytes.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct WideNode {
+pub struct WideNode as "WideNode" {
     pub lo: [[f32; 4]; 3],
     pub hi: [[f32; 4]; 3],
     pub child: [u32; 4],
     pub count: [u32; 4],
+}
 }
 
 const _: () = assert!(std::mem::size_of::<WideNode>() == 128);

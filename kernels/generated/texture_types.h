@@ -1,25 +1,23 @@
-// Structs shared by the host and the texture sampling code in texture.h.
-// Each one is mirrored once in src/trace/texture.rs; the test
-// `texture_layout_matches_device` runs the `texture_layout_probe` kernel of
-// texture_layout_probe.cl and compares every size and offset with the Rust
-// side. Only 4-byte scalars (and two 2-byte ones) and scalar arrays, so no
-// compiler can pad them differently.
-#ifndef SOUPRAY_TEXTURE_TYPES_H
-#define SOUPRAY_TEXTURE_TYPES_H
+// Generated from the Rust definitions by soupray::device_struct
+// (SOUPRAY_REGENERATE=1 cargo test --test device_structs). Do not edit:
+// change the Rust definition named above each item.
+//
+// Textures and their bindings (src/trace/texture.rs).
+#ifndef SOUPRAY_GENERATED_TEXTURE_TYPES_H
+#define SOUPRAY_GENERATED_TEXTURE_TYPES_H
 
 #pragma OPENCL FP_CONTRACT OFF
 
-// TextureInfo.wrap_s / wrap_t: the glTF sampler's wrap modes.
+// [`TextureInfo::wrap_s`] / `wrap_t` values.
 #define TEXTURE_WRAP_REPEAT 0u
 #define TEXTURE_WRAP_CLAMP_TO_EDGE 1u
 #define TEXTURE_WRAP_MIRRORED_REPEAT 2u
-// TextureInfo.filter: the glTF sampler's magFilter (there are no mipmaps, so
-// minification uses it too; a path tracer averages many samples per pixel).
+// [`TextureInfo::filter`] values.
 #define TEXTURE_FILTER_NEAREST 0u
 #define TEXTURE_FILTER_LINEAR 1u
-// TextureBinding.texture of a slot without a texture: sampling it gives
-// (1, 1, 1, 1), the value that leaves a glTF factor unchanged.
-#define TEXTURE_NONE 0xFFFFFFFFu
+// [`TextureBinding::texture`] of a slot without a texture: it samples
+// as (1, 1, 1, 1), which leaves a glTF factor unchanged.
+#define TEXTURE_NONE 4294967295u
 
 // One glTF texture (image + sampler) the scene samples. Its texels are
 // texels[offset + y * width + x], rows top to bottom (uv (0, 0) is the
@@ -27,12 +25,14 @@
 // R | G << 8 | B << 16 | A << 24. Textures sharing an image share texels.
 // Whether texels are sRGB is a property of the use, so it lives in
 // TextureBinding, not here.
+// `TextureInfo` in src/trace/texture.rs (24 bytes).
 typedef struct {
     uint offset;
     uint width;
     uint height;
     uint wrap_s;
     uint wrap_t;
+    // The sampler's magFilter ([`TEXTURE_FILTER_NEAREST`] or [`TEXTURE_FILTER_LINEAR`]).
     uint filter;
 } TextureInfo;
 
@@ -43,6 +43,7 @@ typedef struct {
 //   v' = transform[3] * u + transform[4] * v + transform[5]
 // (identity without the extension), and whether RGB is sRGB-encoded (base
 // colour and emissive textures; alpha and all other textures are linear).
+// `TextureBinding` in src/trace/texture.rs (32 bytes).
 typedef struct {
     float transform[6];
     uint texture;

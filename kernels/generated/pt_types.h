@@ -1,0 +1,209 @@
+// Generated from the Rust definitions by soupray::device_struct
+// (SOUPRAY_REGENERATE=1 cargo test --test device_structs). Do not edit:
+// change the Rust definition named above each item.
+//
+// The path tracer's per-frame tables: camera, frame, materials, lights, environment (src/trace/).
+#ifndef SOUPRAY_GENERATED_PT_TYPES_H
+#define SOUPRAY_GENERATED_PT_TYPES_H
+
+#pragma OPENCL FP_CONTRACT OFF
+
+// `PtFrame.flags`: the soup carries NORMAL.
+#define FRAME_NORMALS 1u
+// The soup carries TEXCOORD_0.
+#define FRAME_UVS 2u
+// `--clay`: every surface is a Lambertian of albedo 0.8.
+#define FRAME_CLAY 4u
+// The soup carries a second uv set.
+#define FRAME_UVS1 8u
+// The soup carries COLOR_0.
+#define FRAME_COLORS 16u
+// Material flags (`PtMaterial.flags`): both faces are shaded.
+#define MAT_DOUBLE_SIDED 1u
+#define MAT_ALPHA_MASK 2u
+#define MAT_ALPHA_BLEND 4u
+#define MAT_EMISSIVE 8u
+// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
+#define MAT_UNLIT 16u
+// `--backface-culling`: rays pass through the material's back faces, as a
+// rasterizer culls them (set on single-sided materials only).
+#define MAT_CULL_BACK 32u
+// `PtLight.kind`: a KHR_lights_punctual point light.
+#define LIGHT_POINT 0u
+#define LIGHT_SPOT 1u
+#define LIGHT_DIRECTIONAL 2u
+// `PtEnv.kind`: no environment (black).
+#define ENV_NONE 0u
+// A constant radiance, `PtEnv.color`.
+#define ENV_CONSTANT 1u
+// An equirectangular map times `PtEnv.color`.
+#define ENV_MAP 2u
+
+// The camera. For a perspective camera `right` and `up` are scaled by the
+// half extents of the image plane at distance 1; for an orthographic one by
+// xmag and ymag.
+// `DeviceCamera` in src/trace/render.rs (80 bytes).
+typedef struct {
+    float origin[4];
+    float right[4];
+    float up[4];
+    float forward[4];
+    uint ortho;
+    float znear;
+    uint pad[2];
+} PtCamera;
+
+// Per-frame constants. Next-event estimation at a path vertex samples every
+// punctual light when `light_loop` is set, then one light drawn from the
+// selection distribution (`select_cdf`, `select_count` entries in this
+// order: the punctual lights unless looped, the emissive triangles as one
+// entry when there are any, the environment when it is sampled).
+// `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
+// the emissive triangles and the environment (0 when not an entry), which
+// MIS needs when a BSDF-sampled ray hits them.
+// `DeviceFrame` in src/trace/render.rs (64 bytes).
+typedef struct {
+    uint seed_lo;
+    uint seed_hi;
+    uint frame_lo;
+    uint frame_hi;
+    uint width;
+    uint height;
+    uint max_depth;
+    uint flags;
+    uint light_count;
+    uint emit_count;
+    uint material_count;
+    uint select_count;
+    // 1: every punctual light is sampled at every vertex.
+    uint light_loop;
+    float emit_select_pmf;
+    float env_select_pmf;
+    uint pad;
+} PtFrame;
+
+// One material as the device shades it. Texture
+// slots index the texture bindings, -1 for none.
+// `DeviceMaterial` in src/trace/material.rs (80 bytes).
+typedef struct {
+    float base_color[4];
+    float emissive[4];
+    float metallic;
+    float roughness;
+    float alpha_cutoff;
+    float normal_scale;
+    uint flags;
+    int base_color_tex;
+    int metallic_roughness_tex;
+    int normal_tex;
+    int emissive_tex;
+    uint pad[3];
+} PtMaterial;
+
+// A material's extension factors (dielectric, coats, sheen, diffuse
+// transmission, iridescence, anisotropy, dispersion), in a table beside
+// the materials that only kernels built with `HAS_MATERIAL_EXT` read.
+// `DeviceMaterialExt` in src/trace/material.rs (192 bytes).
+typedef struct {
+    // KHR_materials_transmission `transmissionFactor`.
+    float transmission;
+    // KHR_materials_ior `ior`.
+    float ior;
+    // 1 when transmissive with a volume (refraction, attenuation), 0
+    // thin-walled.
+    float volume;
+    // KHR_materials_specular `specularFactor`.
+    float specular;
+    // The volume's attenuation coefficient per unit length,
+    // `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
+    float sigma[4];
+    // KHR_materials_specular `specularColorFactor` (rgb, 0).
+    float specular_color[4];
+    // Texture binding indices (-1: none) of `transmissionTexture` (R),
+    // `specularTexture` (A) and `specularColorTexture` (RGB, sRGB).
+    int transmission_tex;
+    int specular_tex;
+    int specular_color_tex;
+    // KHR_materials_clearcoat `clearcoatFactor`.
+    float clearcoat;
+    // KHR_materials_clearcoat `clearcoatRoughnessFactor`.
+    float clearcoat_roughness;
+    // KHR_materials_sheen `sheenRoughnessFactor`.
+    float sheen_roughness;
+    // Texture binding indices (-1: none) of `clearcoatTexture` (R) and
+    // `clearcoatRoughnessTexture` (G).
+    int clearcoat_tex;
+    int clearcoat_roughness_tex;
+    // KHR_materials_sheen `sheenColorFactor` (rgb, 0).
+    float sheen_color[4];
+    // Texture binding indices (-1: none) of `sheenColorTexture` (RGB,
+    // sRGB), `sheenRoughnessTexture` (A) and `clearcoatNormalTexture`.
+    int sheen_color_tex;
+    int sheen_roughness_tex;
+    int clearcoat_normal_tex;
+    // `clearcoatNormalTexture.scale`.
+    float clearcoat_normal_scale;
+    // KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
+    float diffuse_transmission;
+    // Texture binding indices (-1: none) of `diffuseTransmissionTexture`
+    // (A) and `diffuseTransmissionColorTexture` (RGB, sRGB).
+    int diffuse_transmission_tex;
+    int diffuse_transmission_color_tex;
+    float pad;
+    // KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
+    // (rgb, 0).
+    float diffuse_transmission_color[4];
+    // KHR_materials_iridescence `iridescenceFactor`, `iridescenceIor`,
+    // `iridescenceThicknessMinimum` and `iridescenceThicknessMaximum` (nm).
+    float iridescence;
+    float iridescence_ior;
+    float iridescence_thickness_min;
+    float iridescence_thickness_max;
+    // Texture binding indices (-1: none) of `iridescenceTexture` (R) and
+    // `iridescenceThicknessTexture` (G).
+    int iridescence_tex;
+    int iridescence_thickness_tex;
+    // KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
+    // sine of `anisotropyRotation` (counter-clockwise from the tangent),
+    // taken here once rather than at every hit.
+    float anisotropy_strength;
+    float anisotropy_cos;
+    float anisotropy_sin;
+    // Texture binding index (-1: none) of `anisotropyTexture` (RG: the
+    // direction in tangent space, B: the strength).
+    int anisotropy_tex;
+    // KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
+    float dispersion;
+    float pad2;
+} PtMaterialExt;
+
+// One punctual light.
+// `intensity` is color * intensity; range <= 0 means unlimited; the spot
+// falloff is saturate(cos * angle_scale + angle_offset)^2, the extension's
+// formula with its precomputed scale and offset.
+// `DeviceLight` in src/trace/lights.rs (64 bytes).
+typedef struct {
+    float position[3];
+    uint kind;
+    float direction[3];
+    // Distance where the light ends; 0 for unlimited.
+    float range;
+    // Colour times intensity.
+    float intensity[3];
+    float angle_scale;
+    float angle_offset;
+    float pad[3];
+} PtLight;
+
+// The environment: its kind, the constant radiance (or the map's
+// multiplier), and the map's size.
+// `DeviceEnv` in src/trace/lights.rs (32 bytes).
+typedef struct {
+    float color[4];
+    uint kind;
+    uint width;
+    uint height;
+    uint pad;
+} PtEnv;
+
+#endif

@@ -1,0 +1,68 @@
+// Generated from the Rust definitions by soupray::device_struct
+// (SOUPRAY_REGENERATE=1 cargo test --test device_structs). Do not edit:
+// change the Rust definition named above each item.
+//
+// Rays, hits and the traversal layouts (src/trace/).
+#ifndef SOUPRAY_GENERATED_TRACE_TYPES_H
+#define SOUPRAY_GENERATED_TRACE_TYPES_H
+
+#pragma OPENCL FP_CONTRACT OFF
+
+// `Hit::prim` of a ray that hit nothing.
+#define MISS 4294967295u
+// Bits of `StacklessNode::leaf` that hold the primitive count.
+#define LEAF_COUNT_BITS 7u
+
+// One ray: hits count when tmin < t < tmax (tmin >= 0). The direction need
+// not be normalised (t is in units of it); an all-zero direction never hits.
+// Scalar arrays rather than float3 keep the struct 32 bytes with no padding
+// rules that differ between compilers.
+// `Ray` in src/trace/mod.rs (32 bytes).
+typedef struct {
+    float org[3];
+    float tmin;
+    float dir[3];
+    float tmax;
+} Ray;
+
+// A hit record (`Hit` in `kernels/trace_types.h`): distance, triangle
+// index in the soup, and the barycentrics of corners 1 and 2, so the hit
+// point is `(1 - u - v) p0 + u p1 + v p2`. `prim == MISS` (and `t = tmax`)
+// when nothing was hit. The geometric normal is recomputed by the shader
+// from the triangle; it is never zero, as degenerate triangles are never hit.
+// `Hit` in src/trace/mod.rs (16 bytes).
+typedef struct {
+    float t;
+    uint prim;
+    float u;
+    float v;
+} Hit;
+
+// One entry of the stackless (escape-index) layout, in depth-first preorder:
+// a box, and the index of the entry to visit next when this one is missed or
+// finished (`escape`; the entry count ends traversal). An inner entry's first
+// child is the next entry. leaf == 0 marks an inner entry; otherwise
+// leaf = (first << 7) | count, count in 1..=64 primitives from slot `first`
+// of the primitive-index array (first < 2^25).
+// `StacklessNode` in src/trace/escape.rs (32 bytes).
+typedef struct {
+    float lo[3];
+    uint escape;
+    float hi[3];
+    uint leaf;
+} StacklessNode;
+
+// One 4-wide node (`WideNode` in `kernels/trace_types.h`): the boxes of its
+// up to four children, `lo[axis][slot]` and `hi[axis][slot]`, and per slot
+// `count == 0`: an inner node's index in `child` (or `EMPTY_CHILD`, an
+// absent child with an empty box), `count > 0`: a leaf of `count`
+// primitives from slot `child` of the primitive-index array. 128 bytes.
+// `WideNode` in src/trace/wide.rs (128 bytes).
+typedef struct {
+    float lo[3][4];
+    float hi[3][4];
+    uint child[4];
+    uint count[4];
+} WideNode;
+
+#endif
