@@ -435,7 +435,7 @@ impl Image {
 }
 
 /// The estimated relative error of a pixel's mean from its sums
-/// (`pt_noise_estimate` in kernels/pathtrace.cl, the same float
+/// (`pt_noise_estimate` in kernels/trace/pathtrace.cl, the same float
 /// operations): `color` the sum of all samples, `snapshots` the running
 /// sums at the last two powers of two (S(2^j) in `snapshots[j % 2]`),
 /// `aux` (.., .., dropped samples, samples taken t). The mean A of the
@@ -472,7 +472,7 @@ pub fn noise_estimate(color: [f32; 4], snapshots: [[f32; 4]; 2], aux: [f32; 4]) 
 }
 
 /// The error below which a pixel stops sampling (`pt_stop_threshold` in
-/// kernels/pathtrace.cl, the same float operations). With `inv_work_ref`
+/// kernels/trace/pathtrace.cl, the same float operations). With `inv_work_ref`
 /// 0 (equal-error allocation) it is `threshold` for every pixel; otherwise
 /// (time allocation) `threshold * sqrt(work / work_ref)`, `work` the rays
 /// the pixel has traced and `work_ref` the frame's mean rays per pixel at

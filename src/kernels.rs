@@ -5,53 +5,45 @@
 use crate::device_struct::{DeviceStruct, GeneratedHeader};
 use crate::{bvh, soup, trace};
 
+/// One kernel source embedded by its path under `kernels/`, listed by its
+/// file name, which is how `#include` names it (the folders are for people:
+/// one per stage, as in `src/`, with `common/` shared and `generated/` made
+/// from the Rust definitions).
+macro_rules! kernel {
+    ($dir:literal / $file:literal) => {
+        (
+            $file,
+            include_str!(concat!("../kernels/", $dir, "/", $file)),
+        )
+    };
+}
+
 /// The OpenCL C sources, embedded so the binary runs from anywhere. Headers
 /// are inlined by `assemble_source` where a program `#include`s them.
 pub const KERNEL_SOURCES: &[(&str, &str)] = &[
-    (
-        "bvh_types.h",
-        include_str!("../kernels/generated/bvh_types.h"),
-    ),
-    ("bvh_common.h", include_str!("../kernels/bvh_common.h")),
-    ("bvh_build.cl", include_str!("../kernels/bvh_build.cl")),
-    (
-        "soup_types.h",
-        include_str!("../kernels/generated/soup_types.h"),
-    ),
-    ("soup_eval.cl", include_str!("../kernels/soup_eval.cl")),
-    (
-        "trace_types.h",
-        include_str!("../kernels/generated/trace_types.h"),
-    ),
-    ("trace_common.h", include_str!("../kernels/trace_common.h")),
-    ("trace.cl", include_str!("../kernels/trace.cl")),
-    (
-        "texture_types.h",
-        include_str!("../kernels/generated/texture_types.h"),
-    ),
-    ("texture.h", include_str!("../kernels/texture.h")),
-    (
-        "texture_probe.cl",
-        include_str!("../kernels/texture_probe.cl"),
-    ),
-    (
-        "pt_types.h",
-        include_str!("../kernels/generated/pt_types.h"),
-    ),
-    ("sampling.h", include_str!("../kernels/sampling.h")),
-    ("ggx_energy.h", include_str!("../kernels/ggx_energy.h")),
-    (
-        "ggx_aniso_energy.h",
-        include_str!("../kernels/ggx_aniso_energy.h"),
-    ),
-    ("sheen_energy.h", include_str!("../kernels/sheen_energy.h")),
-    ("bsdf.h", include_str!("../kernels/bsdf.h")),
-    ("lights.h", include_str!("../kernels/lights.h")),
-    ("media.h", include_str!("../kernels/media.h")),
-    ("pathtrace.cl", include_str!("../kernels/pathtrace.cl")),
-    ("pt_probe.cl", include_str!("../kernels/pt_probe.cl")),
-    ("motion.h", include_str!("../kernels/motion.h")),
-    ("motion.cl", include_str!("../kernels/motion.cl")),
+    kernel!("generated" / "bvh_types.h"),
+    kernel!("generated" / "soup_types.h"),
+    kernel!("generated" / "trace_types.h"),
+    kernel!("generated" / "texture_types.h"),
+    kernel!("generated" / "pt_types.h"),
+    kernel!("generated" / "ggx_energy.h"),
+    kernel!("generated" / "ggx_aniso_energy.h"),
+    kernel!("generated" / "sheen_energy.h"),
+    kernel!("common" / "sampling.h"),
+    kernel!("soup" / "soup_eval.cl"),
+    kernel!("bvh" / "bvh_common.h"),
+    kernel!("bvh" / "bvh_build.cl"),
+    kernel!("trace" / "trace_common.h"),
+    kernel!("trace" / "trace.cl"),
+    kernel!("trace" / "texture.h"),
+    kernel!("trace" / "texture_probe.cl"),
+    kernel!("trace" / "bsdf.h"),
+    kernel!("trace" / "lights.h"),
+    kernel!("trace" / "media.h"),
+    kernel!("trace" / "pathtrace.cl"),
+    kernel!("trace" / "pt_probe.cl"),
+    kernel!("trace" / "motion.h"),
+    kernel!("trace" / "motion.cl"),
 ];
 
 /// Every generated header of `kernels/generated/`, from the definitions in

@@ -708,7 +708,7 @@ fn slivers_of_aspect_ratio_1e6_leave_no_cracks() {
 /// by a few percent, `hit_point` put the hit up to a unit away along the
 /// sliver, and shadow rays leaving the plane got t errors of the same order.
 /// Ill-conditioned edge functions are now recomputed in double (see
-/// `ILL_CONDITIONED` in kernels/trace_common.h); coverage was always right.
+/// `ILL_CONDITIONED` in kernels/trace/trace_common.h); coverage was always right.
 #[test]
 fn slivers_of_aspect_ratio_1e6_render_like_two_triangles() {
     let d = common::device();

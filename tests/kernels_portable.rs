@@ -56,6 +56,20 @@ fn kernels_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels")
 }
 
+/// kernels/ and each folder in it.
+fn kernel_dirs() -> Vec<PathBuf> {
+    let root = kernels_dir();
+    let mut dirs = vec![root.clone()];
+    for entry in std::fs::read_dir(&root).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            dirs.push(path);
+        }
+    }
+    dirs.sort();
+    dirs
+}
+
 /// Every file under `dir`, its folders walked.
 fn kernel_files(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
@@ -417,12 +431,16 @@ fn clang_args(variant: &Variant, source: &Path, out: Option<&Path>) -> Vec<Strin
         "-Wall",
         "-Wdouble-promotion",
         "-Werror",
-        "-I",
     ]
     .iter()
     .map(|s| s.to_string())
     .collect();
-    args.push(kernels_dir().display().to_string());
+    // `#include` names a file alone, as the host's embedded sources do:
+    // every folder of kernels/ is on the include path.
+    for dir in kernel_dirs() {
+        args.push("-I".into());
+        args.push(dir.display().to_string());
+    }
     args.extend(
         build_options(&variant.defines, true)
             .split_whitespace()

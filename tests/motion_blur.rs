@@ -737,7 +737,7 @@ fn a_frame_still_within_its_shutter_renders_as_without_blur() {
     assert_eq!(bits(&plain), bits(&blur));
 }
 
-/// The camera and light interpolation of `kernels/motion.h` against their
+/// The camera and light interpolation of `kernels/trace/motion.h` against their
 /// Rust twins, bit for bit, on random cameras, lights and times.
 #[test]
 fn camera_and_light_at_a_time_match_the_rust_twins() {

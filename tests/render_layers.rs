@@ -66,7 +66,7 @@ fn sheen_table_is_what_the_generator_makes() {
     common::assert_generated_table(
         &fresh,
         ENERGY_SIZE * ENERGY_SIZE,
-        "kernels/sheen_energy.h",
+        "kernels/generated/sheen_energy.h",
         sheen_header_text,
         sheen_table(),
     );

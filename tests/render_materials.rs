@@ -379,7 +379,7 @@ fn energy_table_is_what_the_generator_makes() {
     common::assert_generated_table(
         &fresh,
         ENERGY_SIZE * ENERGY_SIZE,
-        "kernels/ggx_energy.h",
+        "kernels/generated/ggx_energy.h",
         header_text,
         table(),
     );
@@ -403,7 +403,7 @@ fn anisotropic_energy_table_is_what_the_generator_makes() {
     common::assert_generated_table(
         &fresh,
         ANISO_SIZES.iter().product(),
-        "kernels/ggx_aniso_energy.h",
+        "kernels/generated/ggx_aniso_energy.h",
         aniso_header_text,
         aniso_table(),
     );

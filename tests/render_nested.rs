@@ -1,5 +1,5 @@
 //! Nested dielectrics and thin-walled shadow rays (`HAS_TRANSMISSION`):
-//! the device's list of volumes (kernels/media.h) against its Rust twin
+//! the device's list of volumes (kernels/trace/media.h) against its Rust twin
 //! (`trace::media`) on real and random crossings, and renders against
 //! analytic values: a glass slab in water (relative index 1.5/1.33), a
 //! liquid-filled glass (the liquid overlapping the glass wall), Beer-Lambert
@@ -375,7 +375,7 @@ fn a_clear_coated_pane_passes_what_its_coat_lets_through() {
     // The same pane under a smooth clear coat (clearcoatFactor 1): the
     // shadow ray keeps the straight-through transmittance times the coat's
     // 1 - Fc(cos), Fc Schlick's at F0 0.04, as the BSDF sample through it
-    // carries (kernels/bsdf.h bsdf_shadow_straight_through).
+    // carries (kernels/trace/bsdf.h bsdf_shadow_straight_through).
     let base = [0.9, 0.7, 0.5];
     for dir in [Vec3::NEG_Y, Vec3::new(0.8, -0.6, 0.0)] {
         let sun = light(LightKind::Directional, Vec3::Y * 2.0, dir, [1.0; 3], 3.0);

@@ -1,4 +1,4 @@
-//! `kernels/texture.h` on the device against the Rust reference in
+//! `kernels/trace/texture.h` on the device against the Rust reference in
 //! `soupray::trace::texture`: the struct layout; every wrap-mode pair with
 //! both filters, sRGB and linear, on small generated images and on the real
 //! textures of the test assets, at random uvs (far outside [0, 1] and

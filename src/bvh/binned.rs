@@ -1,7 +1,7 @@
 //! The binned-SAH builder in plain Rust: the reference the device builder
 //! is tested against, and the host's share of the device build.
 //!
-//! It is factored like `kernels/bvh_common.h`, function for function: bin
+//! It is factored like `kernels/bvh/bvh_common.h`, function for function: bin
 //! mapping (`bin_scale`, `bin_index`), bins (`bin_add`, `bin_merge`), split
 //! choice (`candidate_cost`, `select_split`, `make_split`) and partition
 //! (`goes_left`). Same operations in the same order, so the two builders make
@@ -187,7 +187,7 @@ pub fn select_split(node_bins: &[Bin], scale: &[f32; 4], bins: u32) -> Option<u3
 }
 
 /// The split record for `best`, or the id split when no candidate splits
-/// the node (see `make_split` in `kernels/bvh_common.h` for why).
+/// the node (see `make_split` in `kernels/bvh/bvh_common.h` for why).
 pub fn make_split(
     node_bins: &[Bin],
     task: &BuildTask,

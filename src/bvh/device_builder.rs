@@ -1,4 +1,4 @@
-//! The paper's builder on the OpenCL device (kernels/bvh_build.cl).
+//! The paper's builder on the OpenCL device (kernels/bvh/bvh_build.cl).
 //!
 //! The host only launches and bookkeeps: per level it uploads the level's
 //! tasks and the two work-group arrays (which node each work-group serves,
@@ -95,7 +95,7 @@ struct Buffers {
 }
 
 /// How the kernels map onto the device's threads (see the header of
-/// `kernels/bvh_build.cl`). Both mappings build the same tree, bit for bit.
+/// `kernels/bvh/bvh_build.cl`). Both mappings build the same tree, bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Mapping {
     /// The paper's: work-groups of 128, bins counted by groups of `bins`

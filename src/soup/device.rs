@@ -1,6 +1,6 @@
 //! The soup stage on the OpenCL device: a [`DeviceSoup`] evaluates each
 //! frame's world-space triangle soup (morphs, skinning, rigid transforms,
-//! winding fix, normals, uvs, material ids) with `kernels/soup_eval.cl` and
+//! winding fix, normals, uvs, material ids) with `kernels/soup/soup_eval.cl` and
 //! leaves it in device buffers laid out exactly as `Soup` is on the host, so
 //! `DeviceBuilder::build_from_device` and the tracer read it without a copy.
 //!

@@ -1,6 +1,6 @@
 //! The soup of a frame that moves within the shutter: the device soup
 //! evaluated at each motion step and kept side by side, and each triangle's
-//! bounds over all steps for the BVH builder (`kernels/motion.cl`).
+//! bounds over all steps for the BVH builder (`kernels/trace/motion.cl`).
 //!
 //! Made only when `--motion-blur` is on, and used only for frames where
 //! something moves within the shutter (`motion_steps` returns 1 for the
@@ -149,7 +149,7 @@ pub struct MotionSoup<'d> {
     bounds_ms: f64,
 }
 
-/// The defines `kernels/motion.cl` is compiled with.
+/// The defines `kernels/trace/motion.cl` is compiled with.
 pub fn motion_program_defines() -> Vec<(&'static str, String)> {
     vec![
         ("MOTION_BLUR", "1".to_owned()),
@@ -158,7 +158,7 @@ pub fn motion_program_defines() -> Vec<(&'static str, String)> {
 }
 
 impl<'d> MotionSoup<'d> {
-    /// Compiles `kernels/motion.cl` and allocates the bounds buffer for
+    /// Compiles `kernels/trace/motion.cl` and allocates the bounds buffer for
     /// `soup`'s triangles; the step buffers grow with the steps a frame uses.
     pub fn new(device: &'d Device, soup: &DeviceSoup) -> Result<MotionSoup<'d>, DeviceError> {
         let program = device.build_program("motion.cl", &motion_program_defines())?;

@@ -1,4 +1,4 @@
-//! The device tracer: compiles `kernels/trace.cl` once per device (with
+//! The device tracer: compiles `kernels/trace/trace.cl` once per device (with
 //! `STACK_SIZE` derived from the BVH depth limit), takes each frame's tree
 //! into reused device buffers, and runs one work-item per ray over a ray
 //! buffer, writing a hit buffer. Every launch is named and timed by the

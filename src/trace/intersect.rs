@@ -4,7 +4,7 @@
 //! Binder, Ray Tracing Gems ch. 6), on the CPU.
 //!
 //! Each function is the twin of the one of the same name in
-//! `kernels/trace_common.h`: the same float operations in the same order (Rust
+//! `kernels/trace/trace_common.h`: the same float operations in the same order (Rust
 //! never contracts into FMA), so the device's hits equal these bit for bit.
 //! The comments there explain the numerics; the short version: edge
 //! functions have exact signs (monotonic rounding, exact zeros resolved from

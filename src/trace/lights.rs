@@ -1,5 +1,5 @@
 //! The path tracer's lights on the host: the punctual-light list
-//! (`DeviceLight`, mirrored by `PtLight` in `kernels/lights.h`) made from
+//! (`DeviceLight`, mirrored by `PtLight` in `kernels/trace/lights.h`) made from
 //! each frame's `FrameLight`s, the environment (`DeviceEnv`: none, a
 //! constant, or an equirectangular map with its importance-sampling CDFs),
 //! the distribution over emissive triangles in proportion to their power,

@@ -2,7 +2,7 @@
 //! (`DeviceMaterial`, `PtMaterial` in the generated `kernels/generated/pt_types.h`) made
 //! from the scene's `MaterialTable`, and the plain Rust reference of the
 //! glTF metallic-roughness BSDF (`bsdf_eval`, `bsdf_pdf`, `bsdf_sample`)
-//! that `kernels/bsdf.h` mirrors operation for operation.
+//! that `kernels/trace/bsdf.h` mirrors operation for operation.
 //!
 //! The model is the specification's Appendix B: Lambert diffuse and GGX
 //! specular with height-correlated Smith masking, the dielectric weighted by
@@ -329,7 +329,7 @@ impl Dielectric {
     /// surface, the volume it is in; `trace::media`): F0 from the relative
     /// index `ior / n_other`, and for a volume the relative index
     /// `media::relative_eta`. Mirrors `pt_dielectric_params` in
-    /// `kernels/pathtrace.cl`.
+    /// `kernels/trace/pathtrace.cl`.
     pub fn nested(
         ior: f32,
         n_other: f32,
@@ -467,7 +467,7 @@ impl Layers {
     }
 }
 
-/// The coat's frame (`coat_frame` in kernels/bsdf.h): tangents around the
+/// The coat's frame (`coat_frame` in kernels/trace/bsdf.h): tangents around the
 /// coat normal, `None` when it is the base's (then vectors are used as
 /// they are, so a coat without its own normal is exactly the base frame).
 fn coat_frame(l: &Layers) -> Option<(Vec3, Vec3, Vec3)> {
@@ -566,7 +566,7 @@ impl BsdfParams {
 /// KHR_materials_anisotropy's `alphaT`: `mix(alpha, 1, strength^2)`
 /// along the anisotropy direction (the alpha across it stays `alpha`).
 /// Strength 0 returns `alpha` itself, so the lobe stays isotropic bit for
-/// bit. Mirrors `anisotropic_alpha` in kernels/bsdf.h.
+/// bit. Mirrors `anisotropic_alpha` in kernels/trace/bsdf.h.
 pub fn anisotropic_alpha(alpha: f32, strength: f32) -> f32 {
     let s = strength.clamp(0.0, 1.0);
     if s > 0.0 {
@@ -614,7 +614,7 @@ fn ggx_lambda_aniso(ax: f32, ay: f32, w: Vec3) -> f32 {
 /// The base's specular microfacet lobe: GGX with `alpha_t` along the
 /// shading frame's x axis and `alpha` along y. Equal alphas take the
 /// isotropic formulas, so a material without anisotropy gives the bits it
-/// gave before anisotropy existed. Twins of the `spec_*` in kernels/bsdf.h.
+/// gave before anisotropy existed. Twins of the `spec_*` in kernels/trace/bsdf.h.
 fn spec_isotropic(p: &BsdfParams) -> bool {
     p.alpha_t == p.alpha
 }
@@ -1524,7 +1524,7 @@ fn layered_sample(
 }
 
 /// What a shadow ray crossing a smooth thin-walled surface keeps
-/// (`bsdf_shadow_straight_through` in kernels/bsdf.h): the straight-through
+/// (`bsdf_shadow_straight_through` in kernels/trace/bsdf.h): the straight-through
 /// lobe as `bsdf_sample` carries it, under the coat and the sheen (for that
 /// lobe wi = -wo, so both cosines are `wo.z`; the coat's is taken with its
 /// own normal). `wo`: the ray's reverse direction in the shading frame.

@@ -1,6 +1,6 @@
 //! Nested dielectrics: the refracting volumes a path is inside, innermost
-//! last (`PtMedia` of `kernels/media.h`, which this mirrors operation for
-//! operation; `media_probe` in `kernels/pt_probe.cl` holds the two to each
+//! last (`PtMedia` of `kernels/trace/media.h`, which this mirrors operation for
+//! operation; `media_probe` in `kernels/trace/pt_probe.cl` holds the two to each
 //! other).
 //!
 //! The rule (Schmidt & Budge 2002 without priorities, the most recently
@@ -101,7 +101,7 @@ pub fn relative_eta(ior: f32, n_other: f32, front: bool) -> f32 {
 /// `dispersion` (20 / Abbe number) for colour channel `channel` (0 red, 1
 /// green, 2 blue; `None`: a path that carries all three): the extension's
 /// `ior -/+ (ior - 1) 0.025 dispersion` for red and blue, red at least 1.
-/// Twin of `media_channel_ior` in kernels/media.h.
+/// Twin of `media_channel_ior` in kernels/trace/media.h.
 pub fn channel_ior(ior: f32, dispersion: f32, channel: Option<usize>) -> f32 {
     if dispersion.is_nan() || dispersion <= 0.0 {
         return ior;

@@ -7,13 +7,13 @@
 //!   front-to-back stack traversal, closest hit by stackless escape indices.
 //! * `escape`: the stackless (escape-index) layout of a `Bvh`, recomputed
 //!   after every build.
-//! * `device`: `DeviceTracer`, which runs `kernels/trace.cl` over ray buffers.
+//! * `device`: `DeviceTracer`, which runs `kernels/trace/trace.cl` over ray buffers.
 //! * `camera`: a pinhole camera for primary rays (tests and benchmarks).
 //! * `motion`: motion blur's shutter, time interpolation and step bounds,
-//!   the twins of `kernels/motion.h`, `motion.cl` and the motion reads of
+//!   the twins of `kernels/trace/motion.h`, `motion.cl` and the motion reads of
 //!   `trace_common.h`.
 //!
-//! The kernels share `kernels/trace_common.h`, whose functions mirror the
+//! The kernels share `kernels/trace/trace_common.h`, whose functions mirror the
 //! Rust ones operation for operation, so device and CPU results are bit for
 //! bit equal on a device with correctly rounded division (PoCL).
 //! Closest-hit ties at equal t go to the smaller triangle index, so the

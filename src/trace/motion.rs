@@ -3,8 +3,8 @@
 //! time, and each triangle's bounds over all steps.
 //!
 //! Every function here is the twin of the one of the same name in
-//! `kernels/trace_common.h` (`motion_time`, `motion_triangle`) and
-//! `kernels/motion.cl` (`motion_bounds`) and `kernels/motion.h`
+//! `kernels/trace/trace_common.h` (`motion_time`, `motion_triangle`) and
+//! `kernels/trace/motion.cl` (`motion_bounds`) and `kernels/trace/motion.h`
 //! (`motion_camera`, `motion_light`), the same float operations in the
 //! same order, so the device agrees with them bit for bit; and
 //! `trace_closest_motion` is the CPU reference of the device's traversal at
@@ -113,7 +113,7 @@ pub fn positions_at(data: &[[f32; 4]], triangles: usize, steps: u32, time: f32) 
         .collect()
 }
 
-/// `motion_bounds` of `kernels/motion.cl`: per triangle the box of its
+/// `motion_bounds` of `kernels/trace/motion.cl`: per triangle the box of its
 /// corners at every step, as the "bounds triangle" (lo, hi, lo) whose own
 /// bounds the BVH builder computes to exactly that box.
 pub fn motion_bounds(data: &[[f32; 4]], triangles: usize, steps: u32) -> Vec<[f32; 4]> {
@@ -150,7 +150,7 @@ pub fn trace_closest_motion(
     trace_closest(bvh, &positions_at(data, triangles, steps, time), ray)
 }
 
-/// `motion_camera` of `kernels/motion.h`: the camera's vectors
+/// `motion_camera` of `kernels/trace/motion.h`: the camera's vectors
 /// interpolated between the steps around the time.
 pub fn camera_at(cameras: &[DeviceCamera], (step, frac): (u32, f32)) -> DeviceCamera {
     let a = cameras[step as usize];
@@ -171,7 +171,7 @@ pub fn camera_at(cameras: &[DeviceCamera], (step, frac): (u32, f32)) -> DeviceCa
     }
 }
 
-/// `motion_light` of `kernels/motion.h`: a light's position and direction
+/// `motion_light` of `kernels/trace/motion.h`: a light's position and direction
 /// interpolated between two steps at fraction `frac`, the direction
 /// renormalised.
 pub fn light_at(

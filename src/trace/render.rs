@@ -1,4 +1,4 @@
-//! The frame renderer: `PathTracer` runs `kernels/pathtrace.cl` (path
+//! The frame renderer: `PathTracer` runs `kernels/trace/pathtrace.cl` (path
 //! tracing with next-event estimation and MIS, Russian roulette) over a
 //! frame's device soup and BVH and returns the resolved image with its
 //! AOVs, the number of rays traced and the device time.

@@ -1,5 +1,5 @@
 //! The path tracer's random numbers and warps in plain Rust, mirroring
-//! `kernels/sampling.h` operation for operation: the samplers (Owen-scrambled
+//! `kernels/common/sampling.h` operation for operation: the samplers (Owen-scrambled
 //! Sobol, the default, and independent hashed uniforms), both pure functions
 //! of (seed, frame, pixel, sample, dimension), the
 //! cosine-hemisphere, sphere and triangle warps, the CDF search and the
@@ -115,7 +115,7 @@ pub const SET_LIGHT: u32 = 0;
 pub const SET_BSDF: u32 = 1;
 
 /// Bounce `bounce`'s light set (u, v, light choice, -) or BSDF set (u, v,
-/// lobe, roulette). The layout is documented in `kernels/sampling.h`.
+/// lobe, roulette). The layout is documented in `kernels/common/sampling.h`.
 pub fn set_bounce(bounce: u32, slot: u32) -> u32 {
     1 + 2 * bounce + slot
 }
@@ -123,7 +123,7 @@ pub fn set_bounce(bounce: u32, slot: u32) -> u32 {
 /// Generator matrix of Sobol dimension `d` (0..4) from Joe and Kuo's
 /// primitive polynomials and initial direction numbers, bit-reversed: column
 /// j (the contribution of index bit j) is v_j = m_j / 2^(j+1) with its first
-/// binary digit in bit 0. `kernels/sampling.h` holds the same table as
+/// binary digit in bit 0. `kernels/common/sampling.h` holds the same table as
 /// literals; the device tests hold the two together.
 const fn sobol_reversed(d: usize) -> [u32; 32] {
     let mut m = [0u32; 32];
@@ -186,7 +186,7 @@ fn u32_to_unit(x: u32) -> f32 {
 }
 
 /// The random numbers of one camera sample (`SampleRng` and `rng_4d` of
-/// `kernels/sampling.h`, value for value).
+/// `kernels/common/sampling.h`, value for value).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleRng {
     pub sampler: Sampler,

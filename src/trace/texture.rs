@@ -1,7 +1,7 @@
 //! Textures on the device: the images a scene's materials sample, decoded
 //! once and uploaded as one texel buffer with one [`TextureInfo`] record per
 //! texture, the per-slot [`TextureBinding`]s the shading kernels sample
-//! through (`kernels/texture.h`), and the plain Rust reference of that
+//! through (`kernels/trace/texture.h`), and the plain Rust reference of that
 //! sampling ([`texture_uv_ref`], [`sample_texture_ref`]) which the tests hold
 //! the device to, bit for bit.
 //!
@@ -17,7 +17,7 @@
 //! sRGB is a property of the *use*: base colour and emissive textures are
 //! sRGB-encoded, the others linear (glTF 2.0, section 3.9), so the flag lives in
 //! the binding and one image can serve both kinds of slot. Decoding is by a
-//! 512-entry table (`TEXTURE_DECODE` in `kernels/texture.h`, [`decode_table`]
+//! 512-entry table (`TEXTURE_DECODE` in `kernels/trace/texture.h`, [`decode_table`]
 //! here), exact on every device, applied to texels before filtering as GPUs
 //! do.
 //!
@@ -384,7 +384,7 @@ fn srgb_to_linear_f64(c: f64) -> f64 {
     }
 }
 
-/// Texel byte to float, as `TEXTURE_DECODE` in `kernels/texture.h`:
+/// Texel byte to float, as `TEXTURE_DECODE` in `kernels/trace/texture.h`:
 /// `[c]` is c / 255 (linear channels and alpha), `[256 + c]` the sRGB
 /// decode of c / 255.
 pub fn decode_table() -> &'static [f32; 512] {
@@ -623,7 +623,7 @@ fn binding_of(record_of_texture: &[u32], t: &TextureRef, srgb: bool) -> TextureB
     }
 }
 
-/// `texture_uv` of `kernels/texture.h`: the binding's TEXCOORD set through
+/// `texture_uv` of `kernels/trace/texture.h`: the binding's TEXCOORD set through
 /// its transform, with the same float operations in the same order.
 pub fn texture_uv_ref(b: &TextureBinding, uv0: [f32; 2], uv1: [f32; 2]) -> [f32; 2] {
     let [x, y] = if b.tex_coord == 1 { uv1 } else { uv0 };
@@ -631,7 +631,7 @@ pub fn texture_uv_ref(b: &TextureBinding, uv0: [f32; 2], uv1: [f32; 2]) -> [f32;
     [m[0] * x + m[1] * y + m[2], m[3] * x + m[4] * y + m[5]]
 }
 
-/// `texture_wrap_coord` of `kernels/texture.h`.
+/// `texture_wrap_coord` of `kernels/trace/texture.h`.
 fn wrap_coord(u: f32, wrap: u32) -> f32 {
     let u = if u.is_finite() { u } else { 0.0 };
     match wrap {
@@ -642,7 +642,7 @@ fn wrap_coord(u: f32, wrap: u32) -> f32 {
     }
 }
 
-/// `texture_wrap_index` of `kernels/texture.h` (Rust's `%` truncates like C's).
+/// `texture_wrap_index` of `kernels/trace/texture.h` (Rust's `%` truncates like C's).
 fn wrap_index(i: i32, n: i32, wrap: u32) -> i32 {
     match wrap {
         TEXTURE_WRAP_REPEAT => {
@@ -670,7 +670,7 @@ fn wrap_index(i: i32, n: i32, wrap: u32) -> i32 {
     }
 }
 
-/// `texture_texel` of `kernels/texture.h`.
+/// `texture_texel` of `kernels/trace/texture.h`.
 fn texel(host: &HostTextures, t: &TextureInfo, x: i32, y: i32, srgb: bool) -> [f32; 4] {
     let p = host.texels[(t.offset + y as u32 * t.width + x as u32) as usize];
     let table = decode_table();
@@ -683,7 +683,7 @@ fn texel(host: &HostTextures, t: &TextureInfo, x: i32, y: i32, srgb: bool) -> [f
     ]
 }
 
-/// `sample_texture` of `kernels/texture.h`: linear RGBA of the binding's
+/// `sample_texture` of `kernels/trace/texture.h`: linear RGBA of the binding's
 /// texture at `uv` (already through [`texture_uv_ref`]), with the sampler's
 /// wrap modes and filter, sRGB decoded before filtering when the binding
 /// says so; (1, 1, 1, 1) for a binding without a texture.

@@ -1,5 +1,5 @@
 //! The CPU reference traversals, twins of `TRAVERSE_BODY` and
-//! `trace_closest_stackless_bvh` in `kernels/trace_common.h`: closest hit and
+//! `trace_closest_stackless_bvh` in `kernels/trace/trace_common.h`: closest hit and
 //! any hit by front-to-back stack traversal, and closest hit by escape
 //! indices. They visit nodes in the kernels' order and cull with the same
 //! tests, so they agree with the device hit for hit; and because ties go to
