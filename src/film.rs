@@ -1,6 +1,7 @@
-//! The film: where the tracer's samples become pixels. It accumulates linear
-//! RGB radiance, coverage alpha and the AOVs (depth, normal, albedo) through
-//! a pixel filter, and `resolve` turns the sums into an `Image` for output.
+//! The film: where the tracer's samples become pixels. The path tracer sums
+//! each pixel's samples on the device, in sample order; `resolve` turns those
+//! sums (`Accumulated`) into an `Image` with its AOVs and each pixel's noise
+//! estimate, and `NoiseStats` summarises the frame for its log.
 //!
 //! **Filter.** The default is a Blackman-Harris window of radius 1.5 px
 //! (3 px support, standard deviation about 0.42 px, close to pbrt-v4's
@@ -9,41 +10,24 @@
 //! pixel square) and a truncated `Filter::Gaussian` are there for tests and
 //! special cases.
 //!
-//! **Reconstruction.** By default the film expects *filter importance
-//! sampling* (as Cycles and pbrt-v4 do): the tracer draws each sample's
-//! offset from the pixel centre with `FilterSampler::sample` (the same table
-//! can be uploaded to the device), so every sample has weight 1 and belongs
-//! to its own pixel only; noise stays uncorrelated between pixels and tiles
-//! need no halo. `Reconstruction::Splat` instead spreads each sample to every
-//! pixel within the filter radius, weighted by the filter (pbrt-v3 style),
-//! for tracers that jitter uniformly inside the pixel.
+//! **Reconstruction by filter importance sampling** (as Cycles and pbrt-v4
+//! do): the tracer draws each sample's offset from the pixel centre from the
+//! filter (`FilterSampler`'s table, uploaded to the device), so every sample
+//! has weight 1 and belongs to its own pixel only; noise stays uncorrelated
+//! between pixels and tiles need no halo, and a pixel's value is the plain
+//! mean of its kept samples.
 //!
-//! **Determinism.** Every contribution is converted, on its own, to a
-//! 2^-56 fixed-point `i128` and summed exactly. Integer addition is
-//! associative, so any order of samples (tiles, passes, threads, `merge`)
-//! gives the same sums and therefore the same image, bit for bit. The
-//! conversion loses nothing for |v| ≥ 2^-32 (f32 keeps 24 bits), and sample
-//! values are clamped to ±2^38 so that 2^32 samples of a pixel cannot
-//! overflow. The price is memory: 80 bytes per pixel, plus 128 with all
-//! AOVs (1080p with AOVs: about 430 MB).
-//!
-//! **Resolve.** RGB, alpha, normal and albedo are the filter-weighted means
-//! of the samples, so they are premultiplied by coverage like RGB (a sample
-//! that misses contributes what the tracer gives it, normally zero). Depth
-//! `Z` is the camera distance averaged over the samples that hit (weighted
-//! by filter × alpha), and `BACKGROUND_DEPTH` where none did, as Blender
-//! does.
+//! **Resolve.** RGB, alpha, normal and albedo are the means of the kept
+//! samples (samples with NaN or infinite values are dropped and counted), so
+//! they are premultiplied by coverage like RGB (a sample that misses
+//! contributes what the tracer gives it, normally zero). Depth `Z` is the
+//! camera distance averaged over the samples that hit, and
+//! `BACKGROUND_DEPTH` where none did, as Blender does.
 
 use crate::UsageError;
 
 /// Depth written where no sample hit anything (Blender's value).
 pub const BACKGROUND_DEPTH: f32 = 1.0e10;
-
-/// Fixed-point scale of the accumulators: 2^56.
-const SCALE: f64 = (1u64 << 56) as f64;
-/// Largest magnitude a sample value may have; larger ones are clamped (and
-/// counted), so sums of up to 2^32 samples fit an i128.
-const MAX_VALUE: f64 = (1u64 << 38) as f64;
 
 /// Entries in `FilterSampler`'s inverse-CDF table, minus one.
 const TABLE_CELLS: usize = 1024;
@@ -198,16 +182,6 @@ impl FilterSampler {
     }
 }
 
-/// How samples reach pixels; see the module documentation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Reconstruction {
-    /// Offsets were drawn from the filter: weight 1, own pixel only.
-    #[default]
-    FilterImportance,
-    /// Offsets are uniform in the pixel: splat over the filter's footprint.
-    Splat,
-}
-
 /// Which AOVs the film keeps (each costs memory).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Aovs {
@@ -286,69 +260,6 @@ impl Aovs {
             v.push("rays");
         }
         v
-    }
-}
-
-/// One camera sample as the tracer returns it.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct FilmSample {
-    /// The pixel the sample was taken for (x right, y down from the top).
-    pub pixel: [u32; 2],
-    /// Film position of the sample relative to that pixel's centre, pixels.
-    pub offset: [f32; 2],
-    /// Linear radiance.
-    pub radiance: [f32; 3],
-    /// Coverage: 1 if the primary ray hit geometry, 0 if it escaped.
-    pub alpha: f32,
-    /// Distance from the camera to the first hit (ignored when alpha is 0).
-    pub depth: f32,
-    /// World-space shading normal at the first hit.
-    pub normal: [f32; 3],
-    /// Surface albedo at the first hit.
-    pub albedo: [f32; 3],
-}
-
-/// A pixel or sample the film could not take.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FilmError {
-    #[error("film sample for pixel ({x}, {y}) lies outside the {width}x{height} film")]
-    OutOfBounds {
-        x: u32,
-        y: u32,
-        width: u32,
-        height: u32,
-    },
-    #[error("film size {width}x{height}: both sides must be 1 to 65536 pixels")]
-    Size { width: u32, height: u32 },
-}
-
-/// Counts of what the film did with its samples, for the build log.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct FilmStats {
-    pub samples: u64,
-    /// Dropped because a value was NaN or infinite.
-    pub rejected_nonfinite: u64,
-    /// Kept with a value clamped to ±2^38.
-    pub clamped: u64,
-}
-
-impl FilmStats {
-    /// Warnings worth a line in the frame's log (empty when all was well).
-    pub fn warnings(&self) -> Vec<String> {
-        let mut w = Vec::new();
-        if self.rejected_nonfinite > 0 {
-            w.push(format!(
-                "film: dropped {} of {} samples with NaN or infinite values",
-                self.rejected_nonfinite, self.samples
-            ));
-        }
-        if self.clamped > 0 {
-            w.push(format!(
-                "film: clamped {} samples with values beyond ±2^38",
-                self.clamped
-            ));
-        }
-        w
     }
 }
 
@@ -471,6 +382,91 @@ pub fn noise_estimate(color: [f32; 4], snapshots: [[f32; 4]; 2], aux: [f32; 4]) 
     (num / den).sqrt()
 }
 
+/// A frame's accumulators as the path tracer leaves them, per pixel: the
+/// sums of colour (RGB and alpha), normal and albedo (empty when their AOVs
+/// are off), the two noise snapshots (`noise_estimate`), `aux` (depth sum,
+/// depth weight, dropped samples, samples taken) and the rays traced.
+#[derive(Clone, Debug, Default)]
+pub struct Accumulated {
+    pub color: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+    pub albedo: Vec<[f32; 4]>,
+    pub snapshots: Vec<[f32; 4]>,
+    pub aux: Vec<[f32; 4]>,
+    pub rays: Vec<u32>,
+}
+
+/// A resolved frame: the image with its AOVs, and per pixel the samples it
+/// took and its estimated error.
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    pub image: Image,
+    pub counts: Vec<u32>,
+    pub estimates: Vec<f32>,
+    /// Samples dropped for NaN or infinite values, of `taken`.
+    pub dropped: u64,
+    pub taken: u64,
+}
+
+/// Each pixel's mean over its kept samples (a box over the pixel's own
+/// samples: the reconstruction filter is applied where samples are drawn,
+/// by importance), its AOVs and its noise estimate.
+pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolved {
+    let pixels = width as usize * height as usize;
+    let mut image = Image::new(width, height, aovs);
+    let mut out = Resolved {
+        image: Image::new(0, 0, Aovs::default()),
+        counts: Vec::with_capacity(pixels),
+        estimates: Vec::with_capacity(pixels),
+        dropped: 0,
+        taken: 0,
+    };
+    for i in 0..pixels {
+        let aux = acc.aux[i];
+        let bad = aux[2] as u32;
+        let samples = aux[3] as u32;
+        out.dropped += bad as u64;
+        out.taken += samples as u64;
+        out.counts.push(samples);
+        let snapshots = [acc.snapshots[2 * i], acc.snapshots[2 * i + 1]];
+        let e = noise_estimate(acc.color[i], snapshots, aux);
+        out.estimates.push(e);
+        if let Some(c) = &mut image.sample_count {
+            c[i] = samples as f32;
+        }
+        if let Some(n) = &mut image.noise {
+            n[i] = e;
+        }
+        if let Some(r) = &mut image.rays {
+            r[i] = acc.rays[i] as f32;
+        }
+        let kept = samples.saturating_sub(bad);
+        if kept == 0 {
+            continue;
+        }
+        let inv = 1.0 / kept as f32;
+        let c = acc.color[i];
+        image.rgba[i] = [c[0] * inv, c[1] * inv, c[2] * inv, c[3] * inv];
+        if let Some(n) = &mut image.normal {
+            let s = acc.normal[i];
+            n[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
+        }
+        if let Some(a) = &mut image.albedo {
+            let s = acc.albedo[i];
+            a[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
+        }
+        if let Some(z) = &mut image.depth {
+            z[i] = if aux[1] > 0.0 {
+                aux[0] / aux[1]
+            } else {
+                BACKGROUND_DEPTH
+            };
+        }
+    }
+    out.image = image;
+    out
+}
+
 /// The error below which a pixel stops sampling (`pt_stop_threshold` in
 /// kernels/trace/pathtrace.cl, the same float operations). With `inv_work_ref`
 /// 0 (equal-error allocation) it is `threshold` for every pixel; otherwise
@@ -577,230 +573,6 @@ impl NoiseStats {
     }
 }
 
-fn fixed(v: f64, clamped: &mut bool) -> i128 {
-    if v.abs() > MAX_VALUE {
-        *clamped = true;
-    }
-    // Exact: a power-of-two scale of a clamped finite value, truncated.
-    (v.clamp(-MAX_VALUE, MAX_VALUE) * SCALE) as i128
-}
-
-fn add<const N: usize>(acc: &mut [i128; N], v: [i128; N]) {
-    for (a, b) in acc.iter_mut().zip(v) {
-        *a = a.saturating_add(b);
-    }
-}
-
-/// The accumulating film. See the module documentation.
-#[derive(Debug, Clone)]
-pub struct Film {
-    width: u32,
-    height: u32,
-    filter: Filter,
-    reconstruction: Reconstruction,
-    aovs: Aovs,
-    /// Σw·r, Σw·g, Σw·b, Σw·α, Σw per pixel.
-    color: Vec<[i128; 5]>,
-    /// Σw·α·z, Σw·α.
-    depth: Vec<[i128; 2]>,
-    normal: Vec<[i128; 3]>,
-    albedo: Vec<[i128; 3]>,
-    stats: FilmStats,
-}
-
-impl Film {
-    pub fn new(
-        width: u32,
-        height: u32,
-        filter: Filter,
-        reconstruction: Reconstruction,
-        aovs: Aovs,
-    ) -> Result<Film, FilmError> {
-        if width == 0 || height == 0 || width > 65536 || height > 65536 {
-            return Err(FilmError::Size { width, height });
-        }
-        let n = width as usize * height as usize;
-        let aov = |on: bool, len: usize| if on { len } else { 0 };
-        Ok(Film {
-            width,
-            height,
-            filter,
-            reconstruction,
-            aovs,
-            color: vec![[0; 5]; n],
-            depth: vec![[0; 2]; aov(aovs.depth, n)],
-            normal: vec![[0; 3]; aov(aovs.normal, n)],
-            albedo: vec![[0; 3]; aov(aovs.albedo, n)],
-            stats: FilmStats::default(),
-        })
-    }
-
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-    pub fn filter(&self) -> Filter {
-        self.filter
-    }
-    pub fn aovs(&self) -> Aovs {
-        self.aovs
-    }
-    pub fn stats(&self) -> FilmStats {
-        self.stats
-    }
-
-    /// Adds one sample. Non-finite samples are dropped and counted; a pixel
-    /// outside the film is an error (a tracer bug) and changes nothing.
-    pub fn add_sample(&mut self, s: &FilmSample) -> Result<(), FilmError> {
-        let [x, y] = s.pixel;
-        if x >= self.width || y >= self.height {
-            return Err(FilmError::OutOfBounds {
-                x,
-                y,
-                width: self.width,
-                height: self.height,
-            });
-        }
-        self.stats.samples += 1;
-        if !self.is_finite(s) {
-            self.stats.rejected_nonfinite += 1;
-            return Ok(());
-        }
-        let mut clamped = false;
-        match self.reconstruction {
-            Reconstruction::FilterImportance => self.accumulate(x, y, 1.0, s, &mut clamped),
-            Reconstruction::Splat => {
-                // Sample position in continuous film coordinates, where
-                // pixel (i, j) has its centre at (i + 0.5, j + 0.5).
-                let px = x as f32 + 0.5 + s.offset[0];
-                let py = y as f32 + 0.5 + s.offset[1];
-                let r = self.filter.radius();
-                let x0 = (px - r - 0.5).ceil().max(0.0) as u32;
-                let x1 = ((px + r - 0.5).floor().max(-1.0) as i64).min(self.width as i64 - 1);
-                let y0 = (py - r - 0.5).ceil().max(0.0) as u32;
-                let y1 = ((py + r - 0.5).floor().max(-1.0) as i64).min(self.height as i64 - 1);
-                for j in y0 as i64..=y1 {
-                    let wy = self.filter.eval_1d(j as f32 + 0.5 - py);
-                    for i in x0 as i64..=x1 {
-                        let w = self.filter.eval_1d(i as f32 + 0.5 - px) * wy;
-                        if w > 0.0 {
-                            self.accumulate(i as u32, j as u32, w, s, &mut clamped);
-                        }
-                    }
-                }
-            }
-        }
-        self.stats.clamped += u64::from(clamped);
-        Ok(())
-    }
-
-    /// Adds many samples; stops at the first error.
-    pub fn add_samples(&mut self, samples: &[FilmSample]) -> Result<(), FilmError> {
-        samples.iter().try_for_each(|s| self.add_sample(s))
-    }
-
-    fn is_finite(&self, s: &FilmSample) -> bool {
-        let finite = |v: &[f32]| v.iter().all(|c| c.is_finite());
-        finite(&s.radiance)
-            && s.alpha.is_finite()
-            && finite(&s.offset)
-            && (!self.aovs.depth || s.alpha == 0.0 || s.depth.is_finite())
-            && (!self.aovs.normal || finite(&s.normal))
-            && (!self.aovs.albedo || finite(&s.albedo))
-    }
-
-    fn accumulate(&mut self, x: u32, y: u32, w: f32, s: &FilmSample, clamped: &mut bool) {
-        let i = y as usize * self.width as usize + x as usize;
-        // f32 × f32 is exact in f64, so each term is order-free before the
-        // exact integer sum.
-        let w = w as f64;
-        let mut f = |v: f32| fixed(w * v as f64, clamped);
-        let c = [
-            f(s.radiance[0]),
-            f(s.radiance[1]),
-            f(s.radiance[2]),
-            f(s.alpha),
-            f(1.0),
-        ];
-        add(&mut self.color[i], c);
-        if self.aovs.normal {
-            add(&mut self.normal[i], s.normal.map(&mut f));
-        }
-        if self.aovs.albedo {
-            add(&mut self.albedo[i], s.albedo.map(&mut f));
-        }
-        if self.aovs.depth && s.alpha != 0.0 {
-            let wa = w * s.alpha as f64;
-            add(
-                &mut self.depth[i],
-                [fixed(wa * s.depth as f64, clamped), fixed(wa, clamped)],
-            );
-        }
-    }
-
-    /// Adds another film's sums (e.g. one per thread). Exact, so the result
-    /// does not depend on how samples were split between films.
-    ///
-    /// Panics if the films differ in size or AOVs (a programming error).
-    pub fn merge(&mut self, other: &Film) {
-        assert!(
-            self.width == other.width && self.height == other.height && self.aovs == other.aovs,
-            "Film::merge: films differ in size or AOVs"
-        );
-        for (a, b) in self.color.iter_mut().zip(&other.color) {
-            add(a, *b);
-        }
-        for (a, b) in self.depth.iter_mut().zip(&other.depth) {
-            add(a, *b);
-        }
-        for (a, b) in self.normal.iter_mut().zip(&other.normal) {
-            add(a, *b);
-        }
-        for (a, b) in self.albedo.iter_mut().zip(&other.albedo) {
-            add(a, *b);
-        }
-        self.stats.samples += other.stats.samples;
-        self.stats.rejected_nonfinite += other.stats.rejected_nonfinite;
-        self.stats.clamped += other.stats.clamped;
-    }
-
-    /// The filtered image. Pixels no sample reached are black and
-    /// transparent, at `BACKGROUND_DEPTH`.
-    pub fn resolve(&self) -> Image {
-        // The scale cancels in the ratio, and i128 → f64 rounds the same
-        // way every time.
-        let ratio = |num: i128, den: i128| (num as f64 / den as f64) as f32;
-        let mut img = Image::new(self.width, self.height, self.aovs);
-        for (i, c) in self.color.iter().enumerate() {
-            let w = c[4];
-            if w <= 0 {
-                continue;
-            }
-            img.rgba[i] = [
-                ratio(c[0], w),
-                ratio(c[1], w),
-                ratio(c[2], w),
-                ratio(c[3], w),
-            ];
-            if let Some(n) = &mut img.normal {
-                n[i] = self.normal[i].map(|v| ratio(v, w));
-            }
-            if let Some(a) = &mut img.albedo {
-                a[i] = self.albedo[i].map(|v| ratio(v, w));
-            }
-            if let Some(d) = &mut img.depth {
-                let [zw, aw] = self.depth[i];
-                if aw > 0 {
-                    d[i] = ratio(zw, aw);
-                }
-            }
-        }
-        img
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -827,242 +599,6 @@ mod tests {
         // Lit: no warning, whatever the background does.
         img.rgba[1] = [0.2, 0.1, 0.05, 1.0];
         assert_eq!(img.darkness_warning(), None);
-    }
-
-    /// A small deterministic generator so the tests need no extra crate.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-        fn f(&mut self) -> f32 {
-            (self.next() >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
-
-    fn random_samples(w: u32, h: u32, spp: u32, seed: u64, filter: Filter) -> Vec<FilmSample> {
-        let mut rng = Rng(seed);
-        let sampler = filter.sampler();
-        let mut v = Vec::new();
-        for y in 0..h {
-            for x in 0..w {
-                for _ in 0..spp {
-                    let hit = rng.f() < 0.7;
-                    v.push(FilmSample {
-                        pixel: [x, y],
-                        offset: sampler.sample([rng.f(), rng.f()]),
-                        // Wide dynamic range, so float summation order
-                        // would show.
-                        radiance: [rng.f() * 1e4, rng.f() * 1e-3, rng.f()],
-                        alpha: if hit { 1.0 } else { 0.0 },
-                        depth: if hit {
-                            1.0 + 100.0 * rng.f()
-                        } else {
-                            f32::INFINITY
-                        },
-                        normal: [rng.f() - 0.5, rng.f(), -rng.f()],
-                        albedo: [rng.f(), rng.f(), rng.f()],
-                    });
-                }
-            }
-        }
-        v
-    }
-
-    fn bits(img: &Image) -> Vec<u32> {
-        let mut b: Vec<u32> = img.rgba.iter().flatten().map(|v| v.to_bits()).collect();
-        b.extend(img.depth.iter().flatten().map(|v| v.to_bits()));
-        b.extend(img.normal.iter().flatten().flatten().map(|v| v.to_bits()));
-        b.extend(img.albedo.iter().flatten().flatten().map(|v| v.to_bits()));
-        b
-    }
-
-    fn film(w: u32, h: u32, filter: Filter, rec: Reconstruction) -> Film {
-        Film::new(w, h, filter, rec, Aovs::ALL).unwrap()
-    }
-
-    #[test]
-    fn accumulation_order_does_not_change_a_bit() {
-        for rec in [Reconstruction::FilterImportance, Reconstruction::Splat] {
-            let filter = Filter::default();
-            let samples = random_samples(9, 7, 16, 0x5eed, filter);
-            let mut a = film(9, 7, filter, rec);
-            a.add_samples(&samples).unwrap();
-            let reference = a.resolve();
-
-            // Reversed, and shuffled.
-            let mut b = film(9, 7, filter, rec);
-            for s in samples.iter().rev() {
-                b.add_sample(s).unwrap();
-            }
-            let mut shuffled = samples.clone();
-            let mut rng = Rng(99);
-            for i in (1..shuffled.len()).rev() {
-                shuffled.swap(i, (rng.next() % (i as u64 + 1)) as usize);
-            }
-            let mut c = film(9, 7, filter, rec);
-            c.add_samples(&shuffled).unwrap();
-
-            // Split over "threads" as tiles, merged in reverse order.
-            let tiles: Vec<Film> = (0..3)
-                .map(|t| {
-                    let mut f = film(9, 7, filter, rec);
-                    for s in samples.iter().filter(|s| s.pixel[0] % 3 == t) {
-                        f.add_sample(s).unwrap();
-                    }
-                    f
-                })
-                .collect();
-            let mut d = film(9, 7, filter, rec);
-            for t in tiles.iter().rev() {
-                d.merge(t);
-            }
-
-            for other in [b, c, d] {
-                assert_eq!(bits(&reference), bits(&other.resolve()), "{rec:?}");
-                assert_eq!(other.stats().samples, samples.len() as u64);
-            }
-        }
-    }
-
-    #[test]
-    fn plain_f32_summation_would_not_be_deterministic() {
-        // Guards the test above: its data must be able to expose order.
-        let samples = random_samples(1, 1, 64, 7, Filter::Box);
-        let fwd: f32 = samples.iter().map(|s| s.radiance[1] + s.radiance[0]).sum();
-        let rev: f32 = samples
-            .iter()
-            .rev()
-            .map(|s| s.radiance[1] + s.radiance[0])
-            .sum();
-        let mut shuffled_differs = fwd != rev;
-        let mut rng = Rng(3);
-        for _ in 0..50 {
-            let mut v: Vec<f32> = samples
-                .iter()
-                .map(|s| s.radiance[1] + s.radiance[0])
-                .collect();
-            for i in (1..v.len()).rev() {
-                v.swap(i, (rng.next() % (i as u64 + 1)) as usize);
-            }
-            shuffled_differs |= v.iter().sum::<f32>() != fwd;
-        }
-        assert!(shuffled_differs);
-    }
-
-    #[test]
-    fn constant_radiance_resolves_to_the_constant() {
-        let c = [0.3f32, 1.7, 12.5];
-        for filter in [
-            Filter::Box,
-            Filter::default(),
-            Filter::Gaussian {
-                radius: 2.0,
-                sigma: 0.5,
-            },
-        ] {
-            for rec in [Reconstruction::FilterImportance, Reconstruction::Splat] {
-                let mut f = film(6, 5, filter, rec);
-                let mut rng = Rng(11);
-                let sampler = filter.sampler();
-                for y in 0..5 {
-                    for x in 0..6 {
-                        for _ in 0..8 {
-                            let offset = match rec {
-                                Reconstruction::FilterImportance => {
-                                    sampler.sample([rng.f(), rng.f()])
-                                }
-                                Reconstruction::Splat => [rng.f() - 0.5, rng.f() - 0.5],
-                            };
-                            f.add_sample(&FilmSample {
-                                pixel: [x, y],
-                                offset,
-                                radiance: c,
-                                alpha: 1.0,
-                                depth: 4.25,
-                                normal: [0.0, 1.0, 0.0],
-                                albedo: [0.5, 0.25, 0.125],
-                            })
-                            .unwrap();
-                        }
-                    }
-                }
-                let img = f.resolve();
-                for (i, p) in img.rgba.iter().enumerate() {
-                    assert_eq!(*p, [c[0], c[1], c[2], 1.0], "{filter:?} {rec:?} pixel {i}");
-                    assert_eq!(img.depth.as_ref().unwrap()[i], 4.25);
-                    assert_eq!(img.normal.as_ref().unwrap()[i], [0.0, 1.0, 0.0]);
-                    assert_eq!(img.albedo.as_ref().unwrap()[i], [0.5, 0.25, 0.125]);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn coverage_and_background() {
-        let mut f = film(2, 1, Filter::Box, Reconstruction::FilterImportance);
-        let hit = FilmSample {
-            pixel: [0, 0],
-            radiance: [1.0, 1.0, 1.0],
-            alpha: 1.0,
-            depth: 2.0,
-            normal: [0.0, 0.0, 1.0],
-            ..Default::default()
-        };
-        let miss = FilmSample {
-            pixel: [0, 0],
-            depth: f32::INFINITY,
-            ..Default::default()
-        };
-        f.add_samples(&[hit, miss, hit, miss]).unwrap();
-        let img = f.resolve();
-        assert_eq!(img.rgba[0], [0.5, 0.5, 0.5, 0.5]);
-        assert_eq!(
-            img.depth.as_ref().unwrap()[0],
-            2.0,
-            "depth averages hits only"
-        );
-        assert_eq!(
-            img.normal.as_ref().unwrap()[0],
-            [0.0, 0.0, 0.5],
-            "premultiplied"
-        );
-        assert_eq!(img.rgba[1], [0.0; 4], "unsampled pixel");
-        assert_eq!(img.depth.as_ref().unwrap()[1], BACKGROUND_DEPTH);
-    }
-
-    #[test]
-    fn bad_samples_are_dropped_or_refused() {
-        let mut f = film(2, 2, Filter::default(), Reconstruction::FilterImportance);
-        let nan = FilmSample {
-            radiance: [f32::NAN, 0.0, 0.0],
-            alpha: 1.0,
-            ..Default::default()
-        };
-        f.add_sample(&nan).unwrap();
-        assert_eq!(f.stats().rejected_nonfinite, 1);
-        assert_eq!(f.resolve().rgba[0], [0.0; 4]);
-        assert_eq!(f.stats().warnings().len(), 1);
-        let outside = FilmSample {
-            pixel: [2, 0],
-            ..Default::default()
-        };
-        assert!(matches!(
-            f.add_sample(&outside),
-            Err(FilmError::OutOfBounds { .. })
-        ));
-        let huge = FilmSample {
-            radiance: [1e30, 0.0, 0.0],
-            alpha: 1.0,
-            ..Default::default()
-        };
-        f.add_sample(&huge).unwrap();
-        assert_eq!(f.stats().clamped, 1);
-        assert_eq!(f.resolve().rgba[0][0], MAX_VALUE as f32);
-        assert!(Film::new(0, 4, Filter::Box, Reconstruction::Splat, Aovs::NONE).is_err());
     }
 
     #[test]
@@ -1154,6 +690,34 @@ mod tests {
         assert!((e8 as f64 - want).abs() < 1e-6 * want, "{e8} vs {want}");
         assert!(noise_estimate(color, snapshots, [0.0, 0.0, 0.0, 1.0]).is_infinite());
         assert!(noise_estimate(color, snapshots, [0.0, 0.0, 5.0, 6.0]).is_infinite());
+    }
+
+    #[test]
+    fn resolve_takes_the_mean_of_the_kept_samples() {
+        // Pixel 0: 4 samples, 1 dropped, 3 kept, hit at depths summing to
+        // 6 over weight 2. Pixel 1: every sample dropped.
+        let acc = Accumulated {
+            color: vec![[3.0, 6.0, 1.5, 3.0], [0.0; 4]],
+            normal: vec![[0.0, 3.0, 0.0, 0.0], [0.0; 4]],
+            albedo: vec![[1.5, 1.5, 1.5, 0.0], [0.0; 4]],
+            snapshots: vec![[0.0; 4]; 4],
+            aux: vec![[6.0, 2.0, 1.0, 4.0], [0.0, 0.0, 2.0, 2.0]],
+            rays: vec![9, 4],
+        };
+        let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
+        let r = resolve(&acc, 2, 1, every);
+        assert_eq!(r.image.rgba[0], [1.0, 2.0, 0.5, 1.0]);
+        assert_eq!(r.image.normal.as_ref().unwrap()[0], [0.0, 1.0, 0.0]);
+        assert_eq!(r.image.albedo.as_ref().unwrap()[0], [0.5, 0.5, 0.5]);
+        assert_eq!(r.image.depth.as_ref().unwrap()[0], 3.0);
+        assert_eq!(r.image.rgba[1], [0.0; 4]);
+        assert_eq!(r.image.depth.as_ref().unwrap()[1], BACKGROUND_DEPTH);
+        assert_eq!(r.image.sample_count.as_ref().unwrap()[..], [4.0, 2.0]);
+        assert_eq!(r.image.rays.as_ref().unwrap()[..], [9.0, 4.0]);
+        assert_eq!((r.dropped, r.taken), (3, 6));
+        assert_eq!(r.counts, [4, 2]);
+        // Fewer than two kept samples: no estimate.
+        assert!(r.estimates[1].is_infinite());
     }
 
     #[test]

@@ -33,7 +33,7 @@ use soupray::kernels::{generated_headers, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{motion_defines, pathtrace_defines, LayerDefines, Traversal};
+use soupray::trace::render::{motion_defines, pathtrace_defines, Lobes, Traversal, LOBES};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -209,14 +209,16 @@ fn variants() -> Vec<Variant> {
                             transmission,
                             compensation,
                             compensation,
-                            LayerDefines {
-                                clearcoat: compensation,
-                                sheen: compensation,
-                                diffuse_transmission: compensation && transmission,
-                                iridescence: compensation && transmission,
-                                anisotropy: compensation && transmission,
-                                dispersion: compensation && transmission,
-                            },
+                            // Every lobe with compensation, those that
+                            // build on the dielectric with transmission.
+                            LOBES
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, l)| {
+                                    compensation && (transmission || !l.with_transmission)
+                                })
+                                .map(|(i, _)| i)
+                                .collect::<Lobes>(),
                         );
                         v.push(Variant {
                             entry: "pathtrace.cl",
@@ -291,30 +293,14 @@ fn variants() -> Vec<Variant> {
         defines: vec![("HAS_TRANSMISSION", "1".to_owned())],
         codegen: true,
     });
-    // Each layer alone, with and without the dielectric extensions (the
-    // kernels read only the fields their defines declare), and diffuse
-    // transmission, iridescence, and anisotropy with dispersion, each with
-    // the dielectric extensions they come with.
-    for (clearcoat, sheen, diffuse_transmission, iridescence, anisotropy) in [
-        (true, false, false, false, false),
-        (false, true, false, false, false),
-        (false, false, true, false, false),
-        (false, false, false, true, false),
-        (false, false, false, false, true),
-    ] {
-        let needs_transmission = diffuse_transmission || iridescence || anisotropy;
+    // Each lobe alone, with and without the dielectric extensions (the
+    // kernels read only the fields their defines declare), those that build
+    // on them with them only.
+    for (i, lobe) in LOBES.iter().enumerate() {
         for transmission in [false, true] {
-            if needs_transmission && !transmission {
+            if lobe.with_transmission && !transmission {
                 continue;
             }
-            let layers = LayerDefines {
-                clearcoat,
-                sheen,
-                diffuse_transmission,
-                iridescence,
-                anisotropy,
-                dispersion: anisotropy,
-            };
             v.push(Variant {
                 entry: "pathtrace.cl",
                 defines: pathtrace_defines(
@@ -324,27 +310,14 @@ fn variants() -> Vec<Variant> {
                     transmission,
                     false,
                     false,
-                    layers,
+                    Lobes::only(i),
                 ),
                 codegen: true,
             });
-            // HAS_DIFFUSE_TRANSMISSION, HAS_IRIDESCENCE or HAS_ANISOTROPY
-            // alone: bsdf.h defines HAS_TRANSMISSION with them.
-            let mut probe = vec![(
-                if clearcoat {
-                    "HAS_CLEARCOAT"
-                } else if sheen {
-                    "HAS_SHEEN"
-                } else if diffuse_transmission {
-                    "HAS_DIFFUSE_TRANSMISSION"
-                } else if iridescence {
-                    "HAS_IRIDESCENCE"
-                } else {
-                    "HAS_ANISOTROPY"
-                },
-                "1".to_owned(),
-            )];
-            if transmission && !needs_transmission {
+            // The probe with the lobe's define alone: bsdf.h defines
+            // HAS_TRANSMISSION with those that build on it.
+            let mut probe = vec![(lobe.define, "1".to_owned())];
+            if transmission && !lobe.with_transmission {
                 probe.push(("HAS_TRANSMISSION", "1".to_owned()));
             }
             v.push(Variant {
@@ -356,16 +329,14 @@ fn variants() -> Vec<Variant> {
     }
     v.push(Variant {
         entry: "pt_probe.cl",
-        defines: vec![
-            ("HAS_CLEARCOAT", "1".to_owned()),
-            ("HAS_SHEEN", "1".to_owned()),
-            ("HAS_TRANSMISSION", "1".to_owned()),
-            ("HAS_DIFFUSE_TRANSMISSION", "1".to_owned()),
-            ("HAS_IRIDESCENCE", "1".to_owned()),
-            ("HAS_ANISOTROPY", "1".to_owned()),
-            ("HAS_DISPERSION", "1".to_owned()),
-            ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
-        ],
+        defines: Lobes::ALL
+            .iter()
+            .map(|lobe| (lobe.define, "1".to_owned()))
+            .chain([
+                ("HAS_TRANSMISSION", "1".to_owned()),
+                ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
+            ])
+            .collect(),
         codegen: true,
     });
     for entry in ["texture_probe.cl", STRUCT_PROBE] {

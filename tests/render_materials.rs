@@ -566,7 +566,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
     // Only what the scene needs: CesiumMan uses none of the extensions, so
     // its program is built with exactly the defines it had before them.
     use soupray::scene::{LoadOptions, Scene};
-    use soupray::trace::render::{material_features, pathtrace_defines, LayerDefines, Traversal};
+    use soupray::trace::render::{material_features, pathtrace_defines, Lobes, Traversal};
     use soupray::trace::sampling::Sampler;
     let Some(path) = common::shared::cesium_man() else {
         return;
@@ -586,7 +586,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
         false,
         false,
         false,
-        LayerDefines::of(table),
+        Lobes::of(table),
     )
     .iter()
     .map(|(n, _)| *n)

@@ -42,7 +42,7 @@
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by
 // xmag and ymag.
-// `DeviceCamera` in src/trace/render.rs (80 bytes).
+// `DeviceCamera` in src/trace/render/upload.rs (80 bytes).
 typedef struct {
     float origin[4];
     float right[4];
@@ -61,7 +61,7 @@ typedef struct {
 // `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
 // the emissive triangles and the environment (0 when not an entry), which
 // MIS needs when a BSDF-sampled ray hits them.
-// `DeviceFrame` in src/trace/render.rs (64 bytes).
+// `DeviceFrame` in src/trace/render/upload.rs (64 bytes).
 typedef struct {
     uint seed_lo;
     uint seed_hi;

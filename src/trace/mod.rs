@@ -32,6 +32,7 @@ pub mod media;
 pub mod motion;
 pub mod render;
 pub mod sampling;
+pub mod settings;
 pub mod texture;
 pub mod traverse;
 pub mod wide;

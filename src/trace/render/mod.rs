@@ -1,0 +1,830 @@
+//! The frame renderer: `PathTracer` runs `kernels/trace/pathtrace.cl` (path
+//! tracing with next-event estimation and MIS, Russian roulette) over a
+//! frame's device soup and BVH and returns the resolved image with its
+//! AOVs, the number of rays traced and the device time.
+//!
+//! Made once per scene (`PathTracer::new`): the program, compiled for what
+//! the scene needs (traversal kind, textures or none), the material table,
+//! the textures, the environment map and the film's filter table. Per frame
+//! (`render`): the tree, camera, punctual lights and — when some material
+//! emits — the emissive triangles' power distribution, computed on the
+//! device and turned into a CDF on the host. Buffers are reused from frame
+//! to frame and only grow.
+//!
+//! Scheduling and determinism: the samples of a frame are split into sample
+//! passes and the image into tiles; one launch runs one pass over one tile,
+//! a work-item per pixel, adding that pass's samples to the pixel's sums in
+//! sample order. Random numbers are keyed by (seed, frame, pixel, sample,
+//! dimension). So the image is the same bit for bit on one device whatever
+//! the tiles and pass sizes (`set_schedule`), and whichever frames a run
+//! renders. Passes are queued ahead so the device never waits for the host;
+//! `progress` is called as each pass completes.
+//!
+//! `render_soup` renders a host `Soup` with a material table, camera and
+//! lights without a glTF file (tests, analytic scenes).
+
+mod passes;
+mod program;
+mod upload;
+
+pub use super::settings::{
+    check_counts, Adaptive, Allocation, Environment, RenderSettings, Schedule, Traversal,
+    ADAPTIVE_STEP,
+};
+use program::Kernels;
+pub use program::{material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES};
+use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
+pub use upload::{device_camera, frame_consts, DeviceCamera, DeviceFrame};
+
+use opencl3::memory::Buffer;
+
+use super::device::TreeLayouts;
+use super::lights::{DeviceEnv, DeviceLight, EnvMap};
+use super::material::{
+    device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt, MAT_CULL_BACK,
+    MAT_DOUBLE_SIDED,
+};
+use super::texture::{Slot, TextureBinding, TextureSet};
+use super::TraceError;
+use crate::bvh::device_builder::DeviceBuilder;
+use crate::bvh::{BuildParams, Bvh};
+use crate::device::{Arg, Device, GrowBuffer};
+use crate::film::{self, Image, NoiseStats};
+use crate::scene::{FrameCamera, FrameLight, MaterialTable, Scene};
+use crate::soup::device::DeviceSoup;
+use crate::soup::Soup;
+
+/// One frame to render: its soup and tree on the device, camera and lights.
+pub struct FrameInput<'a> {
+    pub frame: i64,
+    pub soup: &'a DeviceSoup<'a>,
+    pub bvh: &'a Bvh,
+    /// The tree's primitive-index array on the device
+    /// (`DeviceBuilder::device_prim_ids`).
+    pub prim_ids: &'a Buffer<u32>,
+    pub camera: &'a FrameCamera,
+    pub lights: &'a [FrameLight],
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub image: Image,
+    /// Rays traced: camera, bounce and shadow rays, and continuations
+    /// through cut-out or culled surfaces.
+    pub rays: u64,
+    /// Rays traced per pixel, row by row (the work `film::stop_threshold`
+    /// weighs a pixel's error by).
+    pub pixel_rays: Vec<u32>,
+    /// Device time of the frame's path tracing launches (profiling events).
+    pub trace_ms: f64,
+    /// The frame's estimated error and samples (the log's `noise`).
+    pub noise: NoiseStats,
+    pub warnings: Vec<String>,
+}
+
+impl RenderOutput {
+    /// Millions of rays per second of device time.
+    pub fn mrays_per_s(&self) -> f64 {
+        if self.trace_ms > 0.0 {
+            self.rays as f64 / (self.trace_ms * 1e3)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A frame's soup on the device, whoever made it.
+struct SoupBuffers<'a> {
+    positions: &'a Buffer<[f32; 4]>,
+    normals: Option<&'a Buffer<[f32; 4]>>,
+    uvs: Option<&'a Buffer<[f32; 2]>>,
+    uvs1: Option<&'a Buffer<[f32; 2]>>,
+    colors: Option<&'a Buffer<[f32; 4]>>,
+    material_ids: &'a Buffer<u32>,
+    triangles: usize,
+}
+
+/// A frame that moves within the shutter, for `PathTracer::render_motion`:
+/// the soup at each motion step on the device (`trace::motion` gives the
+/// layout), its tree built over `motion_bounds`, and the camera at each
+/// step. Lights are those of the frame's instant.
+pub struct MotionFrame<'a> {
+    /// Positions at every step, `steps * 3 * triangles` corners.
+    pub positions: &'a Buffer<[f32; 4]>,
+    /// Shading normals at every step, when the soup has normals.
+    pub normals: Option<&'a Buffer<[f32; 4]>>,
+    /// Motion steps, at least 2.
+    pub steps: u32,
+    /// The camera at each step.
+    pub cameras: &'a [FrameCamera],
+    /// The punctual lights at each step (each as many as `FrameInput`'s),
+    /// or empty: the frame's lights throughout.
+    pub lights: &'a [Vec<FrameLight>],
+}
+
+/// A motion frame's steps as `render_buffers` takes them: the count, the
+/// camera at each step and the lights at each step (or none: the frame's).
+type MotionSteps<'a> = (u32, &'a [FrameCamera], &'a [Vec<FrameLight>]);
+
+/// The path tracer of one scene on one device.
+pub struct PathTracer<'d> {
+    device: &'d Device,
+    settings: RenderSettings,
+    schedule: Schedule,
+    kernels: Kernels,
+    materials: Buffer<DeviceMaterial>,
+    material_count: u32,
+    any_emissive: bool,
+    textures: Option<(TextureSet<'d>, Buffer<TextureBinding>)>,
+    /// The material extensions' table, when compiled in (`HAS_TRANSMISSION`,
+    /// `HAS_CLEARCOAT`, `HAS_SHEEN`).
+    material_exts: Option<Buffer<DeviceMaterialExt>>,
+    /// The material features compiled in (`material_features`).
+    features: Vec<&'static str>,
+    env_map: Option<EnvBuffers>,
+    filter: Buffer<f32>,
+    camera: Buffer<DeviceCamera>,
+    frame: Buffer<DeviceFrame>,
+    env: Buffer<DeviceEnv>,
+    dummy_f32: Buffer<f32>,
+    dummy_u32: Buffer<u32>,
+    dummy_f4: Buffer<[f32; 4]>,
+    /// The frame's tree in the layout of `settings.traversal`.
+    layouts: TreeLayouts,
+    lights: GrowBuffer<DeviceLight>,
+    power: GrowBuffer<f32>,
+    power_host: Vec<f32>,
+    emit_prims: GrowBuffer<u32>,
+    emit_cdf: GrowBuffer<f32>,
+    emit_pmf: GrowBuffer<f32>,
+    select_cdf: GrowBuffer<f32>,
+    accum_color: GrowBuffer<[f32; 4]>,
+    accum_normal: GrowBuffer<[f32; 4]>,
+    accum_albedo: GrowBuffer<[f32; 4]>,
+    accum_aux: GrowBuffer<[f32; 4]>,
+    ray_counts: GrowBuffer<u32>,
+    /// Two per pixel: the running sums at the last two powers of two (the
+    /// noise estimate's first part; `film::noise_estimate`).
+    accum_snapshots: GrowBuffer<[f32; 4]>,
+    /// Per pixel: 1 while it takes samples (adaptive sampling).
+    active: GrowBuffer<u32>,
+    unconverged: GrowBuffer<u32>,
+    /// The pixels still active after the last check, for compact launches.
+    pixel_list: GrowBuffer<u32>,
+    /// Warnings of `new`, repeated in the first frame's output.
+    setup_warnings: Vec<String>,
+    /// Host soup uploads for `render_soup`.
+    host_soup: Option<HostSoupBuffers>,
+    /// The program's defines, for compiling its motion-blur variant.
+    defines: Vec<(&'static str, String)>,
+    /// `pathtrace.cl` with MOTION_BLUR, compiled at the first frame that
+    /// moves within its shutter.
+    motion_kernels: Option<Kernels>,
+    /// The camera at each motion step.
+    motion_cameras: GrowBuffer<DeviceCamera>,
+}
+
+struct HostSoupBuffers {
+    positions: GrowBuffer<[f32; 4]>,
+    normals: GrowBuffer<[f32; 4]>,
+    uvs: GrowBuffer<[f32; 2]>,
+    uvs1: GrowBuffer<[f32; 2]>,
+    colors: GrowBuffer<[f32; 4]>,
+    material_ids: GrowBuffer<u32>,
+}
+
+/// The kernel argument for an optional buffer: the buffer, or `dummy`.
+fn or_dummy<'b, T>(buffer: Option<&'b Buffer<T>>, dummy: &'b Buffer<f32>) -> Arg<'b> {
+    match buffer {
+        Some(b) => Arg::Buf(b),
+        None => Arg::Buf(dummy),
+    }
+}
+
+fn usage(msg: String) -> TraceError {
+    TraceError::Unsupported(msg)
+}
+
+impl<'d> PathTracer<'d> {
+    /// The material features compiled in (`material_features`).
+    pub fn material_features(&self) -> &[&'static str] {
+        &self.features
+    }
+
+    /// Compiles the kernels for what the scene needs and uploads its
+    /// materials, textures and the environment once.
+    pub fn new(
+        device: &'d Device,
+        scene: &Scene,
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        // A scene that animates its materials (KHR_animation_pointer)
+        // compiles in every feature the materials have at some key, and
+        // has them re-uploaded per frame (`set_materials`).
+        let animated: Vec<crate::scene::Material> = if scene.has_material_animation() {
+            scene
+                .material_key_times()
+                .into_iter()
+                .filter_map(|t| scene.materials_at(t))
+                .flatten()
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self::with_animated_materials(device, scene.materials(), &animated, settings)
+    }
+
+    /// As `new`, from a material table alone (scenes made in code).
+    pub fn with_materials(
+        device: &'d Device,
+        table: &MaterialTable,
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        Self::with_animated_materials(device, table, &[], settings)
+    }
+
+    /// As `with_materials`, compiling in also the features of `animated`:
+    /// other values the table's materials take over the clip, which
+    /// `set_materials` uploads later.
+    pub fn with_animated_materials(
+        device: &'d Device,
+        table: &MaterialTable,
+        animated: &[crate::scene::Material],
+        settings: &RenderSettings,
+    ) -> Result<Self, TraceError> {
+        if settings.width == 0
+            || settings.height == 0
+            || settings.width > 65536
+            || settings.height > 65536
+        {
+            return Err(usage(format!(
+                "render size {}x{}: both sides must be 1 to 65536 pixels (--width, --height)",
+                settings.width, settings.height
+            )));
+        }
+        if settings.spp == 0 {
+            return Err(usage(
+                "--spp 0: at least one sample per pixel is needed".into(),
+            ));
+        }
+        let mut warnings = Vec::new();
+        let mut host_materials = device_materials(table);
+        if settings.backface_culling {
+            for m in &mut host_materials {
+                if m.flags & MAT_DOUBLE_SIDED == 0 {
+                    m.flags |= MAT_CULL_BACK;
+                }
+            }
+        }
+
+        // What the kernels are compiled for: the table's materials and the
+        // values animation gives them.
+        let with_animated;
+        let features_of = if animated.is_empty() {
+            table
+        } else {
+            with_animated = MaterialTable {
+                materials: table.materials.iter().chain(animated).cloned().collect(),
+                textures: table.textures.clone(),
+                images: Vec::new(),
+                default_material: table.default_material,
+            };
+            &with_animated
+        };
+        let transmission = features_of.materials.iter().any(|m| m.needs_transmission());
+        // The dielectric extensions' table (`HAS_TRANSMISSION` kernels only),
+        // its texture slots filled below.
+        let lobes = Lobes::of(features_of);
+        let mut host_exts =
+            (transmission || !lobes.is_empty()).then(|| device_material_exts(table));
+        // The slots the kernels read: the extensions' only where their code
+        // is compiled in.
+        let mut slots: Vec<Slot> = Slot::BASE.to_vec();
+        if transmission {
+            slots.extend(Slot::DIELECTRIC);
+        }
+        for lobe in lobes.iter() {
+            slots.extend(lobe.slots);
+        }
+        let slots = &slots[..];
+
+        // Textures: only when some material samples one (and not in clay
+        // mode, where only alpha cut-outs would need them: those are kept).
+        let mut textures = None;
+        let textured = table
+            .materials
+            .iter()
+            .any(|m| slots.iter().any(|s| s.of(m).is_some()));
+        if textured {
+            match TextureSet::with_slots(device, table, slots) {
+                Ok(set) if !set.is_empty() => {
+                    // Four bindings per material (`PtMaterial`), then
+                    // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
+                    // (those of slots outside `slots` stay -1).
+                    let bindings = bind_textures(
+                        &set,
+                        &table.materials,
+                        &mut host_materials,
+                        host_exts.as_deref_mut(),
+                    );
+                    let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
+                    device.write(&mut buf, &bindings)?;
+                    textures = Some((set, buf));
+                }
+                Ok(_) => {}
+                Err(e) => warnings.push(format!(
+                    "textures are not used ({e}); materials are rendered with their factors only"
+                )),
+            }
+        }
+
+        // Clay is a pure Lambertian: no GGX lobe to compensate.
+        let compensation = settings.energy_compensation && !settings.clay;
+        let features = material_features(features_of, textures.is_some(), compensation);
+        let defines = pathtrace_defines(
+            settings.traversal,
+            textures.is_some(),
+            settings.sampler,
+            transmission,
+            compensation,
+            features_of.materials.iter().any(|m| m.unlit),
+            lobes,
+        );
+        let kernels = Kernels::build(device, &defines)?;
+
+        let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
+        device.write(&mut materials, &host_materials)?;
+        let material_exts = match host_exts {
+            Some(exts) => {
+                let mut buf = device.buffer::<DeviceMaterialExt>(exts.len())?;
+                device.write(&mut buf, &exts)?;
+                Some(buf)
+            }
+            None => None,
+        };
+        let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
+
+        let env_map = match &settings.environment {
+            Environment::Map(path) => Some(upload_env_map(device, &EnvMap::load(path)?)?),
+            Environment::Color(c) => {
+                if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                    return Err(usage(format!(
+                        "--env-color {c:?}: the radiance must be three finite, non-negative numbers"
+                    )));
+                }
+                None
+            }
+            Environment::Default => None,
+        };
+
+        let table_f = film::Filter::default().sampler().table().to_vec();
+        let mut filter = device.buffer::<f32>(table_f.len())?;
+        device.write(&mut filter, &table_f)?;
+        let mut dummy_f32 = device.buffer::<f32>(4)?;
+        device.write(&mut dummy_f32, &[0.0f32; 4])?;
+        let mut dummy_u32 = device.buffer::<u32>(4)?;
+        device.write(&mut dummy_u32, &[0u32; 4])?;
+        let mut dummy_f4 = device.buffer::<[f32; 4]>(1)?;
+        device.write(&mut dummy_f4, &[[0.0f32; 4]])?;
+
+        Ok(PathTracer {
+            device,
+            settings: settings.clone(),
+            schedule: Schedule::default(),
+            kernels,
+            materials,
+            material_count: host_materials.len() as u32,
+            any_emissive,
+            textures,
+            material_exts,
+            features,
+            env_map,
+            filter,
+            camera: device.buffer(1)?,
+            frame: device.buffer(1)?,
+            env: device.buffer(1)?,
+            dummy_f32,
+            dummy_u32,
+            dummy_f4,
+            layouts: TreeLayouts::default(),
+            lights: GrowBuffer::new(),
+            power: GrowBuffer::new(),
+            power_host: Vec::new(),
+            emit_prims: GrowBuffer::new(),
+            emit_cdf: GrowBuffer::new(),
+            emit_pmf: GrowBuffer::new(),
+            select_cdf: GrowBuffer::new(),
+            accum_color: GrowBuffer::new(),
+            accum_normal: GrowBuffer::new(),
+            accum_albedo: GrowBuffer::new(),
+            accum_aux: GrowBuffer::new(),
+            ray_counts: GrowBuffer::new(),
+            accum_snapshots: GrowBuffer::new(),
+            active: GrowBuffer::new(),
+            unconverged: GrowBuffer::new(),
+            pixel_list: GrowBuffer::new(),
+            setup_warnings: warnings,
+            host_soup: None,
+            defines,
+            motion_kernels: None,
+            motion_cameras: GrowBuffer::new(),
+        })
+    }
+
+    /// Replaces the materials' factors (and texture transforms) with
+    /// `materials`, the same materials at another time of an animation
+    /// (`Scene::materials_at`): the material buffers, the extension table
+    /// and the texture bindings are written again. Only scenes that
+    /// animate materials call it, once per frame; the kernels were
+    /// compiled for every value (`with_animated_materials`).
+    pub fn set_materials(
+        &mut self,
+        materials: Vec<crate::scene::Material>,
+    ) -> Result<(), TraceError> {
+        let table = MaterialTable {
+            materials,
+            ..MaterialTable::default()
+        };
+        let materials = &table.materials;
+        let mut host = device_materials(&table);
+        if host.len() as u32 != self.material_count {
+            return Err(usage(format!(
+                "set_materials: {} materials given, the tracer was made for {}",
+                materials.len(),
+                self.material_count.saturating_sub(1)
+            )));
+        }
+        let mut exts = self
+            .material_exts
+            .is_some()
+            .then(|| device_material_exts(&table));
+        if let Some((set, buf)) = &mut self.textures {
+            let bindings = bind_textures(set, materials, &mut host, exts.as_deref_mut());
+            self.device.write(buf, &bindings)?;
+        }
+        self.device.write(&mut self.materials, &host)?;
+        if let (Some(buf), Some(e)) = (&mut self.material_exts, &exts) {
+            self.device.write(buf, e)?;
+        }
+        self.any_emissive = host.iter().any(DeviceMaterial::emits);
+        Ok(())
+    }
+
+    /// Changes how frames are cut into launches (the image does not change).
+    pub fn set_schedule(&mut self, schedule: Schedule) {
+        self.schedule = schedule;
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// Whether the program was compiled with texture sampling.
+    pub fn has_textures(&self) -> bool {
+        self.textures.is_some()
+    }
+
+    /// Renders one frame; `progress(samples_done)` is called between
+    /// sample passes.
+    /// Renders `frame` at one sample per pixel and throws the image away:
+    /// every kernel of a frame is then launched once, with the real frames'
+    /// work-group and grid sizes, so a driver that compiles kernels at their
+    /// first launch (PoCL) does it here, in the run's start-up, and not in
+    /// the first frame's trace time. (An 8x8-pixel pass was not enough: on
+    /// PoCL 3.1 the first full-size frame still traced 1 s slower, a second
+    /// specialisation of the kernel.) Costs 1/spp of a frame's trace.
+    pub fn warm_up(&mut self, frame: &FrameInput) -> Result<(), TraceError> {
+        let saved = self.settings.clone();
+        let warnings = self.setup_warnings.clone();
+        self.settings.spp = 1;
+        let result = self.render(frame, &mut |_| {});
+        self.settings = saved;
+        self.setup_warnings = warnings;
+        result.map(|_| ())
+    }
+
+    pub fn render(
+        &mut self,
+        frame: &FrameInput,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let soup = SoupBuffers {
+            positions: frame.soup.positions(),
+            normals: frame.soup.normals(),
+            uvs: frame.soup.uvs(),
+            uvs1: frame.soup.uvs1(),
+            colors: frame.soup.colors(),
+            material_ids: frame.soup.material_ids(),
+            triangles: frame.soup.triangle_count(),
+        };
+        self.render_buffers(
+            &soup,
+            frame.bvh,
+            frame.prim_ids,
+            frame.camera,
+            frame.lights,
+            frame.frame,
+            None,
+            progress,
+        )
+    }
+
+    /// Compiles the motion-blur variant of the program, once.
+    pub fn prepare_motion(&mut self) -> Result<(), TraceError> {
+        if self.motion_kernels.is_none() {
+            let defines = motion_defines(self.defines.clone());
+            self.motion_kernels = Some(Kernels::build(self.device, &defines)?);
+        }
+        Ok(())
+    }
+
+    /// Renders a frame that moves within the shutter: `frame.bvh` and
+    /// `frame.prim_ids` are the tree over the triangles' bounds at every
+    /// step, `motion` the soup and camera at each step (`frame.soup`
+    /// supplies the uvs and material ids, which do not move). Each camera
+    /// sample draws a time in the shutter (sampler set 0, dimension 2) and
+    /// its whole path sees the scene at that time.
+    pub fn render_motion(
+        &mut self,
+        frame: &FrameInput,
+        motion: &MotionFrame,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let soup = SoupBuffers {
+            positions: motion.positions,
+            normals: motion.normals,
+            uvs: frame.soup.uvs(),
+            uvs1: frame.soup.uvs1(),
+            colors: frame.soup.colors(),
+            material_ids: frame.soup.material_ids(),
+            triangles: frame.soup.triangle_count(),
+        };
+        self.render_buffers(
+            &soup,
+            frame.bvh,
+            frame.prim_ids,
+            frame.camera,
+            frame.lights,
+            frame.frame,
+            Some((motion.steps, motion.cameras, motion.lights)),
+            progress,
+        )
+    }
+
+    /// `render_motion` at one sample per pixel, the image thrown away (the
+    /// motion program's first launch, as `warm_up`).
+    pub fn warm_up_motion(
+        &mut self,
+        frame: &FrameInput,
+        motion: &MotionFrame,
+    ) -> Result<(), TraceError> {
+        let saved = self.settings.clone();
+        let warnings = self.setup_warnings.clone();
+        self.settings.spp = 1;
+        let result = self.render_motion(frame, motion, &mut |_| {});
+        self.settings = saved;
+        self.setup_warnings = warnings;
+        result.map(|_| ())
+    }
+
+    /// Renders host soups at `steps.len()` >= 2 motion steps (same
+    /// triangles, uvs and materials in each; `cameras` one per step, and
+    /// `lights` the punctual lights at each step or none at all), their
+    /// tree built here on the device over the triangles' bounds at every
+    /// step (`motion::motion_bounds`). For tests and tools; the renderer
+    /// keeps everything on the device with `render_motion`.
+    pub fn render_motion_soup(
+        &mut self,
+        steps: &[Soup],
+        cameras: &[FrameCamera],
+        lights: &[Vec<FrameLight>],
+        frame: i64,
+    ) -> Result<RenderOutput, TraceError> {
+        let count = steps.len();
+        if count < 2 || cameras.len() != count || !(lights.is_empty() || lights.len() == count) {
+            return Err(usage(format!(
+                "render_motion_soup: {count} soups, {} cameras and {} light sets; give at least 2 steps, \
+                 one camera per step and one light set per step (or none)",
+                cameras.len(),
+                lights.len()
+            )));
+        }
+        let n = steps[0].triangle_count();
+        if steps.iter().any(|s| s.triangle_count() != n) {
+            return Err(usage(
+                "render_motion_soup: every step must have the same triangles".into(),
+            ));
+        }
+        let mut positions: Vec<[f32; 4]> = Vec::with_capacity(3 * n * count);
+        for s in steps {
+            positions.extend_from_slice(&s.positions);
+        }
+        let normals: Option<Vec<[f32; 4]>> =
+            (n > 0 && steps.iter().all(|s| s.normals.len() == 3 * n)).then(|| {
+                steps
+                    .iter()
+                    .flat_map(|s| s.normals.iter().copied())
+                    .collect()
+            });
+        let bounds = Soup {
+            positions: super::motion::motion_bounds(&positions, n, count as u32),
+            ..Soup::default()
+        };
+        self.prepare_motion()?;
+        self.render_host(
+            &bounds,
+            &positions,
+            normals.as_deref(),
+            &steps[0],
+            &cameras[count / 2],
+            lights.get(count / 2).map_or(&[], |l| l.as_slice()),
+            frame,
+            Some((count as u32, cameras, lights)),
+        )
+    }
+
+    /// Renders a host soup (uploaded into buffers kept for the next call)
+    /// whose tree is built here on the device. Missing material ids mean
+    /// material 0 of the table (or the default material when it is empty).
+    pub fn render_soup(
+        &mut self,
+        soup: &Soup,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame: i64,
+    ) -> Result<RenderOutput, TraceError> {
+        let n = soup.triangle_count();
+        let normals = (soup.normals.len() == 3 * n && n > 0).then_some(soup.normals.as_slice());
+        self.render_host(
+            soup,
+            &soup.positions,
+            normals,
+            soup,
+            camera,
+            lights,
+            frame,
+            None,
+        )
+    }
+
+    /// The host-soup path of `render_soup` and `render_motion_soup`: builds
+    /// the tree over `tree`'s triangles, uploads `positions` and `normals`
+    /// (one soup's, or every motion step's side by side) with `first`'s
+    /// texture coordinates and material ids into the buffers kept for the
+    /// next call, and renders.
+    #[allow(clippy::too_many_arguments)]
+    fn render_host(
+        &mut self,
+        tree: &Soup,
+        positions: &[[f32; 4]],
+        normals: Option<&[[f32; 4]]>,
+        first: &Soup,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame: i64,
+        motion: Option<MotionSteps>,
+    ) -> Result<RenderOutput, TraceError> {
+        let n = first.triangle_count();
+        let d = self.device;
+        let mut builder = DeviceBuilder::new(d, BuildParams::default())
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        let (bvh, _) = builder
+            .build(tree)
+            .map_err(|e| usage(format!("BVH build: {e}")))?;
+        let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
+            positions: GrowBuffer::new(),
+            normals: GrowBuffer::new(),
+            uvs: GrowBuffer::new(),
+            uvs1: GrowBuffer::new(),
+            colors: GrowBuffer::new(),
+            material_ids: GrowBuffer::new(),
+        });
+        let result = (|| {
+            d.write(hs.positions.ensure(d, positions.len().max(1))?, positions)?;
+            if let Some(normals) = normals {
+                d.write(hs.normals.ensure(d, normals.len())?, normals)?;
+            }
+            let has_uvs = first.uvs.len() == 3 * n && n > 0;
+            if has_uvs {
+                d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
+            }
+            let has_uvs1 = first.uvs1.len() == 3 * n && n > 0;
+            if has_uvs1 {
+                d.write(hs.uvs1.ensure(d, 3 * n)?, &first.uvs1)?;
+            }
+            let has_colors = first.colors.len() == 3 * n && n > 0;
+            if has_colors {
+                d.write(hs.colors.ensure(d, 3 * n)?, &first.colors)?;
+            }
+            let ids = if first.material_ids.len() == n {
+                first.material_ids.clone()
+            } else {
+                vec![0; n]
+            };
+            d.write(hs.material_ids.ensure(d, n.max(1))?, &ids)?;
+            let buffers = SoupBuffers {
+                positions: hs.positions.get(),
+                normals: normals.is_some().then(|| hs.normals.get()),
+                uvs: has_uvs.then(|| hs.uvs.get()),
+                uvs1: has_uvs1.then(|| hs.uvs1.get()),
+                colors: has_colors.then(|| hs.colors.get()),
+                material_ids: hs.material_ids.get(),
+                triangles: n,
+            };
+            let prim_ids = builder
+                .device_prim_ids()
+                .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
+            self.render_buffers(
+                &buffers,
+                &bvh,
+                prim_ids,
+                camera,
+                lights,
+                frame,
+                motion,
+                &mut |_| {},
+            )
+        })();
+        self.host_soup = Some(hs);
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn render_buffers(
+        &mut self,
+        soup: &SoupBuffers,
+        bvh: &Bvh,
+        prim_ids: &Buffer<u32>,
+        camera: &FrameCamera,
+        lights: &[FrameLight],
+        frame_index: i64,
+        motion: Option<MotionSteps>,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<RenderOutput, TraceError> {
+        let mut warnings = std::mem::take(&mut self.setup_warnings);
+        let (w, h) = (self.settings.width, self.settings.height);
+        let pixels = w as usize * h as usize;
+
+        // An empty soup has an empty tree: nothing can be hit, and the stack
+        // traversal gets an empty root to read.
+        let empty = soup.triangles == 0 || bvh.nodes.is_empty();
+        let snode_count = self.upload_tree(bvh, empty)?;
+        self.upload_lights(lights, motion)?;
+        let emit = self.upload_emitters(soup)?;
+        let env = self.upload_environment(lights, &mut warnings)?;
+        let flags = self.frame_flags(soup, &mut warnings);
+        let frame = FrameTables {
+            lights,
+            emit: &emit,
+            env: &env,
+            flags,
+            sampler_frame: self.settings.noise_pattern.sampler_frame(frame_index),
+        };
+        self.upload_frame(bvh, &frame)?;
+        let motion_steps = self.upload_cameras(camera, motion)?;
+
+        let first_event = self.clear_accumulators(pixels)?;
+        let passes = self.run_passes(soup, prim_ids, snode_count, empty, motion_steps, progress)?;
+        let trace_ms = self.device_ms_since(first_event);
+
+        let accumulated = self.read_accumulators(pixels)?;
+        let resolved = film::resolve(&accumulated, w, h, self.settings.aovs);
+        if resolved.dropped > 0 {
+            warnings.push(format!(
+                "path tracing: dropped {} of {} samples with NaN or infinite values",
+                resolved.dropped, resolved.taken
+            ));
+        }
+        let noise = passes.noise_stats(
+            self.settings.adaptive,
+            &accumulated.rays,
+            &resolved.estimates,
+            &resolved.counts,
+        );
+        let rays = accumulated.rays;
+        Ok(RenderOutput {
+            image: resolved.image,
+            rays: rays.iter().map(|&r| r as u64).sum(),
+            pixel_rays: rays,
+            trace_ms,
+            noise,
+            warnings,
+        })
+    }
+}
+
+/// Renders a host soup with `table`'s materials (soup material ids index
+/// it), `camera` and `lights`: a tracer made for this one frame.
+pub fn render_soup(
+    device: &Device,
+    soup: &Soup,
+    table: &MaterialTable,
+    camera: &FrameCamera,
+    lights: &[FrameLight],
+    settings: &RenderSettings,
+    frame: i64,
+) -> Result<RenderOutput, TraceError> {
+    let mut pt = PathTracer::with_materials(device, table, settings)?;
+    pt.render_soup(soup, camera, lights, frame)
+}

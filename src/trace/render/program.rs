@@ -1,0 +1,233 @@
+//! Which `pathtrace.cl` a scene compiles: the defines that choose kernel
+//! variants (traversal, sampler, textures, and each material lobe some
+//! material uses), listed once here for the host, the frame log and the
+//! portability test.
+
+use opencl3::kernel::Kernel;
+use opencl3::program::Program;
+
+use crate::bvh::MAX_DEPTH;
+use crate::device::Device;
+use crate::scene::{Material, MaterialTable};
+use crate::trace::sampling::Sampler;
+use crate::trace::settings::Traversal;
+use crate::trace::texture::Slot;
+use crate::trace::TraceError;
+
+pub(super) struct Kernels {
+    pub(super) render: Kernel,
+    pub(super) clear: Kernel,
+    pub(super) converge: Kernel,
+    pub(super) dilate: Kernel,
+    pub(super) emissive_power: Kernel,
+    _program: Program,
+}
+
+impl Kernels {
+    pub(super) fn build(
+        device: &Device,
+        defines: &[(&'static str, String)],
+    ) -> Result<Kernels, TraceError> {
+        let program = device.build_program("pathtrace.cl", defines)?;
+        Ok(Kernels {
+            render: device.kernel(&program, "pt_render")?,
+            clear: device.kernel(&program, "pt_clear")?,
+            converge: device.kernel(&program, "pt_converge")?,
+            dilate: device.kernel(&program, "pt_dilate")?,
+            emissive_power: device.kernel(&program, "pt_emissive_power")?,
+            _program: program,
+        })
+    }
+}
+
+/// The defines `pathtrace.cl` is compiled with, assembled here and nowhere
+/// else (`tests/kernels_portable.rs` compiles every combination with clang).
+pub fn pathtrace_defines(
+    traversal: Traversal,
+    textures: bool,
+    sampler: Sampler,
+    transmission: bool,
+    energy_compensation: bool,
+    unlit: bool,
+    lobes: Lobes,
+) -> Vec<(&'static str, String)> {
+    let mut defines = vec![("STACK_SIZE", (MAX_DEPTH + 1).to_string())];
+    match traversal {
+        Traversal::Stack => {}
+        Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
+        Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
+    }
+    if textures {
+        defines.push(("HAS_TEXTURES", "1".to_owned()));
+    }
+    if let Some(define) = sampler.define() {
+        defines.push((define, "1".to_owned()));
+    }
+    if transmission {
+        defines.push(("HAS_TRANSMISSION", "1".to_owned()));
+    }
+    if energy_compensation {
+        defines.push(("GGX_ENERGY_COMPENSATION", "1".to_owned()));
+    }
+    if unlit {
+        defines.push(("HAS_UNLIT", "1".to_owned()));
+    }
+    defines.extend(lobes.iter().map(|lobe| (lobe.define, "1".to_owned())));
+    defines
+}
+
+/// A lobe of the BSDF compiled into the path tracer only where some
+/// material has it: one row of [`LOBES`]. A new lobe is a new row; the
+/// host's defines, the texture slots it uploads, the frame log's features
+/// and the portability test's variants all read this table.
+pub struct Lobe {
+    /// The define `bsdf.h` tests.
+    pub define: &'static str,
+    /// Its name in the frame log's `features`.
+    pub name: &'static str,
+    /// Whether a material has it.
+    pub used_by: fn(&Material) -> bool,
+    /// The texture slots only its code reads.
+    pub slots: &'static [Slot],
+    /// Its code builds on the dielectric extensions: `bsdf.h` compiles
+    /// `HAS_TRANSMISSION` with it, and a material that has it needs them.
+    pub with_transmission: bool,
+}
+
+/// The optional lobes, in the order their defines are passed: the layers
+/// over the BSDF (clear coat, sheen), the diffuse transmission under it, the
+/// thin film on its Fresnel, the anisotropic specular lobes and the
+/// per-channel indices of dispersive volumes.
+pub const LOBES: [Lobe; 6] = [
+    Lobe {
+        define: "HAS_CLEARCOAT",
+        name: "clearcoat",
+        used_by: Material::has_clearcoat,
+        slots: &Slot::CLEARCOAT,
+        with_transmission: false,
+    },
+    Lobe {
+        define: "HAS_SHEEN",
+        name: "sheen",
+        used_by: Material::has_sheen,
+        slots: &Slot::SHEEN,
+        with_transmission: false,
+    },
+    Lobe {
+        define: "HAS_DIFFUSE_TRANSMISSION",
+        name: "diffuse_transmission",
+        used_by: Material::has_diffuse_transmission,
+        slots: &Slot::DIFFUSE_TRANSMISSION,
+        with_transmission: true,
+    },
+    Lobe {
+        define: "HAS_IRIDESCENCE",
+        name: "iridescence",
+        used_by: Material::has_iridescence,
+        slots: &Slot::IRIDESCENCE,
+        with_transmission: true,
+    },
+    Lobe {
+        define: "HAS_ANISOTROPY",
+        name: "anisotropy",
+        used_by: Material::has_anisotropy,
+        slots: &Slot::ANISOTROPY,
+        with_transmission: true,
+    },
+    Lobe {
+        define: "HAS_DISPERSION",
+        name: "dispersion",
+        used_by: Material::has_dispersion,
+        slots: &[],
+        with_transmission: true,
+    },
+];
+
+/// A set of [`LOBES`], by index.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Lobes(u32);
+
+impl Lobes {
+    /// No optional lobe.
+    pub const NONE: Lobes = Lobes(0);
+    /// Every optional lobe.
+    pub const ALL: Lobes = Lobes((1 << LOBES.len()) - 1);
+
+    /// The lobe `LOBES[index]` alone.
+    pub fn only(index: usize) -> Lobes {
+        Lobes(1 << index)
+    }
+
+    /// The lobes some material of `table` has.
+    pub fn of(table: &MaterialTable) -> Lobes {
+        let mut set = 0;
+        for (i, lobe) in LOBES.iter().enumerate() {
+            if table.materials.iter().any(|m| (lobe.used_by)(m)) {
+                set |= 1 << i;
+            }
+        }
+        Lobes(set)
+    }
+
+    /// The lobes of the set, in `LOBES` order.
+    pub fn iter(self) -> impl Iterator<Item = &'static Lobe> {
+        LOBES
+            .iter()
+            .enumerate()
+            .filter(move |(i, _)| self.0 & (1 << i) != 0)
+            .map(|(_, lobe)| lobe)
+    }
+
+    /// Whether the set holds the lobe named `name`.
+    pub fn has(self, name: &str) -> bool {
+        self.iter().any(|lobe| lobe.name == name)
+    }
+
+    /// Whether any lobe of the set builds on the dielectric extensions.
+    pub fn with_transmission(self) -> bool {
+        self.iter().any(|lobe| lobe.with_transmission)
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// The lobes `LOBES[i]` for each index `i`.
+impl FromIterator<usize> for Lobes {
+    fn from_iter<I: IntoIterator<Item = usize>>(indices: I) -> Lobes {
+        Lobes(indices.into_iter().fold(0, |set, i| set | 1 << i))
+    }
+}
+
+/// The defines of `pathtrace.cl`'s motion-blur variant: `base` (from
+/// `pathtrace_defines`) and `MOTION_BLUR`.
+pub fn motion_defines(mut base: Vec<(&'static str, String)>) -> Vec<(&'static str, String)> {
+    base.push(("MOTION_BLUR", "1".to_owned()));
+    base
+}
+
+/// The material features a table compiles into the path tracer, by define
+/// name (for the frame log): only what some material uses.
+pub fn material_features(
+    table: &MaterialTable,
+    textures: bool,
+    energy_compensation: bool,
+) -> Vec<&'static str> {
+    let mut v = vec!["metallic_roughness"];
+    if energy_compensation {
+        v.push("energy_compensation");
+    }
+    if textures {
+        v.push("textures");
+    }
+    if table.materials.iter().any(|m| m.needs_transmission()) {
+        v.push("transmission");
+    }
+    if table.materials.iter().any(|m| m.unlit) {
+        v.push("unlit");
+    }
+    v.extend(Lobes::of(table).iter().map(|lobe| lobe.name));
+    v
+}
