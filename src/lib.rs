@@ -22,6 +22,7 @@ pub mod film;
 pub mod input;
 pub mod kernels;
 pub mod output;
+pub mod pipeline;
 pub mod ply;
 pub mod scene;
 pub mod soup;
