@@ -3,6 +3,8 @@
 //! Each frame flows one way through the pipeline, one module per stage:
 //! scene (glTF loading and animation) → soup (world-space triangles) →
 //! bvh (binned-SAH build on the OpenCL device) → trace → film → output.
+//! `pipeline` runs one frame through the stages up to the film
+//! (`pipeline::FrameRenderer`); writing its files is the caller's step.
 //! The OpenCL plumbing lives in `device`; input meshes in PLY form in `ply`.
 //!
 //! The binary's commands (render, bench, report, bvh, devices, info, soup)
@@ -22,6 +24,7 @@ pub mod film;
 pub mod input;
 pub mod kernels;
 pub mod output;
+pub mod pipeline;
 pub mod ply;
 pub mod scene;
 pub mod soup;

@@ -63,7 +63,7 @@ fn exit_code(e: &anyhow::Error) -> u8 {
                 soupray::cli::render::JobError::FramesFailed { .. } => 5,
             };
         }
-        if cause.is::<soupray::cli::render::FrameError>() {
+        if cause.is::<soupray::pipeline::FrameError>() {
             return 5;
         }
         if cause.is::<soupray::cli::frames::OutputDirError>() {

@@ -30,6 +30,7 @@ use crate::compare::{self, ImageError};
 use crate::denoise::Denoiser;
 use crate::device::Device;
 use crate::film::{Aovs, Image};
+use crate::pipeline::{denoise_beauty, replace_beauty, set_frame_materials};
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::trace::render::{
@@ -339,9 +340,7 @@ fn bench_gltf(
         .unwrap_or_default();
     let render = |tree: &Tree, s: &RenderSettings| -> anyhow::Result<(Image, f64, f64, u64, f64)> {
         let mut tracer = PathTracer::new(device, &scene, s)?;
-        if let Some(materials) = scene.materials_at(time) {
-            tracer.set_materials(materials)?;
-        }
+        set_frame_materials(&mut tracer, &scene, time)?;
         let input = FrameInput {
             frame,
             soup: &soup,
@@ -356,18 +355,11 @@ fn bench_gltf(
         for _ in 0..args.repeat.max(1) {
             let t = Instant::now();
             let mut out = tracer.render(&input, &mut |_| {})?;
-            if let (Some(d), Some(albedo), Some(normal)) = (
-                denoiser.filter(|_| s.aovs.albedo),
-                &out.image.albedo,
-                &out.image.normal,
-            ) {
-                let img = &out.image;
-                let color: Vec<[f32; 3]> = img.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect();
-                let (mut rgb, _) = d.denoise(img.width, img.height, &color, albedo, normal)?;
-                crate::denoise::keep_uncovered(&mut rgb, &img.rgba);
-                for (p, c) in out.image.rgba.iter_mut().zip(rgb) {
-                    p[..3].copy_from_slice(&c);
-                }
+            // The denoised sweep's points: settings with the denoiser's
+            // albedo and normal (render's --denoise step).
+            if let Some(d) = denoiser.filter(|_| s.aovs.albedo) {
+                let (rgb, _) = denoise_beauty(d, &out.image)?;
+                replace_beauty(&mut out.image, &rgb);
             }
             walls.push(t.elapsed().as_secs_f64() * 1e3);
             traces.push(out.trace_ms);
@@ -388,9 +380,7 @@ fn bench_gltf(
                 ..settings(args, args.reference_spp, &configs(1, false)[0])
             },
         )?;
-        if let Some(materials) = scene.materials_at(time) {
-            tracer.set_materials(materials)?;
-        }
+        set_frame_materials(&mut tracer, &scene, time)?;
         let input = FrameInput {
             frame,
             soup: &soup,

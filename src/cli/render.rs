@@ -1,9 +1,11 @@
 //! `soupray render`: the batch job users run on workstations and render
 //! nodes. It resolves the job once (scene, frames, output names, device)
-//! before any work starts, then runs each frame through the pipeline's
-//! stages in order: evaluate (the soup on the device) → build (the BVH) →
-//! trace (the path tracer) → write (EXR, preview, log). Writing happens on
-//! a second thread so the next frame's evaluation overlaps it.
+//! before any work starts, then runs each frame through the library's
+//! `pipeline::FrameRenderer` (evaluate → build → trace → film) and writes
+//! it (EXR, preview, log) on a second thread, so the next frame's
+//! evaluation overlaps the write. This module holds what only the command
+//! needs: its flags, the job (`job`), progress and signals (`progress`),
+//! the writer thread and the temporaries a killed run left.
 //!
 //! Files are only ever written through `output::write_atomic` (temporary
 //! beside the target, fsync, rename), so a killed run never leaves a
@@ -11,28 +13,21 @@
 //! re-queued chunk. SIGINT/SIGTERM stop the job at the next stage boundary;
 //! the frame in flight is not written and the exit code is 130/143.
 
-use crate::bvh::device_builder::{BuildStats, DeviceBuilder};
-use crate::bvh::{self, BuildParams};
-use crate::cli::frames::{self, FrameArgs, FramePaths, NamePattern};
+mod job;
+mod progress;
+
+use crate::cli::frames::{self, FramePaths};
+use crate::denoise::Denoiser;
 use crate::device::Device;
-use crate::film::{Aovs, Image};
-use crate::output::{self, CameraLog, FrameLog, FrameMetadata};
-use crate::scene::{LoadOptions, Projection, Scene};
-use crate::soup::device::DeviceSoup;
-use crate::soup::motion::{motion_steps, MotionSoup};
-use crate::trace::motion::{step_times, Shutter, ShutterPosition};
-use crate::trace::render::MotionFrame;
-use crate::trace::render::{Adaptive, Allocation};
-use crate::trace::render::{
-    Environment, FrameInput, PathTracer, RenderOutput, RenderSettings, Traversal,
-};
-use crate::trace::sampling::{NoisePattern, Sampler};
+use crate::film::Image;
+use crate::output::{self, FrameLog, FrameMetadata};
+use crate::pipeline::{self, FrameProgress, FrameRenderer};
+use crate::scene::{LoadOptions, Scene};
 use crate::UsageError;
-use anyhow::Context as _;
-use std::io::IsTerminal as _;
+use job::Job;
+use progress::{Progress, Signals};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::mpsc;
 use std::time::Instant;
 
 /// The animation `soupray render` renders when no SCENE is given.
@@ -386,424 +381,6 @@ fn list(frames: &[i64]) -> String {
     }
 }
 
-/// A frame that failed; its message names the frame and the stage.
-#[derive(Debug, thiserror::Error)]
-#[error("frame {frame}: {stage}: {message}")]
-pub struct FrameError {
-    pub frame: i64,
-    pub stage: &'static str,
-    pub message: String,
-}
-
-/// The job, resolved from the flags before anything is rendered.
-struct Job {
-    scene_path: PathBuf,
-    frames: Vec<i64>,
-    notes: Vec<String>,
-    out_dir: PathBuf,
-    pattern: NamePattern,
-    settings: RenderSettings,
-    params: BuildParams,
-    aov_names: Vec<String>,
-    /// The AOVs written to the EXR (`settings.aovs` adds albedo and normal
-    /// for `--denoise`).
-    output_aovs: Aovs,
-    /// `--motion-blur`: the shutter (a frame moves only when it is open for
-    /// some time).
-    shutter: Option<Shutter>,
-    motion_steps: Option<u32>,
-}
-
-fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    let values: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok()).collect();
-    match values.as_deref() {
-        Some([r, g, b]) if [r, g, b].iter().all(|v| v.is_finite() && **v >= 0.0) => {
-            Ok([*r, *g, *b])
-        }
-        _ => Err(UsageError(format!(
-            "--env-color {s:?}: expected three non-negative numbers R,G,B (e.g. 0.5,0.6,1.0)"
-        ))),
-    }
-}
-
-/// The image size: the flags, else 640 wide and the camera's aspect ratio
-/// (or 16:9 when the file gives none).
-fn image_size(args: &RenderArgs, scene: &Scene) -> Result<(u32, u32), UsageError> {
-    let camera_aspect =
-        scene
-            .camera_instance()
-            .and_then(|(_, c)| match scene.cameras()[c].projection {
-                Projection::Perspective { aspect, .. } => aspect,
-                Projection::Orthographic { xmag, ymag, .. } => Some(xmag / ymag),
-            });
-    let aspect = match camera_aspect {
-        Some(a) if a.is_finite() && a > 0.0 => a,
-        _ => 16.0 / 9.0,
-    };
-    let (w, h) = match (args.width, args.height) {
-        (Some(w), Some(h)) => (w, h),
-        (Some(w), None) => (w, ((w as f32 / aspect).round() as u32).max(1)),
-        (None, Some(h)) => (((h as f32 * aspect).round() as u32).max(1), h),
-        (None, None) if camera_aspect.is_some() => (640, ((640.0 / aspect).round() as u32).max(1)),
-        (None, None) => (640, 360),
-    };
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(UsageError(format!(
-            "image size {w}x{h} is out of range: use 1 to 16384 pixels per side"
-        )));
-    }
-    Ok((w, h))
-}
-
-fn resolve_job(args: &RenderArgs, scene: &Scene, scene_path: &Path) -> anyhow::Result<Job> {
-    let params = BuildParams {
-        bins: args.bins,
-        leaf_size: args.leaf_size,
-    };
-    params.check().map_err(UsageError)?;
-    if args.spp == 0 {
-        return Err(UsageError("--spp 0: render at least one sample per pixel".into()).into());
-    }
-    let allocation: Allocation = args.adaptive_allocation.parse().map_err(|_| {
-        UsageError(format!(
-            "--adaptive-allocation {:?}: use `time` (the default) or `error`",
-            args.adaptive_allocation
-        ))
-    })?;
-    let adaptive = match args.noise_threshold {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 => Some(Adaptive {
-            threshold: t,
-            min_spp: args.min_spp.clamp(1, args.spp),
-            allocation,
-        }),
-        Some(t) => {
-            return Err(UsageError(format!(
-                "--noise-threshold {t}: must be a positive number, e.g. 0.02"
-            ))
-            .into())
-        }
-    };
-    let time_limit = match args.time_limit {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 => Some(std::time::Duration::from_secs_f64(t)),
-        Some(t) => {
-            return Err(UsageError(format!(
-                "--time-limit {t}: must be a positive number of seconds"
-            ))
-            .into())
-        }
-    };
-    if !(args.fps.is_finite() && args.fps > 0.0) {
-        return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
-    }
-    let traversal = match args.traversal.as_str() {
-        "wide" => Traversal::Wide,
-        "stack" => Traversal::Stack,
-        "stackless" => Traversal::Stackless,
-        other => {
-            return Err(UsageError(format!(
-                "--traversal {other:?}: use `wide` (the default), `stack` or `stackless`"
-            ))
-            .into())
-        }
-    };
-    let sampler: Sampler = args.sampler.parse().map_err(|_| {
-        UsageError(format!(
-            "--sampler {:?}: use `sobol` (the default) or `random`",
-            args.sampler
-        ))
-    })?;
-    let noise_pattern: NoisePattern = args.noise_pattern.parse().map_err(|_| {
-        UsageError(format!(
-            "--noise-pattern {:?}: use `per-frame` or `fixed`",
-            args.noise_pattern
-        ))
-    })?;
-    let environment = match (&args.env_color, &args.env) {
-        (Some(_), Some(_)) => {
-            return Err(UsageError("--env-color and --env exclude each other".into()).into())
-        }
-        (Some(c), None) => Environment::Color(parse_env_color(c)?),
-        (None, Some(p)) => {
-            // Refused before the device is set up: not a regular file (exit 4).
-            crate::input::open_regular(p).map_err(|e| crate::trace::lights::EnvError::Read {
-                path: p.display().to_string(),
-                detail: format!(
-                    "cannot be read ({e}). Fix: give an equirectangular .exr file, or use --env-color R,G,B."
-                ),
-            })?;
-            Environment::Map(p.clone())
-        }
-        (None, None) => scene
-            .environment()
-            .map_or(Environment::Default, Environment::Color),
-    };
-    let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
-    // The denoiser's auxiliary images come from the film's AOVs.
-    let aovs = Aovs {
-        normal: output_aovs.normal || args.denoise,
-        albedo: output_aovs.albedo || args.denoise,
-        ..output_aovs
-    };
-    let shutter = if args.motion_blur {
-        if !(args.shutter.is_finite() && args.shutter >= 0.0 && args.shutter <= 100.0) {
-            return Err(UsageError(format!(
-                "--shutter {}: the shutter's open time in frames must be a number from 0 to 100 (0.5 is a 180° shutter)",
-                args.shutter
-            ))
-            .into());
-        }
-        let position: ShutterPosition = args.shutter_position.parse().map_err(UsageError)?;
-        Some(Shutter {
-            frames: args.shutter,
-            position,
-        })
-    } else {
-        None
-    };
-    if let Some(n) = args.motion_steps {
-        if !(2..=64).contains(&n) {
-            return Err(UsageError(format!(
-                "--motion-steps {n}: use 2 (the shutter's opening and closing) to 64"
-            ))
-            .into());
-        }
-    }
-    let (width, height) = image_size(args, scene)?;
-    let frame_args = FrameArgs {
-        frames: args.frames.clone(),
-        frame: args.frame,
-        start: args.start,
-        end: args.end,
-        step: args.step,
-    };
-    let list = frames::resolve_frames(&frame_args, scene.frame_range())?;
-    let pattern_text = args
-        .name
-        .clone()
-        .unwrap_or_else(|| frames::default_name_pattern(scene_path));
-    let pattern = NamePattern::new(&pattern_text, list.frames.len())?;
-    let out_dir = args
-        .out
-        .clone()
-        .unwrap_or_else(|| frames::default_out_dir(scene_path));
-    Ok(Job {
-        scene_path: scene_path.to_path_buf(),
-        frames: list.frames,
-        notes: list.notes,
-        out_dir,
-        pattern,
-        settings: RenderSettings {
-            width,
-            height,
-            spp: args.spp,
-            seed: args.seed,
-            max_depth: args.max_depth,
-            clay: args.clay,
-            traversal,
-            sampler,
-            noise_pattern,
-            adaptive,
-            time_limit,
-            environment,
-            aovs,
-            energy_compensation: !args.no_energy_compensation,
-            backface_culling: args.backface_culling,
-        },
-        params,
-        aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
-        output_aovs,
-        shutter,
-        motion_steps: args.motion_steps,
-    })
-}
-
-/// How the job talks to the person or the farm watching it.
-struct Progress {
-    bars: Option<(
-        indicatif::MultiProgress,
-        indicatif::ProgressBar,
-        indicatif::ProgressBar,
-    )>,
-    quiet: bool,
-    verbose: bool,
-}
-
-impl Progress {
-    fn new(frames: usize, spp: u32, args: &RenderArgs) -> Progress {
-        let bars = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
-            let multi = indicatif::MultiProgress::new();
-            let style = indicatif::ProgressStyle::with_template(
-                "{prefix:>8} [{bar:40}] {pos}/{len} {msg} ETA {eta}",
-            )
-            .expect("a valid template")
-            .progress_chars("=> ");
-            let frames_bar = multi.add(indicatif::ProgressBar::new(frames as u64));
-            frames_bar.set_style(style.clone());
-            frames_bar.set_prefix("frames");
-            let samples = multi.add(indicatif::ProgressBar::new(spp as u64));
-            samples.set_style(style);
-            samples.set_prefix("samples");
-            (multi, frames_bar, samples)
-        });
-        Progress {
-            bars,
-            quiet: args.quiet,
-            verbose: args.verbose,
-        }
-    }
-
-    /// A line for the person or the farm log, above the bars on a terminal.
-    fn line(&self, text: &str) {
-        if self.quiet {
-            return;
-        }
-        match &self.bars {
-            Some((multi, _, _)) => {
-                let _ = multi.println(text);
-            }
-            None => eprintln!("{text}"),
-        }
-    }
-
-    fn warn(&self, text: &str) {
-        match &self.bars {
-            Some((multi, _, _)) => {
-                let _ = multi.println(format!("warning: {text}"));
-            }
-            None => eprintln!("warning: {text}"),
-        }
-    }
-
-    fn frame_started(&self, frame: i64) {
-        if let Some((_, frames, samples)) = &self.bars {
-            frames.set_message(format!("frame {frame}"));
-            samples.set_position(0);
-        }
-    }
-
-    fn samples(&self, done: u32) {
-        if let Some((_, _, samples)) = &self.bars {
-            samples.set_position(done as u64);
-        }
-    }
-
-    fn frame_finished(&self) {
-        if let Some((_, frames, _)) = &self.bars {
-            frames.inc(1);
-        }
-    }
-
-    fn finish(&self) {
-        if let Some((_, frames, samples)) = &self.bars {
-            samples.finish_and_clear();
-            frames.finish();
-        }
-    }
-}
-
-/// SIGINT/SIGTERM. While the scene loads and the device is set up (nothing
-/// of ours is being written), a signal ends the process at once with
-/// 128 + signal.
-/// Once frames render, the handler records it and the job stops cleanly
-/// between stages; a second signal of either kind ends the process at once.
-struct Signals {
-    received: Arc<AtomicUsize>,
-    /// When set, the next signal exits at once. Set during set-up and by
-    /// the first signal while rendering.
-    immediate: Arc<std::sync::atomic::AtomicBool>,
-}
-
-impl Signals {
-    fn install() -> Signals {
-        use signal_hook::consts::{SIGINT, SIGTERM};
-        let received = Arc::new(AtomicUsize::new(0));
-        let immediate = Arc::new(std::sync::atomic::AtomicBool::new(true));
-        for sig in [SIGINT, SIGTERM] {
-            // Runs first: exits (with 128 + signal, as a shell would) when
-            // `immediate` is set.
-            let _ = signal_hook::flag::register_conditional_shutdown(
-                sig,
-                128 + sig,
-                Arc::clone(&immediate),
-            );
-            let flag = Arc::clone(&received);
-            // SAFETY: the handler only stores to an atomic.
-            let _ = unsafe {
-                signal_hook::low_level::register(sig, move || {
-                    flag.store(sig as usize, Ordering::SeqCst);
-                })
-            };
-            // A second signal exits at once.
-            let _ = signal_hook::flag::register(sig, Arc::clone(&immediate));
-        }
-        Signals {
-            received,
-            immediate,
-        }
-    }
-
-    /// From now on a first signal stops the job cleanly instead of at once
-    /// (a signal that came in the meantime is reported by `check`).
-    fn deferred(&self) {
-        self.immediate.store(false, Ordering::SeqCst);
-    }
-
-    /// From now on a signal ends the process at once again.
-    fn immediate(&self) {
-        self.immediate.store(true, Ordering::SeqCst);
-    }
-
-    fn check(&self) -> Result<(), JobError> {
-        match self.received.load(Ordering::SeqCst) as i32 {
-            0 => Ok(()),
-            signal => Err(JobError::Interrupted {
-                signal,
-                name: if signal == signal_hook::consts::SIGTERM {
-                    "SIGTERM"
-                } else {
-                    "SIGINT"
-                },
-            }),
-        }
-    }
-}
-
-/// Everything that lives across frames: the device, the compiled stages and
-/// their buffers.
-struct Pipeline<'d> {
-    device: &'d Device,
-    scene: &'d Scene,
-    soup: DeviceSoup<'d>,
-    builder: DeviceBuilder<'d>,
-    tracer: PathTracer<'d>,
-    /// `--denoise`: OIDN, loaded before the first frame.
-    denoiser: Option<crate::denoise::Denoiser>,
-    /// `--motion-blur` on an animated scene: the soup at every motion step.
-    motion: Option<MotionSoup<'d>>,
-}
-
-/// A frame that moves within its shutter, as evaluated.
-struct MotionState {
-    steps: u32,
-    /// The camera and the punctual lights at each step.
-    cameras: Vec<crate::scene::FrameCamera>,
-    lights: Vec<Vec<crate::scene::FrameLight>>,
-    extra_evaluate_ms: f64,
-    extra_build_ms: f64,
-}
-
-/// A frame's evaluation: camera and lights at the frame's instant, and its
-/// motion when it moves within the shutter.
-struct Evaluated {
-    info: crate::soup::device::FrameInfo,
-    motion: Option<MotionState>,
-    /// `--motion-blur`: the shutter, also for frames that do not move.
-    shutter: Option<(Shutter, f64, f64, u32, f64)>,
-}
-
 /// What one frame's stages produced, handed to the writer.
 struct FrameResult {
     frame: i64,
@@ -815,361 +392,68 @@ struct FrameResult {
     started: Instant,
 }
 
-impl<'d> Pipeline<'d> {
-    /// One pass of `frame` through every stage, its results discarded
-    /// (the trace at one sample per pixel): the first launch of every
-    /// kernel happens here, where drivers that compile at first launch
-    /// (PoCL) do so, and is counted as start-up rather than as the first
-    /// frame's build and trace. Evaluation and build are deterministic, so
-    /// the frame then renders exactly as it would have.
-    fn warm_up(&mut self, job: &Job, frame: i64) -> Result<(), anyhow::Error> {
-        let ev = self.evaluate(job, self.scene.time_of_frame(frame))?;
-        let (tree, _) = self.build(&ev)?;
-        self.trace(frame, &ev, &tree, None)?;
-        Ok(())
+/// The job's view of a frame in flight: samples on the bar, and a stop
+/// between stages on a signal.
+struct Watch<'a> {
+    progress: &'a Progress,
+    signals: &'a Signals,
+}
+
+impl FrameProgress for Watch<'_> {
+    fn samples(&self, done: u32) {
+        self.progress.samples(done);
     }
 
-    /// Evaluates the frame at `time`: once at that instant, or, with motion
-    /// blur and something moving within the shutter, at every motion step.
-    fn evaluate(&mut self, job: &Job, time: f64) -> Result<Evaluated, anyhow::Error> {
-        let planned = match (job.shutter, &self.motion) {
-            (Some(shutter), Some(_)) => {
-                let (open, close) = shutter.interval(time, self.scene.options().fps);
-                let plan = motion_steps(self.scene, open, close, job.motion_steps);
-                Some((shutter, open, close, plan.steps, plan.turn_degrees))
-            }
-            _ => None,
-        };
-        let (Some((_, open, close, steps, _)), Some(motion)) = (planned, &mut self.motion) else {
-            return Ok(Evaluated {
-                info: self.soup.evaluate(self.scene, time)?,
-                motion: None,
-                // Nothing can move (no clip, or the shutter is closed).
-                shutter: job.shutter.map(|s| {
-                    let (open, close) = s.interval(time, self.scene.options().fps);
-                    (s, open, close, 1, 0.0)
-                }),
-            });
-        };
-        if steps < 2 {
-            return Ok(Evaluated {
-                info: self.soup.evaluate(self.scene, time)?,
-                motion: None,
-                shutter: planned,
-            });
-        }
-        let times = step_times(open, close, steps);
-        let t = Instant::now();
-        let infos = motion.evaluate(&mut self.soup, self.scene, &times)?;
-        let all_ms = ms(t);
-        // Lights, and the camera the log reports, at the frame's instant.
-        let pose = self.scene.pose(time);
-        let mut warnings: Vec<String> = Vec::new();
-        for w in infos.iter().flat_map(|i| i.warnings.iter()) {
-            if !warnings.contains(w) {
-                warnings.push(w.clone());
-            }
-        }
-        let info = crate::soup::device::FrameInfo {
-            time,
-            camera: self.scene.frame_camera(&pose)?,
-            lights: self.scene.frame_lights(&pose),
-            warnings,
-            reused: false,
-        };
-        Ok(Evaluated {
-            info,
-            motion: Some(MotionState {
-                steps,
-                lights: infos.iter().map(|i| i.lights.clone()).collect(),
-                cameras: infos.into_iter().map(|i| i.camera).collect(),
-                extra_evaluate_ms: (all_ms - motion.bounds_ms()) * (steps - 1) as f64
-                    / steps as f64,
-                extra_build_ms: motion.bounds_ms(),
-            }),
-            shutter: planned,
-        })
-    }
-
-    /// Builds the frame's tree: over the soup, or over every triangle's
-    /// bounds across the motion steps.
-    fn build(&mut self, ev: &Evaluated) -> Result<(bvh::Bvh, BuildStats), anyhow::Error> {
-        let positions = match (&ev.motion, &self.motion) {
-            (Some(_), Some(m)) => m.bounds(),
-            _ => self.soup.positions(),
-        };
-        Ok(self
-            .builder
-            .build_from_device(positions, self.soup.triangle_count())?)
-    }
-
-    /// Traces the frame; `progress: None` is the warm-up pass (1 spp).
-    fn trace(
-        &mut self,
-        frame: i64,
-        ev: &Evaluated,
-        tree: &bvh::Bvh,
-        progress: Option<&Progress>,
-    ) -> Result<RenderOutput, anyhow::Error> {
-        // KHR_animation_pointer material channels: the frame's materials.
-        if let Some(materials) = self.scene.materials_at(ev.info.time) {
-            self.tracer.set_materials(materials)?;
-        }
-        let prim_ids = self
-            .builder
-            .device_prim_ids()
-            .context("the BVH builder has no primitive buffer")?;
-        let input = FrameInput {
-            frame,
-            soup: &self.soup,
-            bvh: tree,
-            prim_ids,
-            camera: &ev.info.camera,
-            lights: &ev.info.lights,
-        };
-        let mut report = |done| {
-            if let Some(p) = progress {
-                p.samples(done)
-            }
-        };
-        match (&ev.motion, &self.motion) {
-            (Some(state), Some(m)) => {
-                let motion = MotionFrame {
-                    positions: m.positions(),
-                    normals: m.normals(),
-                    steps: state.steps,
-                    cameras: &state.cameras,
-                    lights: &state.lights,
-                };
-                if progress.is_none() {
-                    self.tracer.warm_up_motion(&input, &motion)?;
-                    return Ok(RenderOutput {
-                        image: crate::film::Image::new(1, 1, Aovs::NONE),
-                        rays: 0,
-                        pixel_rays: Vec::new(),
-                        trace_ms: 0.0,
-                        noise: Default::default(),
-                        warnings: Vec::new(),
-                    });
-                }
-                Ok(self.tracer.render_motion(&input, &motion, &mut report)?)
-            }
-            _ => {
-                if progress.is_none() {
-                    self.tracer.warm_up(&input)?;
-                    return Ok(RenderOutput {
-                        image: crate::film::Image::new(1, 1, Aovs::NONE),
-                        rays: 0,
-                        pixel_rays: Vec::new(),
-                        trace_ms: 0.0,
-                        noise: Default::default(),
-                        warnings: Vec::new(),
-                    });
-                }
-                Ok(self.tracer.render(&input, &mut report)?)
-            }
-        }
+    fn stage_done(&self) -> anyhow::Result<()> {
+        Ok(self.signals.check()?)
     }
 }
 
-fn camera_log(camera: &crate::scene::FrameCamera) -> CameraLog {
-    let m = camera.world_from_camera;
-    let v = |x: glam::Vec3| [x.x as f64, x.y as f64, x.z as f64];
-    let mut log = CameraLog {
-        position: v(camera.position()),
-        forward: v(camera.forward()),
-        up: v(m.y_axis.truncate().normalize_or_zero()),
-        ..CameraLog::default()
-    };
-    match camera.projection {
-        Projection::Perspective { yfov, .. } => {
-            log.projection = "perspective".into();
-            log.yfov_deg = Some(yfov.to_degrees() as f64);
-        }
-        Projection::Orthographic { xmag, ymag, .. } => {
-            log.projection = "orthographic".into();
-            log.xmag = Some(xmag as f64);
-            log.ymag = Some(ymag as f64);
-        }
-    }
-    log
-}
-
-/// Runs evaluate → build → trace for one frame and fills in its log.
+/// Runs `frame` through the pipeline and names its files.
 fn render_frame(
-    pipe: &mut Pipeline,
+    renderer: &mut FrameRenderer,
     job: &Job,
     frame: i64,
     progress: &Progress,
     signals: &Signals,
-) -> Result<FrameResult, anyhow::Error> {
+) -> anyhow::Result<FrameResult> {
     let started = Instant::now();
-    let fail = |stage: &'static str| {
-        move |e: anyhow::Error| {
-            anyhow::Error::new(FrameError {
-                frame,
-                stage,
-                message: format!("{e:#}"),
-            })
-        }
-    };
-    let time = pipe.scene.time_of_frame(frame);
-
-    let t = Instant::now();
-    let ev = pipe.evaluate(job, time).map_err(fail("evaluate"))?;
-    let evaluate_ms = ms(t);
-    signals.check()?;
-
-    let t = Instant::now();
-    let (tree, build) = pipe.build(&ev).map_err(fail("build"))?;
-    let build_ms = ms(t);
-    signals.check()?;
-
-    let t = Instant::now();
-    let traced = pipe
-        .trace(frame, &ev, &tree, Some(progress))
-        .map_err(fail("trace"))?;
-    let info = &ev.info;
-    let trace_ms = ms(t);
-    signals.check()?;
-
-    let mut image = traced.image;
-    let mut denoise_log = None;
-    let mut denoised = None;
-    if let Some(denoiser) = &pipe.denoiser {
-        let (d, log) = denoise_image(denoiser, &image).map_err(fail("denoise"))?;
-        denoised = Some(d);
-        denoise_log = Some(log);
-        signals.check()?;
-    }
-    // AOVs the film kept only for the denoiser are not written.
-    if !job.output_aovs.normal {
-        image.normal = None;
-    }
-    if !job.output_aovs.albedo {
-        image.albedo = None;
-    }
-
-    let shape = tree.shape();
+    let done = renderer.render(frame, &Watch { progress, signals })?;
     let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
-    let mut log = FrameLog::new();
-    log.frame = frame;
-    log.time = time;
-    log.scene = job.scene_path.display().to_string();
-    log.device = pipe.device.info.name.clone();
-    log.triangles = pipe.soup.triangle_count() as u64;
-    log.mesh_instances = pipe.scene.instances().len() as u64;
-    log.gpu_instances = pipe.scene.gpu_instance_count() as u64;
-    log.memory = output::MemoryLog {
-        soup_bytes: pipe.soup.soup_bytes(),
-        peak_resident_bytes: output::peak_resident_bytes(),
-    };
-    log.timings_ms.evaluate = evaluate_ms;
-    log.timings_ms.build = build_ms;
-    log.timings_ms.trace = trace_ms;
-    log.timings_ms.denoise = denoise_log.as_ref().map_or(0.0, |d| d.time_ms);
-    log.denoise = denoise_log;
-    log.build = output::BuildLog {
-        builder: "device".into(),
-        bins: job.params.bins,
-        leaf_size: job.params.leaf_size,
-        nodes: shape.nodes as u64,
-        leaves: shape.leaves as u64,
-        max_depth: shape.max_depth,
-        sah_cost: bvh::sah_cost(&tree),
-        stages_ms: build.stages_ms,
-    };
-    log.render = output::RenderLog {
-        width: job.settings.width,
-        height: job.settings.height,
-        spp: job.settings.spp,
-        rays: traced.rays,
-        mrays_per_s: traced.rays as f64 / (traced.trace_ms.max(1e-9) * 1e3),
-        traversal: job.settings.traversal.name().to_owned(),
-        sampler: job.settings.sampler.name().to_owned(),
-        noise_pattern: job.settings.noise_pattern.name().to_owned(),
-        material_features: pipe
-            .tracer
-            .material_features()
-            .iter()
-            .map(|f| (*f).to_owned())
-            .collect(),
-    };
-    log.camera = camera_log(&info.camera);
+    let mut log = done.log;
     log.output = output::OutputLog {
         exr: paths.exr.display().to_string(),
         png: None,
         half: false,
         aovs: job.aov_names.clone(),
     };
-    log.noise = traced.noise.clone();
-    log.motion = ev.shutter.map(|(shutter, open, close, steps, turn)| {
-        let (extra_evaluate_ms, extra_build_ms) = ev
-            .motion
-            .as_ref()
-            .map_or((0.0, 0.0), |m| (m.extra_evaluate_ms, m.extra_build_ms));
-        output::MotionLog {
-            shutter_frames: shutter.frames,
-            shutter_position: match shutter.position {
-                ShutterPosition::Center => "center",
-                ShutterPosition::Start => "start",
-                ShutterPosition::End => "end",
-            }
-            .to_owned(),
-            open,
-            close,
-            steps,
-            steps_from: if job.motion_steps.is_some() && steps > 1 {
-                "--motion-steps"
-            } else {
-                "rule"
-            }
-            .to_owned(),
-            turn_degrees: turn,
-            extra_evaluate_ms,
-            extra_build_ms,
-        }
-    });
-    // The scene's own warnings (values clamped, channels skipped...) in
-    // every frame's log, so each log tells the whole story of its frame.
-    log.warnings = pipe.scene.warnings().to_vec();
-    log.warnings.extend(info.warnings.iter().cloned());
-    log.warnings.extend(traced.warnings.iter().cloned());
-    if let Some(dark) = image.darkness_warning() {
+    if let Some(dark) = &done.dark {
         progress.warn(&format!("frame {frame}: {dark}"));
-        log.warnings.push(dark);
     }
     if progress.verbose {
+        let (t, stages) = (&log.timings_ms, &done.build.stages_ms);
         progress.line(&format!(
-            "frame {frame}: evaluate {evaluate_ms:.1} ms, build {build_ms:.1} ms \
-             (large {:.1} / medium {:.1} / small {:.1} device, host {:.1}), trace {trace_ms:.1} ms, \
+            "frame {frame}: evaluate {:.1} ms, build {:.1} ms \
+             (large {:.1} / medium {:.1} / small {:.1} device, host {:.1}), trace {:.1} ms, \
              {} rays",
-            build.stages_ms.large, build.stages_ms.medium, build.stages_ms.small, build.host_ms, traced.rays
+            t.evaluate,
+            t.build,
+            stages.large,
+            stages.medium,
+            stages.small,
+            done.build.host_ms,
+            t.trace,
+            log.render.rays
         ));
     }
     Ok(FrameResult {
         frame,
         paths,
-        image,
-        denoised,
+        image: done.image,
+        denoised: done.denoised,
         log,
         started,
     })
-}
-
-/// Runs OIDN on a resolved frame (which must carry albedo and normal);
-/// pixels no sample hit keep their raw value (`denoise::keep_uncovered`).
-fn denoise_image(
-    denoiser: &crate::denoise::Denoiser,
-    image: &Image,
-) -> anyhow::Result<(Vec<[f32; 3]>, crate::denoise::DenoiseLog)> {
-    let (Some(albedo), Some(normal)) = (&image.albedo, &image.normal) else {
-        anyhow::bail!("the film kept no albedo and normal for the denoiser");
-    };
-    let color: Vec<[f32; 3]> = image.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect();
-    let (mut out, time_ms) = denoiser.denoise(image.width, image.height, &color, albedo, normal)?;
-    crate::denoise::keep_uncovered(&mut out, &image.rgba);
-    Ok((out, denoiser.log(time_ms)))
 }
 
 fn ms(t: Instant) -> f64 {
@@ -1197,41 +481,7 @@ fn spawn_writer(
     let handle = std::thread::spawn(move || {
         let mut results = Vec::new();
         for mut done in receive {
-            let t = Instant::now();
-            let meta = FrameMetadata {
-                frame: done.frame,
-                time: done.log.time,
-                spp,
-                seed,
-            };
-            let written = output::write_exr_denoised(
-                &done.paths.exr,
-                &done.image,
-                done.denoised.as_deref(),
-                &meta,
-                half,
-            )
-            .and_then(|()| {
-                if png {
-                    // The preview shows the final (denoised) beauty.
-                    let preview = match &done.denoised {
-                        Some(d) => {
-                            let mut p = done.image.clone();
-                            for (px, rgb) in p.rgba.iter_mut().zip(d) {
-                                px[..3].copy_from_slice(rgb);
-                            }
-                            std::borrow::Cow::Owned(p)
-                        }
-                        None => std::borrow::Cow::Borrowed(&done.image),
-                    };
-                    output::write_png_preview(&done.paths.png, &preview, 0.0)?;
-                    done.log.output.png = Some(done.paths.png.display().to_string());
-                }
-                done.log.output.half = half;
-                done.log.timings_ms.write = ms(t);
-                done.log.timings_ms.total = ms(done.started);
-                output::write_log(&done.paths.log, &done.log)
-            });
+            let written = write_frame(&mut done, half, png, spp, seed);
             // The run's start-up, on the line of the frame whose log has it.
             let startup = match done.log.timings_ms.startup {
                 ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
@@ -1255,6 +505,47 @@ fn spawn_writer(
         results
     });
     (send, handle)
+}
+
+/// Writes one frame's EXR, preview and log, and records the write time.
+fn write_frame(
+    done: &mut FrameResult,
+    half: bool,
+    png: bool,
+    spp: u32,
+    seed: u64,
+) -> Result<(), output::OutputError> {
+    let t = Instant::now();
+    let meta = FrameMetadata {
+        frame: done.frame,
+        time: done.log.time,
+        spp,
+        seed,
+    };
+    output::write_exr_denoised(
+        &done.paths.exr,
+        &done.image,
+        done.denoised.as_deref(),
+        &meta,
+        half,
+    )?;
+    if png {
+        // The preview shows the final (denoised) beauty.
+        let preview = match &done.denoised {
+            Some(d) => {
+                let mut p = done.image.clone();
+                pipeline::replace_beauty(&mut p, d);
+                std::borrow::Cow::Owned(p)
+            }
+            None => std::borrow::Cow::Borrowed(&done.image),
+        };
+        output::write_png_preview(&done.paths.png, &preview, 0.0)?;
+        done.log.output.png = Some(done.paths.png.display().to_string());
+    }
+    done.log.output.half = half;
+    done.log.timings_ms.write = ms(t);
+    done.log.timings_ms.total = ms(done.started);
+    output::write_log(&done.paths.log, &done.log)
 }
 
 /// Removes the temporaries a killed run left for this job's frames: files
@@ -1289,13 +580,8 @@ fn remove_stale_temporaries(job: &Job) -> usize {
     removed
 }
 
-pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
-    // First, before anything touches OpenCL: the OpenCL compiler (LLVM in
-    // PoCL) installs SIGINT/SIGTERM handlers that re-raise the signal with
-    // its default action. Installed after them, ours would chain to theirs
-    // and the process would die mid-frame; installed first, theirs restore
-    // ours before re-raising, and the job stops cleanly.
-    let signals = Signals::install();
+/// The scene named on the command line, or the shipped animation.
+fn load_scene(args: &RenderArgs) -> anyhow::Result<(PathBuf, Scene)> {
     let scene_path = args
         .scene
         .clone()
@@ -1316,31 +602,21 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         variant: args.variant.clone(),
     };
     let scene = Scene::load(&scene_path, &opts)?;
-    let job = resolve_job(args, &scene, &scene_path)?;
-    // Fail on an unusable output directory before any rendering starts
-    // (a signal now lets its probe file be removed).
-    signals.deferred();
-    frames::check_output_dir(&job.out_dir)?;
-    signals.check()?;
-    // Device set-up writes nothing of ours: a signal ends it at once. (A
-    // signal merely recorded here would let the OpenCL compiler's own
-    // handler delete its temporaries and fail the kernel build.)
-    signals.immediate();
-    // Start-up: opening the device, compiling the programs (from the
-    // driver's cache when it has them) and the warm-up pass before the
-    // first frame; the first rendered frame's log reports it apart.
-    let startup = Instant::now();
-    // And on a missing denoiser (exit code 3, with how to install it).
-    let denoiser = if args.denoise {
-        Some(crate::denoise::Denoiser::open(
-            args.denoise_quality.parse()?,
-        )?)
-    } else {
-        None
-    };
-    let device = Device::open(args.device.as_deref())?;
-    let progress = Progress::new(job.frames.len(), job.settings.spp, args);
-    let stale = remove_stale_temporaries(&job);
+    Ok((scene_path, scene))
+}
+
+/// Tells what the job is about to do, after clearing what a killed run
+/// left, and checks that a frame's soup fits the device.
+fn announce(
+    job: &Job,
+    scene: &Scene,
+    device: &Device,
+    denoiser: Option<&Denoiser>,
+    progress: &Progress,
+) -> anyhow::Result<()> {
+    let scene_path = &job.settings.scene_path;
+    let render = &job.settings.render;
+    let stale = remove_stale_temporaries(job);
     if stale > 0 {
         progress.line(&format!(
             "removed {stale} temporary file(s) left by a killed run"
@@ -1354,12 +630,12 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         output::VERSION,
         job.frames.len(),
         scene_path.display(),
-        job.settings.width,
-        job.settings.height,
-        job.settings.spp,
+        render.width,
+        render.height,
+        render.spp,
         device.info.name
     ));
-    if let Some(d) = &denoiser {
+    if let Some(d) = denoiser {
         progress.line(&format!(
             "denoising with Open Image Denoise {} on its {} device ({})",
             d.version(),
@@ -1378,31 +654,29 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             n => format!(", {n} of them by EXT_mesh_gpu_instancing"),
         }
     ));
-    let soup = DeviceSoup::new(&device, &scene)?;
-    let mut tracer = PathTracer::new(&device, &scene, &job.settings)?;
-    // Blur's programs only when some frame can move: a shutter that stays
-    // open on an animated scene.
-    let motion = if job.shutter.is_some_and(|s| s.frames > 0.0) && scene.active_clip().is_some() {
-        tracer.prepare_motion()?;
-        Some(MotionSoup::new(&device, &soup)?)
-    } else {
-        None
-    };
-    let mut pipe = Pipeline {
-        device: &device,
-        scene: &scene,
-        soup,
-        builder: DeviceBuilder::new(&device, job.params)?,
-        tracer,
-        denoiser,
-        motion,
-    };
-    signals.deferred();
-    signals.check()?;
-    let (writer, writer_done) =
-        spawn_writer(args.half, args.png, job.settings.spp, job.settings.seed);
+    Ok(())
+}
+
+/// How the frame loop ended: the frames that failed, and the signal that
+/// stopped it, if one did.
+struct Rendered {
+    failed: Vec<i64>,
+    interrupted: Option<(i32, &'static str)>,
+}
+
+/// Renders the job's frames in order and hands each to the writer. The
+/// first frame rendered is warmed up first, and its log reports the
+/// start-up time (from `startup`).
+fn render_frames(
+    args: &RenderArgs,
+    job: &Job,
+    renderer: &mut FrameRenderer,
+    progress: &Progress,
+    signals: &Signals,
+    startup: Instant,
+    writer: mpsc::SyncSender<FrameResult>,
+) -> Rendered {
     let mut failed = Vec::new();
-    let mut interrupted = None;
     let mut startup_ms = None;
     for &frame in &job.frames {
         let paths = frames::frame_paths(&job.out_dir, &job.pattern, frame);
@@ -1416,19 +690,19 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         }
         progress.frame_started(frame);
         let result = match startup_ms {
-            Some(_) => render_frame(&mut pipe, &job, frame, &progress, &signals),
+            Some(_) => render_frame(renderer, job, frame, progress, signals),
             // A frame whose warm-up fails fails the same way when rendered,
             // which reports the stage; the next frame warms up again.
-            None => match pipe.warm_up(&job, frame) {
+            None => match renderer.warm_up(frame) {
                 Ok(()) => {
                     let ms = ms(startup);
                     startup_ms = Some(ms);
-                    render_frame(&mut pipe, &job, frame, &progress, &signals).map(|mut r| {
+                    render_frame(renderer, job, frame, progress, signals).map(|mut r| {
                         r.log.timings_ms.startup = ms;
                         r
                     })
                 }
-                Err(_) => render_frame(&mut pipe, &job, frame, &progress, &signals),
+                Err(_) => render_frame(renderer, job, frame, progress, signals),
             },
         };
         match result {
@@ -1439,10 +713,14 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             }
             Err(e) => {
                 if let Some(j) = e.downcast_ref::<JobError>() {
-                    if let JobError::Interrupted { signal, name } = j {
-                        interrupted = Some((*signal, *name));
-                    }
-                    break;
+                    let interrupted = match j {
+                        JobError::Interrupted { signal, name } => Some((*signal, *name)),
+                        _ => None,
+                    };
+                    return Rendered {
+                        failed,
+                        interrupted,
+                    };
                 }
                 progress.warn(&format!("{e:#}"));
                 failed.push(frame);
@@ -1453,7 +731,60 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         }
         progress.frame_finished();
     }
-    drop(writer);
+    Rendered {
+        failed,
+        interrupted: None,
+    }
+}
+
+pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
+    // First, before anything touches OpenCL: the OpenCL compiler (LLVM in
+    // PoCL) installs SIGINT/SIGTERM handlers that re-raise the signal with
+    // its default action. Installed after them, ours would chain to theirs
+    // and the process would die mid-frame; installed first, theirs restore
+    // ours before re-raising, and the job stops cleanly.
+    let signals = Signals::install();
+    let (scene_path, scene) = load_scene(args)?;
+    let job = job::resolve_job(args, &scene, &scene_path)?;
+    // Fail on an unusable output directory before any rendering starts
+    // (a signal now lets its probe file be removed).
+    signals.deferred();
+    frames::check_output_dir(&job.out_dir)?;
+    signals.check()?;
+    // Device set-up writes nothing of ours: a signal ends it at once. (A
+    // signal merely recorded here would let the OpenCL compiler's own
+    // handler delete its temporaries and fail the kernel build.)
+    signals.immediate();
+    // Start-up: opening the device, compiling the programs (from the
+    // driver's cache when it has them) and the warm-up pass before the
+    // first frame; the first rendered frame's log reports it apart.
+    let startup = Instant::now();
+    // And on a missing denoiser (exit code 3, with how to install it).
+    let denoiser = if args.denoise {
+        Some(Denoiser::open(args.denoise_quality.parse()?)?)
+    } else {
+        None
+    };
+    let device = Device::open(args.device.as_deref())?;
+    let (spp, seed) = (job.settings.render.spp, job.settings.render.seed);
+    let progress = Progress::new(job.frames.len(), spp, args);
+    announce(&job, &scene, &device, denoiser.as_ref(), &progress)?;
+    let mut renderer = FrameRenderer::new(&device, &scene, job.settings.clone(), denoiser)?;
+    signals.deferred();
+    signals.check()?;
+    let (writer, writer_done) = spawn_writer(args.half, args.png, spp, seed);
+    let Rendered {
+        mut failed,
+        interrupted,
+    } = render_frames(
+        args,
+        &job,
+        &mut renderer,
+        &progress,
+        &signals,
+        startup,
+        writer,
+    );
     let written = writer_done.join().unwrap_or_default();
     for (frame, result) in &written {
         match result {

@@ -1,0 +1,263 @@
+//! The render job, resolved from the flags before anything is rendered:
+//! the frames, the output directory and names, and how every frame is made.
+
+use super::RenderArgs;
+use crate::bvh::BuildParams;
+use crate::cli::frames::{self, FrameArgs, NamePattern};
+use crate::film::Aovs;
+use crate::pipeline::FrameSettings;
+use crate::scene::{Projection, Scene};
+use crate::trace::motion::{Shutter, ShutterPosition};
+use crate::trace::render::{Adaptive, Allocation, Environment, RenderSettings, Traversal};
+use crate::trace::sampling::{NoisePattern, Sampler};
+use crate::UsageError;
+use std::path::{Path, PathBuf};
+
+/// The job, resolved from the flags before anything is rendered.
+pub(super) struct Job {
+    pub frames: Vec<i64>,
+    pub notes: Vec<String>,
+    pub out_dir: PathBuf,
+    pub pattern: NamePattern,
+    /// How every frame is made (`settings.render.aovs` adds albedo and
+    /// normal to the written AOVs for `--denoise`).
+    pub settings: FrameSettings,
+    /// The AOVs written to the EXR, by name, for the log.
+    pub aov_names: Vec<String>,
+}
+
+fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let values: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok()).collect();
+    match values.as_deref() {
+        Some([r, g, b]) if [r, g, b].iter().all(|v| v.is_finite() && **v >= 0.0) => {
+            Ok([*r, *g, *b])
+        }
+        _ => Err(UsageError(format!(
+            "--env-color {s:?}: expected three non-negative numbers R,G,B (e.g. 0.5,0.6,1.0)"
+        ))),
+    }
+}
+
+/// The image size: the flags, else 640 wide and the camera's aspect ratio
+/// (or 16:9 when the file gives none).
+fn image_size(args: &RenderArgs, scene: &Scene) -> Result<(u32, u32), UsageError> {
+    let camera_aspect =
+        scene
+            .camera_instance()
+            .and_then(|(_, c)| match scene.cameras()[c].projection {
+                Projection::Perspective { aspect, .. } => aspect,
+                Projection::Orthographic { xmag, ymag, .. } => Some(xmag / ymag),
+            });
+    let aspect = match camera_aspect {
+        Some(a) if a.is_finite() && a > 0.0 => a,
+        _ => 16.0 / 9.0,
+    };
+    let (w, h) = match (args.width, args.height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, ((w as f32 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (((h as f32 * aspect).round() as u32).max(1), h),
+        (None, None) if camera_aspect.is_some() => (640, ((640.0 / aspect).round() as u32).max(1)),
+        (None, None) => (640, 360),
+    };
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(UsageError(format!(
+            "image size {w}x{h} is out of range: use 1 to 16384 pixels per side"
+        )));
+    }
+    Ok((w, h))
+}
+
+pub(super) fn resolve_job(
+    args: &RenderArgs,
+    scene: &Scene,
+    scene_path: &Path,
+) -> anyhow::Result<Job> {
+    let params = BuildParams {
+        bins: args.bins,
+        leaf_size: args.leaf_size,
+    };
+    params.check().map_err(UsageError)?;
+    let (adaptive, time_limit) = sampling_limits(args)?;
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
+    }
+    let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
+    let environment = environment(args, scene)?;
+    let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
+    // The denoiser's auxiliary images come from the film's AOVs.
+    let aovs = Aovs {
+        normal: output_aovs.normal || args.denoise,
+        albedo: output_aovs.albedo || args.denoise,
+        ..output_aovs
+    };
+    let shutter = shutter(args)?;
+    let (width, height) = image_size(args, scene)?;
+    let frame_args = FrameArgs {
+        frames: args.frames.clone(),
+        frame: args.frame,
+        start: args.start,
+        end: args.end,
+        step: args.step,
+    };
+    let list = frames::resolve_frames(&frame_args, scene.frame_range())?;
+    let pattern_text = args
+        .name
+        .clone()
+        .unwrap_or_else(|| frames::default_name_pattern(scene_path));
+    let pattern = NamePattern::new(&pattern_text, list.frames.len())?;
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| frames::default_out_dir(scene_path));
+    Ok(Job {
+        frames: list.frames,
+        notes: list.notes,
+        out_dir,
+        pattern,
+        settings: FrameSettings {
+            scene_path: scene_path.to_path_buf(),
+            render: RenderSettings {
+                width,
+                height,
+                spp: args.spp,
+                seed: args.seed,
+                max_depth: args.max_depth,
+                clay: args.clay,
+                traversal,
+                sampler,
+                noise_pattern,
+                adaptive,
+                time_limit,
+                environment,
+                aovs,
+                energy_compensation: !args.no_energy_compensation,
+                backface_culling: args.backface_culling,
+            },
+            build: params,
+            output_aovs,
+            shutter,
+            motion_steps: args.motion_steps,
+        },
+        aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
+    })
+}
+
+/// `--spp`, `--noise-threshold` (with `--min-spp` and
+/// `--adaptive-allocation`) and `--time-limit`.
+fn sampling_limits(
+    args: &RenderArgs,
+) -> anyhow::Result<(Option<Adaptive>, Option<std::time::Duration>)> {
+    if args.spp == 0 {
+        return Err(UsageError("--spp 0: render at least one sample per pixel".into()).into());
+    }
+    let allocation: Allocation = args.adaptive_allocation.parse().map_err(|_| {
+        UsageError(format!(
+            "--adaptive-allocation {:?}: use `time` (the default) or `error`",
+            args.adaptive_allocation
+        ))
+    })?;
+    let adaptive = match args.noise_threshold {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 => Some(Adaptive {
+            threshold: t,
+            min_spp: args.min_spp.clamp(1, args.spp),
+            allocation,
+        }),
+        Some(t) => {
+            return Err(UsageError(format!(
+                "--noise-threshold {t}: must be a positive number, e.g. 0.02"
+            ))
+            .into())
+        }
+    };
+    let time_limit = match args.time_limit {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 => Some(std::time::Duration::from_secs_f64(t)),
+        Some(t) => {
+            return Err(UsageError(format!(
+                "--time-limit {t}: must be a positive number of seconds"
+            ))
+            .into())
+        }
+    };
+    Ok((adaptive, time_limit))
+}
+
+/// `--traversal`, `--sampler` and `--noise-pattern`.
+fn tracer_kinds(args: &RenderArgs) -> Result<(Traversal, Sampler, NoisePattern), UsageError> {
+    let traversal = match args.traversal.as_str() {
+        "wide" => Traversal::Wide,
+        "stack" => Traversal::Stack,
+        "stackless" => Traversal::Stackless,
+        other => {
+            return Err(UsageError(format!(
+                "--traversal {other:?}: use `wide` (the default), `stack` or `stackless`"
+            )))
+        }
+    };
+    let sampler: Sampler = args.sampler.parse().map_err(|_| {
+        UsageError(format!(
+            "--sampler {:?}: use `sobol` (the default) or `random`",
+            args.sampler
+        ))
+    })?;
+    let noise_pattern: NoisePattern = args.noise_pattern.parse().map_err(|_| {
+        UsageError(format!(
+            "--noise-pattern {:?}: use `per-frame` or `fixed`",
+            args.noise_pattern
+        ))
+    })?;
+    Ok((traversal, sampler, noise_pattern))
+}
+
+/// `--env-color` or `--env`, else the scene's own sky or the default.
+fn environment(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Environment> {
+    Ok(match (&args.env_color, &args.env) {
+        (Some(_), Some(_)) => {
+            return Err(UsageError("--env-color and --env exclude each other".into()).into())
+        }
+        (Some(c), None) => Environment::Color(parse_env_color(c)?),
+        (None, Some(p)) => {
+            // Refused before the device is set up: not a regular file (exit 4).
+            crate::input::open_regular(p).map_err(|e| crate::trace::lights::EnvError::Read {
+                path: p.display().to_string(),
+                detail: format!(
+                    "cannot be read ({e}). Fix: give an equirectangular .exr file, or use --env-color R,G,B."
+                ),
+            })?;
+            Environment::Map(p.clone())
+        }
+        (None, None) => scene
+            .environment()
+            .map_or(Environment::Default, Environment::Color),
+    })
+}
+
+/// `--motion-blur` with `--shutter`, `--shutter-position` and
+/// `--motion-steps`.
+fn shutter(args: &RenderArgs) -> Result<Option<Shutter>, UsageError> {
+    let shutter = if args.motion_blur {
+        if !(args.shutter.is_finite() && args.shutter >= 0.0 && args.shutter <= 100.0) {
+            return Err(UsageError(format!(
+                "--shutter {}: the shutter's open time in frames must be a number from 0 to 100 (0.5 is a 180° shutter)",
+                args.shutter
+            )));
+        }
+        let position: ShutterPosition = args.shutter_position.parse().map_err(UsageError)?;
+        Some(Shutter {
+            frames: args.shutter,
+            position,
+        })
+    } else {
+        None
+    };
+    if let Some(n) = args.motion_steps {
+        if !(2..=64).contains(&n) {
+            return Err(UsageError(format!(
+                "--motion-steps {n}: use 2 (the shutter's opening and closing) to 64"
+            )));
+        }
+    }
+    Ok(shutter)
+}
