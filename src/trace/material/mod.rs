@@ -1,0 +1,303 @@
+//! The materials as the path tracer shades them: the device table
+//! (`DeviceMaterial`, `PtMaterial` in the generated `kernels/generated/pt_types.h`) made
+//! from the scene's `MaterialTable`, and the plain Rust reference of the
+//! glTF metallic-roughness BSDF (`bsdf_eval`, `bsdf_pdf`, `bsdf_sample`)
+//! that `kernels/trace/bsdf.h` mirrors operation for operation.
+//!
+//! The model is the specification's Appendix B: Lambert diffuse and GGX
+//! specular with height-correlated Smith masking, the dielectric weighted by
+//! a 4 % Schlick Fresnel and blended by `metallic` towards a conductor whose
+//! Schlick Fresnel starts at the base colour. `--clay` replaces it with a
+//! pure Lambertian of albedo 0.8.
+//!
+//! With `BsdfParams::dielectric` set (the kernels' `HAS_TRANSMISSION`),
+//! KHR_materials_ior sets the dielectric's F0 and KHR_materials_transmission
+//! replaces the share `transmission` of the diffuse lobe by a GGX
+//! transmission lobe tinted by the base colour: thin-walled (the reflection
+//! lobe mirrored to the far side, no bending) or, with KHR_materials_volume,
+//! refracting (Walter et al. 2007, as pbrt-v4's `DielectricBxDF`, including
+//! its 1/eta^2 radiance scaling). Fresnel stays Schlick's, taken on the
+//! optically thinner side and 1 under total internal reflection.
+//! KHR_materials_diffuse_transmission (the kernels' `HAS_DIFFUSE_TRANSMISSION`)
+//! moves the share `diffuse_transmission` of what stays of the diffuse lobe
+//! to a Lambertian transmission lobe of its own colour, weighted by the
+//! Fresnel the diffuse reflection would have at the mirror of wi.
+//! KHR_materials_iridescence (`HAS_IRIDESCENCE`) mixes every Fresnel of the
+//! dielectric layer and of the metal towards a thin film's
+//! (`thin_film_fresnel`, Belcour and Barla 2017, as the extension gives it).
+
+// `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod bsdf;
+mod dielectric;
+
+pub use bsdf::{
+    anisotropic_alpha, bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, ggx_alpha, ggx_smooth,
+    shadow_straight_through, sheen_lobe, sheen_scaling, smooth_reflectance, spec_probability,
+    thin_straight_through, BsdfParams, BsdfSample, Layers, MIN_GGX_ALPHA, SHEEN_MIN_ROUGHNESS,
+    SMOOTH_GGX_ALPHA,
+};
+pub use dielectric::{
+    f0_of_ior, fresnel_dielectric, fresnel_dielectric3, lobe_probabilities, thin_film_fresnel,
+    Dielectric,
+};
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::device_struct::{device_consts, device_struct};
+use crate::scene::{AlphaMode, Material, MaterialTable};
+
+device_consts! {
+    fn material_consts;
+    /// Material flags (`PtMaterial.flags`): both faces are shaded.
+    pub const MAT_DOUBLE_SIDED: u32 = 1;
+    pub const MAT_ALPHA_MASK: u32 = 2;
+    pub const MAT_ALPHA_BLEND: u32 = 4;
+    pub const MAT_EMISSIVE: u32 = 8;
+    /// KHR_materials_unlit (read only by kernels built with `HAS_UNLIT`).
+    pub const MAT_UNLIT: u32 = 16;
+    /// `--backface-culling`: rays pass through the material's back faces, as a
+    /// rasterizer culls them (set on single-sided materials only).
+    pub const MAT_CULL_BACK: u32 = 32;
+}
+
+device_struct! {
+/// One material as the device shades it. Texture
+/// slots index the texture bindings, -1 for none.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DeviceMaterial as "PtMaterial" {
+    pub base_color: [f32; 4],
+    pub emissive: [f32; 4],
+    pub metallic: f32,
+    pub roughness: f32,
+    pub alpha_cutoff: f32,
+    pub normal_scale: f32,
+    pub flags: u32,
+    pub base_color_tex: i32,
+    pub metallic_roughness_tex: i32,
+    pub normal_tex: i32,
+    pub emissive_tex: i32,
+    pub pad: [u32; 3],
+}
+}
+
+const _: () = assert!(std::mem::size_of::<DeviceMaterial>() == 80);
+
+impl DeviceMaterial {
+    /// A material's factors and flags, with no texture bound (the caller
+    /// fills the texture slots when textures are compiled in).
+    pub fn from_material(m: &Material) -> DeviceMaterial {
+        let e = m.emissive_factor;
+        let s = m.emissive_strength;
+        let emissive = [e[0] * s, e[1] * s, e[2] * s, 0.0];
+        let emits = emissive[..3].iter().any(|&c| c > 0.0 && c.is_finite());
+        let mut flags = 0;
+        // A volume's inside is seen through its back faces, so a refracting
+        // material is two-sided whatever `doubleSided` says.
+        if m.double_sided || m.has_volume() {
+            flags |= MAT_DOUBLE_SIDED;
+        }
+        match m.alpha_mode {
+            AlphaMode::Opaque => {}
+            AlphaMode::Mask => flags |= MAT_ALPHA_MASK,
+            AlphaMode::Blend => flags |= MAT_ALPHA_BLEND,
+        }
+        if emits {
+            flags |= MAT_EMISSIVE;
+        }
+        if m.unlit {
+            flags |= MAT_UNLIT;
+        }
+        DeviceMaterial {
+            base_color: m.base_color_factor,
+            emissive,
+            metallic: m.metallic_factor,
+            roughness: m.roughness_factor,
+            alpha_cutoff: m.alpha_cutoff,
+            normal_scale: m.normal_scale,
+            flags,
+            base_color_tex: -1,
+            metallic_roughness_tex: -1,
+            normal_tex: -1,
+            emissive_tex: -1,
+            pad: [0; 3],
+        }
+    }
+
+    pub fn emits(&self) -> bool {
+        self.flags & MAT_EMISSIVE != 0
+    }
+}
+
+/// The device table for `table`: one entry per material, then the glTF
+/// default material, which out-of-range ids (and soups without material
+/// ids) fall back to.
+pub fn device_materials(table: &MaterialTable) -> Vec<DeviceMaterial> {
+    let mut v: Vec<DeviceMaterial> = table
+        .materials
+        .iter()
+        .map(DeviceMaterial::from_material)
+        .collect();
+    v.push(DeviceMaterial::from_material(&Material::default()));
+    v
+}
+
+device_struct! {
+/// A material's extension factors (dielectric, coats, sheen, diffuse
+/// transmission, iridescence, anisotropy, dispersion), in a table beside
+/// the materials that only kernels built with `HAS_MATERIAL_EXT` read.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DeviceMaterialExt as "PtMaterialExt" {
+    /// KHR_materials_transmission `transmissionFactor`.
+    pub transmission: f32,
+    /// KHR_materials_ior `ior`.
+    pub ior: f32,
+    /// 1 when transmissive with a volume (refraction, attenuation), 0
+    /// thin-walled.
+    pub volume: f32,
+    /// KHR_materials_specular `specularFactor`.
+    pub specular: f32,
+    /// The volume's attenuation coefficient per unit length,
+    /// `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
+    pub sigma: [f32; 4],
+    /// KHR_materials_specular `specularColorFactor` (rgb, 0).
+    pub specular_color: [f32; 4],
+    /// Texture binding indices (-1: none) of `transmissionTexture` (R),
+    /// `specularTexture` (A) and `specularColorTexture` (RGB, sRGB).
+    pub transmission_tex: i32,
+    pub specular_tex: i32,
+    pub specular_color_tex: i32,
+    /// KHR_materials_clearcoat `clearcoatFactor`.
+    pub clearcoat: f32,
+    /// KHR_materials_clearcoat `clearcoatRoughnessFactor`.
+    pub clearcoat_roughness: f32,
+    /// KHR_materials_sheen `sheenRoughnessFactor`.
+    pub sheen_roughness: f32,
+    /// Texture binding indices (-1: none) of `clearcoatTexture` (R) and
+    /// `clearcoatRoughnessTexture` (G).
+    pub clearcoat_tex: i32,
+    pub clearcoat_roughness_tex: i32,
+    /// KHR_materials_sheen `sheenColorFactor` (rgb, 0).
+    pub sheen_color: [f32; 4],
+    /// Texture binding indices (-1: none) of `sheenColorTexture` (RGB,
+    /// sRGB), `sheenRoughnessTexture` (A) and `clearcoatNormalTexture`.
+    pub sheen_color_tex: i32,
+    pub sheen_roughness_tex: i32,
+    pub clearcoat_normal_tex: i32,
+    /// `clearcoatNormalTexture.scale`.
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
+    pub diffuse_transmission: f32,
+    /// Texture binding indices (-1: none) of `diffuseTransmissionTexture`
+    /// (A) and `diffuseTransmissionColorTexture` (RGB, sRGB).
+    pub diffuse_transmission_tex: i32,
+    pub diffuse_transmission_color_tex: i32,
+    pub pad: f32,
+    /// KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
+    /// (rgb, 0).
+    pub diffuse_transmission_color: [f32; 4],
+    /// KHR_materials_iridescence `iridescenceFactor`, `iridescenceIor`,
+    /// `iridescenceThicknessMinimum` and `iridescenceThicknessMaximum` (nm).
+    pub iridescence: f32,
+    pub iridescence_ior: f32,
+    pub iridescence_thickness_min: f32,
+    pub iridescence_thickness_max: f32,
+    /// Texture binding indices (-1: none) of `iridescenceTexture` (R) and
+    /// `iridescenceThicknessTexture` (G).
+    pub iridescence_tex: i32,
+    pub iridescence_thickness_tex: i32,
+    /// KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
+    /// sine of `anisotropyRotation` (counter-clockwise from the tangent),
+    /// taken here once rather than at every hit.
+    pub anisotropy_strength: f32,
+    pub anisotropy_cos: f32,
+    pub anisotropy_sin: f32,
+    /// Texture binding index (-1: none) of `anisotropyTexture` (RG: the
+    /// direction in tangent space, B: the strength).
+    pub anisotropy_tex: i32,
+    /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
+    pub dispersion: f32,
+    pub pad2: f32,
+}
+}
+
+const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 192);
+
+impl DeviceMaterialExt {
+    pub fn from_material(m: &Material) -> DeviceMaterialExt {
+        let d = m.attenuation_distance;
+        let sigma = |c: f32| {
+            if !(d > 0.0) || d.is_infinite() || c >= 1.0 {
+                0.0
+            } else if !(c > 0.0) {
+                f32::MAX
+            } else {
+                -c.ln() / d
+            }
+        };
+        let a = m.attenuation_color;
+        DeviceMaterialExt {
+            transmission: m.transmission_factor,
+            ior: m.ior,
+            volume: if m.has_volume() { 1.0 } else { 0.0 },
+            specular: m.specular_factor,
+            sigma: [sigma(a[0]), sigma(a[1]), sigma(a[2]), 0.0],
+            specular_color: [
+                m.specular_color[0],
+                m.specular_color[1],
+                m.specular_color[2],
+                0.0,
+            ],
+            transmission_tex: -1,
+            specular_tex: -1,
+            specular_color_tex: -1,
+            clearcoat: m.clearcoat_factor,
+            clearcoat_roughness: m.clearcoat_roughness,
+            sheen_roughness: m.sheen_roughness,
+            clearcoat_tex: -1,
+            clearcoat_roughness_tex: -1,
+            sheen_color: [m.sheen_color[0], m.sheen_color[1], m.sheen_color[2], 0.0],
+            sheen_color_tex: -1,
+            sheen_roughness_tex: -1,
+            clearcoat_normal_tex: -1,
+            clearcoat_normal_scale: m.clearcoat_normal_scale,
+            diffuse_transmission: m.diffuse_transmission,
+            diffuse_transmission_tex: -1,
+            diffuse_transmission_color_tex: -1,
+            pad: 0.0,
+            diffuse_transmission_color: [
+                m.diffuse_transmission_color[0],
+                m.diffuse_transmission_color[1],
+                m.diffuse_transmission_color[2],
+                0.0,
+            ],
+            iridescence: m.iridescence,
+            iridescence_ior: m.iridescence_ior,
+            iridescence_thickness_min: m.iridescence_thickness_min,
+            iridescence_thickness_max: m.iridescence_thickness_max,
+            iridescence_tex: -1,
+            iridescence_thickness_tex: -1,
+            anisotropy_strength: m.anisotropy_strength,
+            anisotropy_cos: m.anisotropy_rotation.cos(),
+            anisotropy_sin: m.anisotropy_rotation.sin(),
+            anisotropy_tex: -1,
+            dispersion: m.dispersion,
+            pad2: 0.0,
+        }
+    }
+}
+
+/// The extension table beside `device_materials` (same order, the default
+/// material last).
+pub fn device_material_exts(table: &MaterialTable) -> Vec<DeviceMaterialExt> {
+    let mut v: Vec<DeviceMaterialExt> = table
+        .materials
+        .iter()
+        .map(DeviceMaterialExt::from_material)
+        .collect();
+    v.push(DeviceMaterialExt::from_material(&Material::default()));
+    v
+}
