@@ -13,7 +13,8 @@ use super::animation::load_clip;
 use super::camera::load_camera;
 use super::error::{Result, SceneError};
 use super::light::load_light;
-use super::material::{load_materials, Material, MaterialTable};
+use super::material::{Material, MaterialTable};
+use super::material_load::load_materials;
 use super::mesh::{load_mesh, Skipped};
 use super::source;
 use super::{LoadOptions, MeshInstance, Node, Scene, Skin, Trs};
@@ -101,7 +102,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     for (i, m) in materials.materials.iter_mut().enumerate() {
         super::ranges::material(i, m, &mut warnings);
     }
-    warnings.extend(super::material::ignored_material_extensions(&src.json));
+    warnings.extend(super::material_load::ignored_material_extensions(&src.json));
     let second_uv_set = choose_second_uv_set(&mut materials, &mut warnings);
 
     // Meshes.
@@ -350,7 +351,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 
     // KHR_materials_variants: the chosen variant's materials replace the
     // primitives' own.
-    let variants = super::material::variant_names(&src.json);
+    let variants = super::material_load::variant_names(&src.json);
     if let Some(want) = &opts.variant {
         let chosen = variants
             .iter()
@@ -374,7 +375,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         for (m, mesh) in meshes.iter_mut().enumerate() {
             for p in &mut mesh.primitives {
                 if let Some(material) =
-                    super::material::variant_material(&src.json, m, p.index_in_mesh, chosen)
+                    super::material_load::variant_material(&src.json, m, p.index_in_mesh, chosen)
                 {
                     if material >= material_count {
                         return Err(SceneError::invalid(

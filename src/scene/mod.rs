@@ -21,6 +21,7 @@ mod ktx2_basis;
 pub mod light;
 mod load;
 pub mod material;
+pub(crate) mod material_load;
 pub mod mesh;
 mod meshopt_views;
 pub mod pointer;

@@ -714,7 +714,7 @@ pub(super) fn validate(file: &str, json: &mut Value) -> Result<Vec<String>> {
             ("emissiveTexture".to_owned(), m.get("emissiveTexture")),
         ];
         slots.extend(
-            crate::scene::material::EXTENSION_TEXTURES
+            crate::scene::material_load::EXTENSION_TEXTURES
                 .iter()
                 .map(|&(ext, key)| {
                     (
