@@ -40,6 +40,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "bsdf.h"),
     kernel!("trace" / "lights.h"),
     kernel!("trace" / "media.h"),
+    kernel!("trace" / "lens.h"),
     kernel!("trace" / "pathtrace.cl"),
     kernel!("trace" / "pt_probe.cl"),
     kernel!("trace" / "motion.h"),

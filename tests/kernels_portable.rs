@@ -33,7 +33,10 @@ use soupray::kernels::{generated_headers, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::render::{motion_defines, pathtrace_defines, Lobes, Traversal, LOBES};
+use soupray::trace::lens::Lens;
+use soupray::trace::render::{
+    lens_defines, motion_defines, pathtrace_defines, Lobes, Traversal, LOBES,
+};
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -272,6 +275,34 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
+    // Depth of field, alone and with motion blur.
+    let lens = lens_defines(
+        pathtrace_defines(
+            Traversal::Wide,
+            true,
+            Sampler::default(),
+            false,
+            false,
+            false,
+            Lobes::NONE,
+        ),
+        Some(&Lens {
+            f_stop: 2.8,
+            focus_distance: 1.0,
+            blades: 0,
+            blade_rotation: 0.0,
+        }),
+    );
+    v.push(Variant {
+        entry: "pathtrace.cl",
+        defines: lens.clone(),
+        codegen: true,
+    });
+    v.push(Variant {
+        entry: "pathtrace.cl",
+        defines: motion_defines(lens),
+        codegen: true,
+    });
     v.push(Variant {
         entry: "motion.cl",
         defines: motion_program_defines(),

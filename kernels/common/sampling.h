@@ -43,6 +43,7 @@ inline uint pcg_hash(uint v) {
 //                         the time is read only with MOTION_BLUR
 //   set 1 + 2 b           bounce b's light sample: (u, v, light choice, -)
 //   set 2 + 2 b           bounce b's BSDF sample: (u, v, lobe, roulette)
+//   SET_LENS              the lens point of depth of field: (u, v, -, -)
 //   SET_PASS + ...        pass-through decisions (stochastic BLEND coverage)
 //                         keyed by bounce, ray kind and crossing count.
 // The pixel filter and the first bounces' light and BSDF samples thus each
@@ -243,6 +244,9 @@ inline float rng_1d(SampleRng r, uint dim) {
 #define SET_LIGHT 0u
 #define SET_BSDF 1u
 #define SET_PASS 0x10000000u
+// The lens point of depth of field (HAS_DOF): a set of its own, so its two
+// dimensions are a set's best stratified pair.
+#define SET_LENS 0x08000000u
 
 inline uint set_bounce(uint bounce, uint slot) { return SET_BOUNCE + 2u * bounce + slot; }
 

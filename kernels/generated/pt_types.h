@@ -42,7 +42,7 @@
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by
 // xmag and ymag.
-// `DeviceCamera` in src/trace/render/upload.rs (80 bytes).
+// `DeviceCamera` in src/trace/render/upload.rs (96 bytes).
 typedef struct {
     float origin[4];
     float right[4];
@@ -50,6 +50,14 @@ typedef struct {
     float forward[4];
     uint ortho;
     float znear;
+    // Depth of field (`HAS_DOF` kernels only): the lens radius in scene
+    // units (0: a pinhole), the distance to the plane in focus along
+    // `forward`, and the aperture's corners (below 3: a disk) and the
+    // first corner's angle (src/trace/lens.rs).
+    float lens_radius;
+    float focus_distance;
+    uint blades;
+    float blade_rotation;
     uint pad[2];
 } PtCamera;
 
@@ -84,7 +92,7 @@ typedef struct {
 
 // One material as the device shades it. Texture
 // slots index the texture bindings, -1 for none.
-// `DeviceMaterial` in src/trace/material.rs (80 bytes).
+// `DeviceMaterial` in src/trace/material/mod.rs (80 bytes).
 typedef struct {
     float base_color[4];
     float emissive[4];
@@ -103,7 +111,7 @@ typedef struct {
 // A material's extension factors (dielectric, coats, sheen, diffuse
 // transmission, iridescence, anisotropy, dispersion), in a table beside
 // the materials that only kernels built with `HAS_MATERIAL_EXT` read.
-// `DeviceMaterialExt` in src/trace/material.rs (192 bytes).
+// `DeviceMaterialExt` in src/trace/material/mod.rs (192 bytes).
 typedef struct {
     // KHR_materials_transmission `transmissionFactor`.
     float transmission;

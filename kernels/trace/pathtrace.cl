@@ -55,6 +55,9 @@
 #include "trace_common.h"
 #include "pt_types.h"
 #include "sampling.h"
+#ifdef HAS_DOF
+#include "lens.h"
+#endif
 #include "bsdf.h"
 #include "lights.h"
 #ifdef HAS_TRANSMISSION
@@ -955,10 +958,20 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         tmin = cv.znear;
     } else {
         float3 d = (c_fwd + c_right * sx) + c_up * sy;
-        float l = length(d);
-        org = c_org;
-        dir = d / l;
-        tmin = cv.znear * l;
+#ifdef HAS_DOF
+        if (cv.lens_radius > 0.0f) {
+            float4 ul = rng_4d(rng, SET_LENS);
+            float2 a = camera_aperture_point(ul.x, ul.y, cv.blades, cv.blade_rotation);
+            camera_lens_ray(c_org, c_right, c_up, c_fwd, d, cv.znear, cv.lens_radius,
+                            cv.focus_distance, a, &org, &dir, &tmin);
+        } else
+#endif
+        {
+            float l = length(d);
+            org = c_org;
+            dir = d / l;
+            tmin = cv.znear * l;
+        }
     }
     Ray ray;
     ray.org[0] = org.x; ray.org[1] = org.y; ray.org[2] = org.z;

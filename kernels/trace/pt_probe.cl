@@ -9,6 +9,7 @@
 #include "sampling.h"
 #include "bsdf.h"
 #include "lights.h"
+#include "lens.h"
 #ifdef HAS_TRANSMISSION
 #include "media.h"
 #endif
@@ -239,4 +240,24 @@ __kernel void rng_probe(__global const uint* in, __global float* out, uint n) {
     const __global uint* c = in + (size_t)i * 7u;
     SampleRng r = rng_for_sample(c[0], c[1], c[2], c[3], c[4], c[5]);
     out[i] = rng_1d(r, c[6]);
+}
+
+// Depth of field's lens rays: per case 24 inputs (u, v, blades, rotation, origin,
+// right, up, forward and d xyz, znear, radius, focus, 2 unused)
+// and 9 outputs (aperture point xy, origin xyz, direction xyz, tmin).
+__kernel void pt_lens_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    __global const float* a = in + 24u * i;
+    float2 ap = camera_aperture_point(a[0], a[1], (uint)a[2], a[3]);
+    float3 org, dir;
+    float tmin;
+    camera_lens_ray((float3)(a[4], a[5], a[6]), (float3)(a[7], a[8], a[9]),
+                    (float3)(a[10], a[11], a[12]), (float3)(a[13], a[14], a[15]),
+                    (float3)(a[16], a[17], a[18]), a[19], a[20], a[21], ap, &org, &dir, &tmin);
+    __global float* o = out + 9u * i;
+    o[0] = ap.x; o[1] = ap.y;
+    o[2] = org.x; o[3] = org.y; o[4] = org.z;
+    o[5] = dir.x; o[6] = dir.y; o[7] = dir.z;
+    o[8] = tmin;
 }

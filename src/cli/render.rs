@@ -231,6 +231,35 @@ pub struct RenderArgs {
     /// a single-sided emitter emits from its front only either way.
     #[arg(long, help_heading = "Image")]
     pub backface_culling: bool,
+    /// Depth of field: open the camera's lens to this f-number (e.g. 2.8;
+    /// smaller is blurrier). glTF cameras are pinholes, so soupray adds a
+    /// thin lens with Blender's 36 mm sensor across the image's wider side:
+    /// the same f-stop blurs as in Blender. Needs --focus-distance.
+    /// Perspective cameras only.
+    #[arg(long, value_name = "F_STOP", help_heading = "Depth of field")]
+    pub aperture: Option<f32>,
+    /// The distance from the camera to the plane in focus, along the view
+    /// direction, in scene units (metres in glTF).
+    #[arg(long, value_name = "M", help_heading = "Depth of field")]
+    pub focus_distance: Option<f32>,
+    /// A polygonal aperture with N blades (its bokeh takes that shape);
+    /// 0 for a round one.
+    #[arg(
+        long,
+        default_value_t = 0,
+        value_name = "N",
+        help_heading = "Depth of field"
+    )]
+    pub blades: u32,
+    /// The first blade's angle, in degrees, counter-clockwise from the
+    /// image's right.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "DEGREES",
+        help_heading = "Depth of field"
+    )]
+    pub blade_rotation: f32,
     /// Constant environment radiance, linear RGB (e.g. 0.5,0.6,1.0).
     /// Without this or --env: the file's own sky, where its scene's extras
     /// give one ({"soupray": {"environment": [r, g, b]}}); else none when

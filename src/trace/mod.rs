@@ -26,6 +26,7 @@ pub mod embree;
 pub mod energy;
 pub mod escape;
 pub mod intersect;
+pub mod lens;
 pub mod lights;
 pub mod material;
 pub mod media;

@@ -110,6 +110,8 @@ impl std::str::FromStr for NoisePattern {
 /// The set of the camera sample: (filter x, filter y, shutter time, -); the
 /// time (component 2) is read only with motion blur (`trace::motion`).
 pub const SET_CAMERA: u32 = 0;
+/// The lens point of depth of field (`SET_LENS`).
+pub const SET_LENS: u32 = 0x0800_0000;
 /// Slots of a bounce's sets (`set_bounce`).
 pub const SET_LIGHT: u32 = 0;
 pub const SET_BSDF: u32 = 1;

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use super::lens::Lens;
 use super::sampling::{NoisePattern, Sampler};
 use crate::film::Aovs;
 
@@ -83,6 +84,9 @@ pub struct RenderSettings {
     /// single-sided materials, as the Khronos Sample Viewer's rasterizer
     /// culls them. Off by default: back faces are shaded, as Cycles does.
     pub backface_culling: bool,
+    /// Depth of field (`--aperture`, `--focus-distance`); `None`: a
+    /// pinhole camera, everything sharp.
+    pub lens: Option<Lens>,
 }
 
 impl Default for RenderSettings {
@@ -103,6 +107,7 @@ impl Default for RenderSettings {
             aovs: Aovs::NONE,
             energy_compensation: true,
             backface_culling: false,
+            lens: None,
         }
     }
 }

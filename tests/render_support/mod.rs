@@ -173,6 +173,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         aovs: soupray::film::Aovs::NONE,
         energy_compensation: false,
         backface_culling: false,
+        lens: None,
     }
 }
 

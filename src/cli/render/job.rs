@@ -7,6 +7,7 @@ use crate::cli::frames::{self, FrameArgs, NamePattern};
 use crate::film::Aovs;
 use crate::pipeline::FrameSettings;
 use crate::scene::{Projection, Scene};
+use crate::trace::lens::Lens;
 use crate::trace::motion::{Shutter, ShutterPosition};
 use crate::trace::render::{Adaptive, Allocation, Environment, RenderSettings, Traversal};
 use crate::trace::sampling::{NoisePattern, Sampler};
@@ -133,6 +134,7 @@ pub(super) fn resolve_job(
                 aovs,
                 energy_compensation: !args.no_energy_compensation,
                 backface_culling: args.backface_culling,
+                lens: lens(args)?,
             },
             build: params,
             output_aovs,
@@ -236,6 +238,34 @@ fn environment(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Environment> 
 
 /// `--motion-blur` with `--shutter`, `--shutter-position` and
 /// `--motion-steps`.
+/// `--aperture` with `--focus-distance`, `--blades` and `--blade-rotation`.
+fn lens(args: &RenderArgs) -> Result<Option<Lens>, UsageError> {
+    let Some(f_stop) = args.aperture else {
+        if args.focus_distance.is_some() || args.blades != 0 || args.blade_rotation != 0.0 {
+            return Err(UsageError(
+                "--focus-distance, --blades and --blade-rotation shape the lens that \
+                 --aperture F_STOP opens: add --aperture (e.g. --aperture 2.8)"
+                    .into(),
+            ));
+        }
+        return Ok(None);
+    };
+    let Some(focus_distance) = args.focus_distance else {
+        return Err(UsageError(format!(
+            "--aperture {f_stop} needs --focus-distance M: the distance from the camera to the \
+             plane in focus, in scene units (metres for glTF)"
+        )));
+    };
+    let lens = Lens {
+        f_stop,
+        focus_distance,
+        blades: args.blades,
+        blade_rotation: args.blade_rotation.to_radians(),
+    };
+    lens.check().map_err(UsageError)?;
+    Ok(Some(lens))
+}
+
 fn shutter(args: &RenderArgs) -> Result<Option<Shutter>, UsageError> {
     let shutter = if args.motion_blur {
         if !(args.shutter.is_finite() && args.shutter >= 0.0 && args.shutter <= 100.0) {

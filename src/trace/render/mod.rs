@@ -32,7 +32,9 @@ pub use super::settings::{
     ADAPTIVE_STEP,
 };
 use program::Kernels;
-pub use program::{material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES};
+pub use program::{
+    lens_defines, material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES,
+};
 use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
 pub use upload::{device_camera, frame_consts, DeviceCamera, DeviceFrame};
 
@@ -351,6 +353,7 @@ impl<'d> PathTracer<'d> {
             features_of.materials.iter().any(|m| m.unlit),
             lobes,
         );
+        let defines = lens_defines(defines, settings.lens.as_ref());
         let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;

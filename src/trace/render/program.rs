@@ -9,6 +9,7 @@ use opencl3::program::Program;
 use crate::bvh::MAX_DEPTH;
 use crate::device::Device;
 use crate::scene::{Material, MaterialTable};
+use crate::trace::lens::Lens;
 use crate::trace::sampling::Sampler;
 use crate::trace::settings::Traversal;
 use crate::trace::texture::Slot;
@@ -199,6 +200,19 @@ impl FromIterator<usize> for Lobes {
     fn from_iter<I: IntoIterator<Item = usize>>(indices: I) -> Lobes {
         Lobes(indices.into_iter().fold(0, |set, i| set | 1 << i))
     }
+}
+
+/// `base` with `HAS_DOF` where the camera has a lens: only then does the
+/// camera sample draw a lens point, so a pinhole render's program and image
+/// are those of a build without depth of field.
+pub fn lens_defines(
+    mut base: Vec<(&'static str, String)>,
+    lens: Option<&Lens>,
+) -> Vec<(&'static str, String)> {
+    if lens.is_some() {
+        base.push(("HAS_DOF", "1".to_owned()));
+    }
+    base
 }
 
 /// The defines of `pathtrace.cl`'s motion-blur variant: `base` (from

@@ -13,6 +13,7 @@ use crate::device::{Arg, Device};
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameLight;
 use crate::scene::{FrameCamera, Projection};
+use crate::trace::lens::Lens;
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
     ENV_CONSTANT, ENV_NONE,
@@ -36,6 +37,14 @@ pub struct DeviceCamera as "PtCamera" {
     pub forward: [f32; 4],
     pub ortho: u32,
     pub znear: f32,
+    /// Depth of field (`HAS_DOF` kernels only): the lens radius in scene
+    /// units (0: a pinhole), the distance to the plane in focus along
+    /// `forward`, and the aperture's corners (below 3: a disk) and the
+    /// first corner's angle (src/trace/lens.rs).
+    pub lens_radius: f32,
+    pub focus_distance: f32,
+    pub blades: u32,
+    pub blade_rotation: f32,
     pub pad: [u32; 2],
 }
 }
@@ -115,8 +124,25 @@ pub fn device_camera(cam: &FrameCamera, width: u32, height: u32) -> DeviceCamera
         } else {
             0.0
         },
+        lens_radius: 0.0,
+        focus_distance: 0.0,
+        blades: 0,
+        blade_rotation: 0.0,
         pad: [0; 2],
     }
+}
+
+/// `camera` with `lens` (a perspective camera only: an orthographic one
+/// stays sharp everywhere).
+pub fn with_lens(mut camera: DeviceCamera, lens: Option<&Lens>) -> DeviceCamera {
+    if let Some(lens) = lens.filter(|_| camera.ortho == 0) {
+        let half = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]).length();
+        camera.lens_radius = lens.radius(half(camera.right), half(camera.up));
+        camera.focus_distance = lens.focus_distance;
+        camera.blades = lens.blades;
+        camera.blade_rotation = lens.blade_rotation;
+    }
+    camera
 }
 
 /// The texture bindings of `materials` in `set`: four per material
@@ -429,7 +455,11 @@ impl PathTracer<'_> {
     ) -> Result<Option<u32>, TraceError> {
         let d = self.device;
         let (w, h) = (self.settings.width, self.settings.height);
-        d.write(&mut self.camera, &[device_camera(camera, w, h)])?;
+        let lens = self.settings.lens.as_ref();
+        d.write(
+            &mut self.camera,
+            &[with_lens(device_camera(camera, w, h), lens)],
+        )?;
         let Some((steps, cameras, _)) = motion else {
             return Ok(None);
         };
@@ -440,7 +470,10 @@ impl PathTracer<'_> {
                 cameras.len()
             )));
         }
-        let cams: Vec<DeviceCamera> = cameras.iter().map(|c| device_camera(c, w, h)).collect();
+        let cams: Vec<DeviceCamera> = cameras
+            .iter()
+            .map(|c| with_lens(device_camera(c, w, h), lens))
+            .collect();
         d.write(self.motion_cameras.ensure(d, cams.len())?, &cams)?;
         Ok(Some(steps))
     }
