@@ -704,6 +704,12 @@ pub struct CameraLog {
     pub xmag: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ymag: Option<f64>,
+    /// Depth of field (`--aperture`): the f-number and the distance to the
+    /// plane in focus this frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub f_stop: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub focus_distance: Option<f64>,
 }
 
 /// The frame's files, as paths relative to where soupray ran (or absolute).

@@ -280,3 +280,83 @@ fn an_aperture_without_a_focus_distance_is_refused_with_the_fix() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--aperture"), "{err}");
 }
+
+/// The walker's generator, scripts/make-walker.py: the distance from the
+/// camera to the hips along its view at time `t`, where the camera's keys
+/// fall (every quarter second) and so is exactly `camera_at(t)`.
+fn walker_hips_distance(t: f64) -> f64 {
+    let (speed, start_z, gait) = (1.4, -1.4, 1.0);
+    let walker = start_z + speed * t;
+    let eye = Vec3::new(
+        (4.4 - 0.4 * t) as f32,
+        (1.55 + 0.1 * t) as f32,
+        (walker - 2.8 + 1.0 * t) as f32,
+    );
+    let target = Vec3::new(0.0, 0.85, (walker + 0.3) as f32);
+    let phase = 2.0 * std::f64::consts::PI * t / gait;
+    let hips = Vec3::new(
+        0.0,
+        (0.95 + 0.025 * (2.0 * phase).cos()) as f32,
+        walker as f32,
+    );
+    (hips - eye).dot((target - eye).normalize()) as f64
+}
+
+#[test]
+fn focus_on_a_node_follows_it_frame_by_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .current_dir(common::repo())
+        .args([
+            "render", "--frames", "0,24", "--spp", "1", "--width", "32", "--height", "18",
+        ])
+        .args([
+            "--aperture",
+            "2.8",
+            "--focus-on",
+            "hips",
+            "--quiet",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for (frame, t) in [(0, 0.0), (24, 1.0)] {
+        let log: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(dir.path().join(format!("walker.{frame:04}.json"))).unwrap(),
+        )
+        .unwrap();
+        let got = log["camera"]["focus_distance"].as_f64().unwrap();
+        let want = walker_hips_distance(t);
+        assert!(
+            (got - want).abs() < 1e-3,
+            "frame {frame}: focus {got} m, the hips are {want} m away"
+        );
+        assert_eq!(log["camera"]["f_stop"].as_f64(), Some(2.8f32 as f64));
+    }
+    // A name the file lacks is refused with the names it has.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+        .current_dir(common::repo())
+        .args([
+            "render",
+            "--frames",
+            "0",
+            "--aperture",
+            "2.8",
+            "--focus-on",
+            "tail",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--focus-on tail") && err.contains("hips"),
+        "{err}"
+    );
+}

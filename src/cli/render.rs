@@ -242,6 +242,11 @@ pub struct RenderArgs {
     /// direction, in scene units (metres in glTF).
     #[arg(long, value_name = "M", help_heading = "Depth of field")]
     pub focus_distance: Option<f32>,
+    /// Focus on a node instead, by name or index: each frame the plane in
+    /// focus passes through the node's origin, so a moving subject stays
+    /// sharp.
+    #[arg(long, value_name = "NODE", help_heading = "Depth of field")]
+    pub focus_on: Option<String>,
     /// A polygonal aperture with N blades (its bokeh takes that shape);
     /// 0 for a round one.
     #[arg(

@@ -67,6 +67,12 @@ impl FrameRenderer<'_> {
                 .collect(),
         };
         log.camera = camera_log(&f.ev.info.camera);
+        // The lens the frame was traced through (the focus moves with
+        // --focus-on).
+        if let Some(lens) = &self.tracer.settings().lens {
+            log.camera.f_stop = Some(lens.f_stop as f64);
+            log.camera.focus_distance = Some(lens.focus_distance as f64);
+        }
         log.noise = noise.clone();
         log.motion =
             f.ev.shutter

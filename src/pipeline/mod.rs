@@ -45,6 +45,9 @@ pub struct FrameSettings {
     pub shutter: Option<Shutter>,
     /// Motion steps per frame; `None` chooses them from the motion.
     pub motion_steps: Option<u32>,
+    /// `--focus-on NODE`: each frame focuses the lens at this node's
+    /// origin (its distance along the camera's view direction then).
+    pub focus_node: Option<usize>,
 }
 
 /// A frame that failed; its message names the frame and the stage.

@@ -164,6 +164,10 @@ impl FrameRenderer<'_> {
     ) -> anyhow::Result<Option<RenderOutput>> {
         // KHR_animation_pointer material channels: the frame's materials.
         set_frame_materials(&mut self.tracer, self.scene, ev.info.time)?;
+        if let Some(node) = self.settings.focus_node {
+            let distance = focus_distance(self.scene, node, &ev.info.camera, ev.info.time);
+            self.tracer.set_focus_distance(distance);
+        }
         let prim_ids = self
             .builder
             .device_prim_ids()
@@ -197,4 +201,25 @@ impl FrameRenderer<'_> {
         }
         .map_err(Into::into)
     }
+}
+
+/// The distance along `camera`'s view direction to `node`'s origin at
+/// `time` (`--focus-on`); a node beside or behind the camera gives the
+/// near plane's distance, the closest focus there is.
+fn focus_distance(
+    scene: &crate::scene::Scene,
+    node: usize,
+    camera: &crate::scene::FrameCamera,
+    time: f64,
+) -> f32 {
+    let pose = scene.pose(time);
+    let target = pose.world_from_node[node].w_axis.truncate();
+    let m = camera.world_from_camera;
+    let forward = (-m.z_axis.truncate()).normalize_or(glam::Vec3::NEG_Z);
+    let along = (target - m.w_axis.truncate()).dot(forward);
+    let near = match camera.projection {
+        crate::scene::Projection::Perspective { znear, .. }
+        | crate::scene::Projection::Orthographic { znear, .. } => znear,
+    };
+    along.max(near.max(1.0e-3))
 }

@@ -140,6 +140,7 @@ pub(super) fn resolve_job(
             output_aovs,
             shutter,
             motion_steps: args.motion_steps,
+            focus_node: focus_node(args, scene)?,
         },
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
     })
@@ -238,23 +239,72 @@ fn environment(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Environment> 
 
 /// `--motion-blur` with `--shutter`, `--shutter-position` and
 /// `--motion-steps`.
+/// `--focus-on NODE`: the node, by name or index.
+fn focus_node(args: &RenderArgs, scene: &Scene) -> Result<Option<usize>, UsageError> {
+    let Some(want) = &args.focus_on else {
+        return Ok(None);
+    };
+    let nodes = scene.nodes();
+    let by_name: Vec<usize> = (0..nodes.len())
+        .filter(|&i| nodes[i].name.as_deref() == Some(want.as_str()))
+        .collect();
+    match (by_name.as_slice(), want.parse::<usize>()) {
+        ([one], _) => Ok(Some(*one)),
+        ([], Ok(i)) if i < nodes.len() => Ok(Some(i)),
+        ([], _) => {
+            let names: Vec<String> = (0..nodes.len())
+                .take(12)
+                .map(|i| scene.node_label(i))
+                .collect();
+            Err(UsageError(format!(
+                "--focus-on {want}: no node has that name or index. Fix: pass one of the {} nodes \
+                 (`soupray info SCENE` lists them), e.g. {}",
+                nodes.len(),
+                names.join(", ")
+            )))
+        }
+        (many, _) => Err(UsageError(format!(
+            "--focus-on {want}: {} nodes have that name; pass the index of one ({})",
+            many.len(),
+            many.iter()
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
+}
+
 /// `--aperture` with `--focus-distance`, `--blades` and `--blade-rotation`.
 fn lens(args: &RenderArgs) -> Result<Option<Lens>, UsageError> {
     let Some(f_stop) = args.aperture else {
-        if args.focus_distance.is_some() || args.blades != 0 || args.blade_rotation != 0.0 {
+        if args.focus_distance.is_some()
+            || args.focus_on.is_some()
+            || args.blades != 0
+            || args.blade_rotation != 0.0
+        {
             return Err(UsageError(
-                "--focus-distance, --blades and --blade-rotation shape the lens that \
+                "--focus-distance, --focus-on, --blades and --blade-rotation shape the lens that \
                  --aperture F_STOP opens: add --aperture (e.g. --aperture 2.8)"
                     .into(),
             ));
         }
         return Ok(None);
     };
-    let Some(focus_distance) = args.focus_distance else {
-        return Err(UsageError(format!(
-            "--aperture {f_stop} needs --focus-distance M: the distance from the camera to the \
-             plane in focus, in scene units (metres for glTF)"
-        )));
+    let focus_distance = match (args.focus_distance, &args.focus_on) {
+        (Some(_), Some(_)) => {
+            return Err(UsageError(
+                "--focus-distance and --focus-on both set the focus: pass one".into(),
+            ))
+        }
+        (Some(d), None) => d,
+        // Set each frame from the node's distance.
+        (None, Some(_)) => 1.0,
+        (None, None) => {
+            return Err(UsageError(format!(
+                "--aperture {f_stop} needs --focus-distance M (the distance from the camera to \
+                 the plane in focus, in scene units: metres for glTF) or --focus-on NODE"
+            )))
+        }
     };
     let lens = Lens {
         f_stop,

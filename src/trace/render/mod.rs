@@ -479,6 +479,14 @@ impl<'d> PathTracer<'d> {
         self.schedule = schedule;
     }
 
+    /// `--focus-on`: the lens's focus for the frames that follow (a pinhole
+    /// camera ignores it).
+    pub fn set_focus_distance(&mut self, distance: f32) {
+        if let Some(lens) = &mut self.settings.lens {
+            lens.focus_distance = distance;
+        }
+    }
+
     pub fn settings(&self) -> &RenderSettings {
         &self.settings
     }
