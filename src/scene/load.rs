@@ -248,7 +248,7 @@ fn load_meshes(
     let mut meshes = Vec::new();
     for mesh in doc.meshes() {
         meshes.push(load_mesh(
-            &reader,
+            reader,
             &mesh,
             sanitize,
             second_uv_set,

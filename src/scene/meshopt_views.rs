@@ -256,7 +256,7 @@ fn check_decoder_layout(
 ) -> Result<()> {
     // Each check below is one of the decoder's own asserts.
     match mode {
-        Mode::Attributes if stride == 0 || stride > 256 || stride % 4 != 0 => {
+        Mode::Attributes if stride == 0 || stride > 256 || !stride.is_multiple_of(4) => {
             return Err(invalid(
                 file,
                 i,
@@ -270,7 +270,7 @@ fn check_decoder_layout(
                 format!("its mode is {mode:?} with byteStride {stride}; index modes need 2 or 4"),
             ))
         }
-        Mode::Triangles if count % 3 != 0 => {
+        Mode::Triangles if !count.is_multiple_of(3) => {
             return Err(invalid(
                 file,
                 i,
@@ -290,7 +290,7 @@ fn check_decoder_layout(
         Filter::None => true,
         Filter::Octahedral => stride == 4 || stride == 8,
         Filter::Quaternion => stride == 8,
-        Filter::Exponential => stride % 4 == 0,
+        Filter::Exponential => stride.is_multiple_of(4),
     };
     if !filter_ok {
         return Err(invalid(

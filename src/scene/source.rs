@@ -264,6 +264,9 @@ fn json_for_crate(json: &serde_json::Value) -> serde_json::Value {
     for_crate
 }
 
+/// Per buffer, why it holds fewer bytes than its byteLength (if it does).
+type ShortBuffers = Vec<Option<String>>;
+
 /// The buffers the file itself holds (the first `count` of the document's;
 /// decoded ones are appended after them), each cut to its byteLength,
 /// with a note for each that is shorter.
@@ -275,7 +278,7 @@ fn read_file_buffers(
     count: usize,
     glb: Option<Glb>,
     warnings: &mut Vec<String>,
-) -> Result<(Vec<Vec<u8>>, Vec<Option<String>>)> {
+) -> Result<(Vec<Vec<u8>>, ShortBuffers)> {
     let (glb_bin, glb_truncation) = match glb {
         Some(g) => (g.bin, g.truncation),
         None => (None, None),
