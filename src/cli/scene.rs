@@ -91,6 +91,25 @@ fn named(index: usize, name: Option<&str>) -> String {
 pub fn describe(scene: &Scene) -> String {
     let mut out = String::new();
     let o = &mut out;
+    describe_file(o, scene);
+    describe_meshes(o, scene);
+    describe_skins(o, scene);
+    describe_animations(o, scene);
+    describe_cameras(o, scene);
+    describe_lights(o, scene);
+    describe_materials(o, scene);
+
+    if !scene.warnings().is_empty() {
+        let _ = writeln!(o, "warnings:");
+        for w in scene.warnings() {
+            let _ = writeln!(o, "  {w}");
+        }
+    }
+    out
+}
+
+/// The file, its scenes, variants and extensions.
+fn describe_file(o: &mut String, scene: &Scene) {
     let _ = writeln!(o, "file: {}", scene.file());
     let _ = writeln!(
         o,
@@ -123,7 +142,11 @@ pub fn describe(scene: &Scene) -> String {
         "extensions required: {}",
         list(scene.extensions_required())
     );
+}
 
+/// Each mesh: primitives, triangles, compression, morph targets, and the
+/// nodes that place it.
+fn describe_meshes(o: &mut String, scene: &Scene) {
     let _ = writeln!(
         o,
         "meshes: {} ({} placed in the scene, {} triangles per frame)",
@@ -183,7 +206,10 @@ pub fn describe(scene: &Scene) -> String {
             }
         );
     }
+}
 
+/// Each skin: joints, and the nodes it skins.
+fn describe_skins(o: &mut String, scene: &Scene) {
     let _ = writeln!(o, "skins: {}", scene.skins().len());
     for (i, skin) in scene.skins().iter().enumerate() {
         let users: Vec<String> = scene
@@ -204,7 +230,10 @@ pub fn describe(scene: &Scene) -> String {
             }
         );
     }
+}
 
+/// Each animation: duration, channels, interpolations and frame range.
+fn describe_animations(o: &mut String, scene: &Scene) {
     let fps = scene.options().fps;
     let _ = writeln!(o, "animations: {}", scene.clips().len());
     let active = scene.active_clip().map(|c| c.index);
@@ -233,7 +262,10 @@ pub fn describe(scene: &Scene) -> String {
             }
         );
     }
+}
 
+/// Each camera: its lens and the nodes that place it, and which renders.
+fn describe_cameras(o: &mut String, scene: &Scene) {
     let _ = writeln!(o, "cameras: {}", scene.cameras().len());
     for (i, cam) in scene.cameras().iter().enumerate() {
         let lens = match cam.projection {
@@ -286,7 +318,10 @@ pub fn describe(scene: &Scene) -> String {
             "  (no camera in the scene: a default camera frames the whole clip)"
         );
     }
+}
 
+/// Each KHR_lights_punctual light.
+fn describe_lights(o: &mut String, scene: &Scene) {
     let _ = writeln!(o, "lights: {}", scene.lights().len());
     for (i, light) in scene.lights().iter().enumerate() {
         let cone = match light.kind {
@@ -313,7 +348,10 @@ pub fn describe(scene: &Scene) -> String {
                 .unwrap_or_default()
         );
     }
+}
 
+/// The material table, and each material's parameters.
+fn describe_materials(o: &mut String, scene: &Scene) {
     let table = scene.materials();
     let _ = writeln!(
         o,
@@ -366,14 +404,6 @@ pub fn describe(scene: &Scene) -> String {
             let _ = writeln!(o, "    {}", exts.join(", "));
         }
     }
-
-    if !scene.warnings().is_empty() {
-        let _ = writeln!(o, "warnings:");
-        for w in scene.warnings() {
-            let _ = writeln!(o, "  {w}");
-        }
-    }
-    out
 }
 
 /// The material extensions' parameters `m` departs from the defaults in,

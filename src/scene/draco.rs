@@ -170,22 +170,8 @@ fn check_primitive(
     let ext = ext
         .as_object()
         .ok_or_else(|| fail("its extension object is not a JSON object".into()))?;
-    let view = match ext.get("bufferView") {
-        None => return Err(fail("its extension has no bufferView".into())),
-        Some(v) => v.as_u64().ok_or_else(|| {
-            fail(format!(
-                "its extension's bufferView is {v}, not a non-negative integer"
-            ))
-        })?,
-    };
-    if view as usize >= views.len() || view > u64::from(u32::MAX) {
-        return Err(fail(format!(
-            "its extension names bufferView {view}, and the file has {} bufferViews",
-            views.len()
-        )));
-    }
-    let view = view as usize;
-    // bufferViews lie inside their buffers' byteLength (validate.rs); the
+    let view = extension_view(&fail, ext, views)?;
+    // bufferViews lie inside their buffers' byteLength (`validate`); the
     // bytes actually present are checked when decoding.
     let mode = prim.get("mode").and_then(Value::as_u64).unwrap_or(4);
     if mode != 4 && mode != 5 {
@@ -211,45 +197,7 @@ fn check_primitive(
                    accessor: usize,
                    fills: &mut Vec<Fill>|
      -> Result<()> {
-        let acc = &accessors[accessor];
-        let count = acc.get("count").and_then(Value::as_u64).unwrap_or(0);
-        if count == 0 || count > super::accessor::MAX_ELEMENTS as u64 {
-            return Err(fail(format!(
-                "its {what} accessor {accessor} has count {count}; soupray reads 1 to {} elements",
-                super::accessor::MAX_ELEMENTS
-            )));
-        }
-        let ty = acc.get("type").and_then(Value::as_str).unwrap_or("");
-        let components = components_of(ty).ok_or_else(|| {
-            fail(format!(
-                "its {what} accessor {accessor} is of type {ty}; Draco data fills SCALAR and VEC2 to VEC4 accessors"
-            ))
-        })?;
-        let component_type = acc
-            .get("componentType")
-            .and_then(Value::as_u64)
-            .unwrap_or(0);
-        if !matches!(component_type, 5120..=5123 | 5125 | 5126) {
-            return Err(fail(format!(
-                "its {what} accessor {accessor} has componentType {component_type}"
-            )));
-        }
-        if acc.get("sparse").is_some() {
-            return Err(fail(format!(
-                "its {what} accessor {accessor} is sparse; the extension fills the accessor from the Draco \
-                 data, and such an accessor must have no sparse substitutions"
-            )));
-        }
-        let fill = Fill {
-            what,
-            draco_id,
-            accessor,
-            target: accessor,
-            count: count as usize,
-            components,
-            component_type,
-            offset,
-        };
+        let fill = accessor_fill(&fail, accessors, what, draco_id, accessor, offset)?;
         offset = (offset + fill.bytes()).next_multiple_of(4);
         fills.push(fill);
         Ok(())
@@ -263,24 +211,7 @@ fn check_primitive(
         )
     })? as usize;
     add("indices".into(), None, indices, &mut fills)?;
-    {
-        let f = &fills[0];
-        if f.components != 1 || !matches!(f.component_type, 5121 | 5123 | 5125) {
-            return Err(fail(format!(
-                "its indices accessor {indices} is {} of {}; indices are SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT \
-                 or UNSIGNED_INT",
-                if f.components == 1 { "SCALAR".to_owned() } else { format!("VEC{}", f.components) },
-                component_name(f.component_type)
-            )));
-        }
-        if !f.count.is_multiple_of(3) {
-            return Err(fail(format!(
-                "its indices accessor {indices} has count {}, not a multiple of 3; a Draco mesh is a list of \
-                 triangles",
-                f.count
-            )));
-        }
-    }
+    check_indices_fill(&fail, &fills[0], indices)?;
     let mut ids_seen: HashMap<u64, &str> = HashMap::new();
     for (name, id) in draco_attributes {
         let id = id.as_u64().filter(|&i| i <= u64::from(u32::MAX)).ok_or_else(|| {
@@ -328,6 +259,104 @@ fn check_primitive(
         fills,
         decoded_len: offset,
     })
+}
+
+/// The bufferView holding the extension's Draco data.
+fn extension_view(
+    fail: &dyn Fn(String) -> SceneError,
+    ext: &Map<String, Value>,
+    views: &[Value],
+) -> Result<usize> {
+    let view = match ext.get("bufferView") {
+        None => return Err(fail("its extension has no bufferView".into())),
+        Some(v) => v.as_u64().ok_or_else(|| {
+            fail(format!(
+                "its extension's bufferView is {v}, not a non-negative integer"
+            ))
+        })?,
+    };
+    if view as usize >= views.len() || view > u64::from(u32::MAX) {
+        return Err(fail(format!(
+            "its extension names bufferView {view}, and the file has {} bufferViews",
+            views.len()
+        )));
+    }
+    let view = view as usize;
+    Ok(view)
+}
+
+/// What accessor `accessor` (the indices, or the attribute `what` with
+/// Draco id `draco_id`) takes from the decoded data, placed at byte
+/// `offset` of the primitive's decoded buffer; its count, type and
+/// component type must be ones the decoder fills.
+fn accessor_fill(
+    fail: &dyn Fn(String) -> SceneError,
+    accessors: &[Value],
+    what: String,
+    draco_id: Option<u32>,
+    accessor: usize,
+    offset: usize,
+) -> Result<Fill> {
+    let acc = &accessors[accessor];
+    let count = acc.get("count").and_then(Value::as_u64).unwrap_or(0);
+    if count == 0 || count > super::accessor::MAX_ELEMENTS as u64 {
+        return Err(fail(format!(
+            "its {what} accessor {accessor} has count {count}; soupray reads 1 to {} elements",
+            super::accessor::MAX_ELEMENTS
+        )));
+    }
+    let ty = acc.get("type").and_then(Value::as_str).unwrap_or("");
+    let components = components_of(ty).ok_or_else(|| {
+            fail(format!(
+                "its {what} accessor {accessor} is of type {ty}; Draco data fills SCALAR and VEC2 to VEC4 accessors"
+            ))
+        })?;
+    let component_type = acc
+        .get("componentType")
+        .and_then(Value::as_u64)
+        .unwrap_or(0);
+    if !matches!(component_type, 5120..=5123 | 5125 | 5126) {
+        return Err(fail(format!(
+            "its {what} accessor {accessor} has componentType {component_type}"
+        )));
+    }
+    if acc.get("sparse").is_some() {
+        return Err(fail(format!(
+                "its {what} accessor {accessor} is sparse; the extension fills the accessor from the Draco \
+                 data, and such an accessor must have no sparse substitutions"
+            )));
+    }
+    Ok(Fill {
+        what,
+        draco_id,
+        accessor,
+        target: accessor,
+        count: count as usize,
+        components,
+        component_type,
+        offset,
+    })
+}
+
+/// The indices accessor's fill `f` is a list of triangles of unsigned
+/// integers.
+fn check_indices_fill(fail: &dyn Fn(String) -> SceneError, f: &Fill, indices: usize) -> Result<()> {
+    if f.components != 1 || !matches!(f.component_type, 5121 | 5123 | 5125) {
+        return Err(fail(format!(
+                "its indices accessor {indices} is {} of {}; indices are SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT \
+                 or UNSIGNED_INT",
+                if f.components == 1 { "SCALAR".to_owned() } else { format!("VEC{}", f.components) },
+                component_name(f.component_type)
+            )));
+    }
+    if !f.count.is_multiple_of(3) {
+        return Err(fail(format!(
+                "its indices accessor {indices} has count {}, not a multiple of 3; a Draco mesh is a list of \
+                 triangles",
+                f.count
+            )));
+    }
+    Ok(())
 }
 
 /// Points every accessor the Draco primitives fill at a view of a buffer

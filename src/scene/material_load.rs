@@ -400,238 +400,258 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
     let mut gloss_textures: Vec<(usize, (TextureRef, f32))> = Vec::new();
     for m in doc.materials() {
         let i = m.index().unwrap_or(0);
-        let pbr = m.pbr_metallic_roughness();
-        let normal = m.normal_texture();
-        let occlusion = m.occlusion_texture();
-        materials.push(Material {
-            name: m.name().map(str::to_owned),
-            base_color_factor: pbr.base_color_factor(),
-            base_color_texture: info_ref(
-                src,
-                i,
-                &["pbrMetallicRoughness", "baseColorTexture"],
-                pbr.base_color_texture(),
-            ),
-            metallic_factor: pbr.metallic_factor(),
-            roughness_factor: pbr.roughness_factor(),
-            metallic_roughness_texture: info_ref(
-                src,
-                i,
-                &["pbrMetallicRoughness", "metallicRoughnessTexture"],
-                pbr.metallic_roughness_texture(),
-            ),
-            normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
-            normal_texture: normal.as_ref().map(|n| {
-                texture_ref(
-                    n.texture().index(),
-                    n.tex_coord(),
-                    transform_json(src, i, &["normalTexture"]),
-                )
-            }),
-            occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
-            occlusion_texture: occlusion.as_ref().map(|o| {
-                texture_ref(
-                    o.texture().index(),
-                    o.tex_coord(),
-                    transform_json(src, i, &["occlusionTexture"]),
-                )
-            }),
-            emissive_factor: m.emissive_factor(),
-            emissive_strength: m.emissive_strength().unwrap_or(1.0),
-            emissive_texture: info_ref(src, i, &["emissiveTexture"], m.emissive_texture()),
-            alpha_mode: match m.alpha_mode() {
-                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
-                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
-            },
-            alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
-            double_sided: m.double_sided(),
-            transmission_factor: number(
-                material_extension(src, i, "KHR_materials_transmission"),
-                "transmissionFactor",
-                0.0,
-            ),
-            ior: number(material_extension(src, i, "KHR_materials_ior"), "ior", 1.5),
-            thickness_factor: number(
-                material_extension(src, i, "KHR_materials_volume"),
-                "thicknessFactor",
-                0.0,
-            ),
-            attenuation_color: rgb(
-                material_extension(src, i, "KHR_materials_volume"),
-                "attenuationColor",
-                1.0,
-            ),
-            attenuation_distance: number(
-                material_extension(src, i, "KHR_materials_volume"),
-                "attenuationDistance",
-                f32::INFINITY,
-            ),
-            unlit: material_extension(src, i, "KHR_materials_unlit").is_some(),
-            specular_factor: number(
-                material_extension(src, i, "KHR_materials_specular"),
-                "specularFactor",
-                1.0,
-            ),
-            specular_color: rgb(
-                material_extension(src, i, "KHR_materials_specular"),
-                "specularColorFactor",
-                1.0,
-            ),
-            transmission_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_transmission",
-                "transmissionTexture",
-            ),
-            specular_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_specular",
-                "specularTexture",
-            ),
-            specular_color_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_specular",
-                "specularColorTexture",
-            ),
-            clearcoat_factor: number(
-                material_extension(src, i, "KHR_materials_clearcoat"),
-                "clearcoatFactor",
-                0.0,
-            ),
-            clearcoat_roughness: number(
-                material_extension(src, i, "KHR_materials_clearcoat"),
-                "clearcoatRoughnessFactor",
-                0.0,
-            ),
-            sheen_color: rgb(
-                material_extension(src, i, "KHR_materials_sheen"),
-                "sheenColorFactor",
-                0.0,
-            ),
-            sheen_roughness: number(
-                material_extension(src, i, "KHR_materials_sheen"),
-                "sheenRoughnessFactor",
-                0.0,
-            ),
-            clearcoat_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_clearcoat",
-                "clearcoatTexture",
-            ),
-            clearcoat_roughness_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_clearcoat",
-                "clearcoatRoughnessTexture",
-            ),
-            clearcoat_normal_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_clearcoat",
-                "clearcoatNormalTexture",
-            ),
-            clearcoat_normal_scale: number(
-                material_extension(src, i, "KHR_materials_clearcoat")
-                    .and_then(|c| c.get("clearcoatNormalTexture")),
-                "scale",
-                1.0,
-            ),
-            sheen_color_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_sheen",
-                "sheenColorTexture",
-            ),
-            sheen_roughness_texture: extension_texture(
-                src,
-                i,
-                "KHR_materials_sheen",
-                "sheenRoughnessTexture",
-            ),
-            diffuse_transmission: number(
-                material_extension(src, i, DIFFUSE_TRANSMISSION),
-                "diffuseTransmissionFactor",
-                0.0,
-            ),
-            diffuse_transmission_texture: extension_texture(
-                src,
-                i,
-                DIFFUSE_TRANSMISSION,
-                "diffuseTransmissionTexture",
-            ),
-            diffuse_transmission_color: rgb(
-                material_extension(src, i, DIFFUSE_TRANSMISSION),
-                "diffuseTransmissionColorFactor",
-                1.0,
-            ),
-            diffuse_transmission_color_texture: extension_texture(
-                src,
-                i,
-                DIFFUSE_TRANSMISSION,
-                "diffuseTransmissionColorTexture",
-            ),
-            iridescence: number(
-                material_extension(src, i, IRIDESCENCE),
-                "iridescenceFactor",
-                0.0,
-            ),
-            iridescence_texture: extension_texture(src, i, IRIDESCENCE, "iridescenceTexture"),
-            iridescence_ior: number(
-                material_extension(src, i, IRIDESCENCE),
-                "iridescenceIor",
-                1.3,
-            ),
-            iridescence_thickness_min: number(
-                material_extension(src, i, IRIDESCENCE),
-                "iridescenceThicknessMinimum",
-                100.0,
-            ),
-            iridescence_thickness_max: number(
-                material_extension(src, i, IRIDESCENCE),
-                "iridescenceThicknessMaximum",
-                400.0,
-            ),
-            iridescence_thickness_texture: extension_texture(
-                src,
-                i,
-                IRIDESCENCE,
-                "iridescenceThicknessTexture",
-            ),
-            anisotropy_strength: number(
-                material_extension(src, i, ANISOTROPY),
-                "anisotropyStrength",
-                0.0,
-            ),
-            anisotropy_rotation: number(
-                material_extension(src, i, ANISOTROPY),
-                "anisotropyRotation",
-                0.0,
-            ),
-            anisotropy_texture: extension_texture(src, i, ANISOTROPY, "anisotropyTexture"),
-            dispersion: number(
-                material_extension(src, i, "KHR_materials_dispersion"),
-                "dispersion",
-                0.0,
-            ),
-        });
+        materials.push(load_material(src, i, &m));
         if let Some(material) = materials.last_mut() {
             if let Some(gloss) = apply_specular_glossiness(src, i, material) {
                 gloss_textures.push((materials.len() - 1, gloss));
             }
         }
     }
+    let mut textures = load_textures(doc);
+    let mut images = load_images(src)?;
+    add_roughness_textures(&mut materials, &mut textures, &mut images, &gloss_textures);
 
+    Ok(MaterialTable {
+        materials,
+        textures,
+        images,
+        default_material: None,
+    })
+}
+
+/// Material `i` (`m`): the core glTF model, then each extension soupray
+/// reads (the specular-glossiness workflow is applied by the caller).
+fn load_material(src: &Source, i: usize, m: &gltf::Material) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let normal = m.normal_texture();
+    let occlusion = m.occlusion_texture();
+    let mut material = Material {
+        name: m.name().map(str::to_owned),
+        base_color_factor: pbr.base_color_factor(),
+        base_color_texture: info_ref(
+            src,
+            i,
+            &["pbrMetallicRoughness", "baseColorTexture"],
+            pbr.base_color_texture(),
+        ),
+        metallic_factor: pbr.metallic_factor(),
+        roughness_factor: pbr.roughness_factor(),
+        metallic_roughness_texture: info_ref(
+            src,
+            i,
+            &["pbrMetallicRoughness", "metallicRoughnessTexture"],
+            pbr.metallic_roughness_texture(),
+        ),
+        normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
+        normal_texture: normal.as_ref().map(|n| {
+            texture_ref(
+                n.texture().index(),
+                n.tex_coord(),
+                transform_json(src, i, &["normalTexture"]),
+            )
+        }),
+        occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
+        occlusion_texture: occlusion.as_ref().map(|o| {
+            texture_ref(
+                o.texture().index(),
+                o.tex_coord(),
+                transform_json(src, i, &["occlusionTexture"]),
+            )
+        }),
+        emissive_factor: m.emissive_factor(),
+        emissive_strength: m.emissive_strength().unwrap_or(1.0),
+        emissive_texture: info_ref(src, i, &["emissiveTexture"], m.emissive_texture()),
+        alpha_mode: match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
+        double_sided: m.double_sided(),
+        unlit: material_extension(src, i, "KHR_materials_unlit").is_some(),
+        ..Material::default()
+    };
+    read_transmission_and_volume(src, i, &mut material);
+    read_specular(src, i, &mut material);
+    read_clearcoat(src, i, &mut material);
+    read_sheen(src, i, &mut material);
+    read_diffuse_transmission(src, i, &mut material);
+    read_iridescence(src, i, &mut material);
+    read_anisotropy(src, i, &mut material);
+    material
+}
+
+/// KHR_materials_transmission, _ior, _volume and _dispersion: light
+/// through the surface and the medium behind it.
+fn read_transmission_and_volume(src: &Source, i: usize, material: &mut Material) {
+    material.transmission_factor = number(
+        material_extension(src, i, "KHR_materials_transmission"),
+        "transmissionFactor",
+        0.0,
+    );
+    material.transmission_texture =
+        extension_texture(src, i, "KHR_materials_transmission", "transmissionTexture");
+    material.ior = number(material_extension(src, i, "KHR_materials_ior"), "ior", 1.5);
+    material.thickness_factor = number(
+        material_extension(src, i, "KHR_materials_volume"),
+        "thicknessFactor",
+        0.0,
+    );
+    material.attenuation_color = rgb(
+        material_extension(src, i, "KHR_materials_volume"),
+        "attenuationColor",
+        1.0,
+    );
+    material.attenuation_distance = number(
+        material_extension(src, i, "KHR_materials_volume"),
+        "attenuationDistance",
+        f32::INFINITY,
+    );
+    material.dispersion = number(
+        material_extension(src, i, "KHR_materials_dispersion"),
+        "dispersion",
+        0.0,
+    );
+}
+
+/// KHR_materials_specular.
+fn read_specular(src: &Source, i: usize, material: &mut Material) {
+    material.specular_factor = number(
+        material_extension(src, i, "KHR_materials_specular"),
+        "specularFactor",
+        1.0,
+    );
+    material.specular_color = rgb(
+        material_extension(src, i, "KHR_materials_specular"),
+        "specularColorFactor",
+        1.0,
+    );
+    material.specular_texture =
+        extension_texture(src, i, "KHR_materials_specular", "specularTexture");
+    material.specular_color_texture =
+        extension_texture(src, i, "KHR_materials_specular", "specularColorTexture");
+}
+
+/// KHR_materials_clearcoat.
+fn read_clearcoat(src: &Source, i: usize, material: &mut Material) {
+    material.clearcoat_factor = number(
+        material_extension(src, i, "KHR_materials_clearcoat"),
+        "clearcoatFactor",
+        0.0,
+    );
+    material.clearcoat_roughness = number(
+        material_extension(src, i, "KHR_materials_clearcoat"),
+        "clearcoatRoughnessFactor",
+        0.0,
+    );
+    material.clearcoat_texture =
+        extension_texture(src, i, "KHR_materials_clearcoat", "clearcoatTexture");
+    material.clearcoat_roughness_texture = extension_texture(
+        src,
+        i,
+        "KHR_materials_clearcoat",
+        "clearcoatRoughnessTexture",
+    );
+    material.clearcoat_normal_texture =
+        extension_texture(src, i, "KHR_materials_clearcoat", "clearcoatNormalTexture");
+    material.clearcoat_normal_scale = number(
+        material_extension(src, i, "KHR_materials_clearcoat")
+            .and_then(|c| c.get("clearcoatNormalTexture")),
+        "scale",
+        1.0,
+    );
+}
+
+/// KHR_materials_sheen.
+fn read_sheen(src: &Source, i: usize, material: &mut Material) {
+    material.sheen_color = rgb(
+        material_extension(src, i, "KHR_materials_sheen"),
+        "sheenColorFactor",
+        0.0,
+    );
+    material.sheen_roughness = number(
+        material_extension(src, i, "KHR_materials_sheen"),
+        "sheenRoughnessFactor",
+        0.0,
+    );
+    material.sheen_color_texture =
+        extension_texture(src, i, "KHR_materials_sheen", "sheenColorTexture");
+    material.sheen_roughness_texture =
+        extension_texture(src, i, "KHR_materials_sheen", "sheenRoughnessTexture");
+}
+
+/// KHR_materials_diffuse_transmission.
+fn read_diffuse_transmission(src: &Source, i: usize, material: &mut Material) {
+    material.diffuse_transmission = number(
+        material_extension(src, i, DIFFUSE_TRANSMISSION),
+        "diffuseTransmissionFactor",
+        0.0,
+    );
+    material.diffuse_transmission_texture =
+        extension_texture(src, i, DIFFUSE_TRANSMISSION, "diffuseTransmissionTexture");
+    material.diffuse_transmission_color = rgb(
+        material_extension(src, i, DIFFUSE_TRANSMISSION),
+        "diffuseTransmissionColorFactor",
+        1.0,
+    );
+    material.diffuse_transmission_color_texture = extension_texture(
+        src,
+        i,
+        DIFFUSE_TRANSMISSION,
+        "diffuseTransmissionColorTexture",
+    );
+}
+
+/// KHR_materials_iridescence.
+fn read_iridescence(src: &Source, i: usize, material: &mut Material) {
+    material.iridescence = number(
+        material_extension(src, i, IRIDESCENCE),
+        "iridescenceFactor",
+        0.0,
+    );
+    material.iridescence_texture = extension_texture(src, i, IRIDESCENCE, "iridescenceTexture");
+    material.iridescence_ior = number(
+        material_extension(src, i, IRIDESCENCE),
+        "iridescenceIor",
+        1.3,
+    );
+    material.iridescence_thickness_min = number(
+        material_extension(src, i, IRIDESCENCE),
+        "iridescenceThicknessMinimum",
+        100.0,
+    );
+    material.iridescence_thickness_max = number(
+        material_extension(src, i, IRIDESCENCE),
+        "iridescenceThicknessMaximum",
+        400.0,
+    );
+    material.iridescence_thickness_texture =
+        extension_texture(src, i, IRIDESCENCE, "iridescenceThicknessTexture");
+}
+
+/// KHR_materials_anisotropy.
+fn read_anisotropy(src: &Source, i: usize, material: &mut Material) {
+    material.anisotropy_strength = number(
+        material_extension(src, i, ANISOTROPY),
+        "anisotropyStrength",
+        0.0,
+    );
+    material.anisotropy_rotation = number(
+        material_extension(src, i, ANISOTROPY),
+        "anisotropyRotation",
+        0.0,
+    );
+    material.anisotropy_texture = extension_texture(src, i, ANISOTROPY, "anisotropyTexture");
+}
+
+/// The file's textures with their samplers' wrap modes and filters.
+fn load_textures(doc: &gltf::Document) -> Vec<Texture> {
     let wrap = |w: gltf::texture::WrappingMode| match w {
         gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
     };
-    let mut textures: Vec<Texture> = doc
-        .textures()
+    doc.textures()
         .map(|t| {
             let s = t.sampler();
             Texture {
@@ -651,8 +671,13 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
                 },
             }
         })
-        .collect();
+        .collect()
+}
 
+/// The file's images, each a file to read or the bytes (a data URI's or a
+/// bufferView's) to decode.
+fn load_images(src: &Source) -> Result<Vec<Image>> {
+    let doc = &src.document;
     let mut images = Vec::new();
     for img in doc.images() {
         let source = match img.source() {
@@ -691,12 +716,5 @@ pub(crate) fn load_materials(src: &Source) -> Result<MaterialTable> {
             decoded: OnceLock::new(),
         });
     }
-    add_roughness_textures(&mut materials, &mut textures, &mut images, &gloss_textures);
-
-    Ok(MaterialTable {
-        materials,
-        textures,
-        images,
-        default_material: None,
-    })
+    Ok(images)
 }

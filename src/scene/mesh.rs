@@ -221,121 +221,24 @@ fn load_primitive(
     )?;
     let positions = reader.vec3s(&pos_acc, &usage("POSITION"), !sanitize)?;
     let vertex_count = positions.len();
-
-    let same_count = |acc: &gltf::Accessor, attr: &str| -> Result<()> {
-        if acc.count() != vertex_count {
-            return Err(reader.error(
-                acc,
-                &usage(attr),
-                format!(
-                    "has {} elements but POSITION (accessor {}) has {vertex_count}; every attribute of a \
-                     primitive needs one element per vertex. Fix: re-export the mesh.",
-                    acc.count(),
-                    pos_acc.index()
-                ),
-            ));
-        }
-        Ok(())
+    let attrs = PrimitiveReader {
+        reader,
+        prim,
+        where_,
+        sanitize,
+        quantized,
+        position_accessor: pos_acc.index(),
+        vertex_count,
     };
 
-    let normals = match prim.get(&Semantic::Normals) {
-        Some(acc) => {
-            expect_vertex(
-                reader,
-                &acc,
-                &usage("NORMAL"),
-                Dimensions::Vec3,
-                Attribute::Normal,
-                quantized,
-            )?;
-            same_count(&acc, "NORMAL")?;
-            Some(reader.vec3s(&acc, &usage("NORMAL"), !sanitize)?)
-        }
-        None => None,
-    };
-
-    let uv_set = |set: u32| -> Result<Option<Vec<[f32; 2]>>> {
-        let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {
-            return Ok(None);
-        };
-        let attr = format!("TEXCOORD_{set}");
-        expect_vertex(
-            reader,
-            &acc,
-            &usage(&attr),
-            Dimensions::Vec2,
-            Attribute::TexCoord,
-            quantized,
-        )?;
-        same_count(&acc, &attr)?;
-        let flat = reader.floats(&acc, &usage(&attr))?;
-        if !sanitize {
-            reader.check_finite(&acc, &usage(&attr), &flat)?;
-        }
-        Ok(Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
-    };
-    let uvs = uv_set(0)?;
+    let normals = attrs.normals()?;
+    let uvs = attrs.uv_set(0)?;
     let uvs1 = match second_uv_set {
-        Some(set) => uv_set(set)?,
+        Some(set) => attrs.uv_set(set)?,
         None => None,
     };
-
-    // COLOR_0 multiplies the base colour (glTF 2.0 §3.9.2): RGB or RGBA,
-    // float or normalized unsigned bytes and shorts.
-    let colors = match prim.get(&Semantic::Colors(0)) {
-        Some(acc) => {
-            reader.expect(
-                &acc,
-                &usage("COLOR_0"),
-                &[Dimensions::Vec3, Dimensions::Vec4],
-                &[DataType::F32, DataType::U8, DataType::U16],
-            )?;
-            same_count(&acc, "COLOR_0")?;
-            let flat = reader.floats(&acc, &usage("COLOR_0"))?;
-            if !sanitize {
-                reader.check_finite(&acc, &usage("COLOR_0"), &flat)?;
-            }
-            let width = if acc.dimensions() == Dimensions::Vec3 {
-                3
-            } else {
-                4
-            };
-            Some(
-                flat.chunks_exact(width)
-                    .map(|c| [c[0], c[1], c[2], if width == 4 { c[3] } else { 1.0 }])
-                    .collect(),
-            )
-        }
-        None => None,
-    };
-
-    let indices: Vec<u32> = match prim.indices() {
-        Some(acc) => {
-            let what = format!("indices of {where_}");
-            reader.expect(
-                &acc,
-                &what,
-                &[Dimensions::Scalar],
-                &[DataType::U8, DataType::U16, DataType::U32],
-            )?;
-            let indices = reader.uints(&acc, &what)?;
-            if let Some(at) = indices.iter().position(|&i| i as usize >= vertex_count) {
-                return Err(reader.error(
-                    &acc,
-                    &what,
-                    format!(
-                        "index {} at position {at} is out of range: the primitive has {vertex_count} vertices \
-                         (POSITION accessor {}). Fix: re-export the mesh; its index buffer does not match its \
-                         vertex data.",
-                        indices[at],
-                        pos_acc.index()
-                    ),
-                ));
-            }
-            indices
-        }
-        None => (0..vertex_count as u32).collect(),
-    };
+    let colors = attrs.colors()?;
+    let indices = attrs.indices()?;
     if prim.mode() == Mode::Triangles && !indices.len().is_multiple_of(3) {
         warnings.push(format!(
             "{where_} has {} indices, not a multiple of 3; the last {} are ignored",
@@ -344,41 +247,7 @@ fn load_primitive(
         ));
     }
     let triangles = assemble_triangles(prim.mode(), &indices);
-
-    let mut targets = Vec::new();
-    for (t, target) in prim.morph_targets().enumerate() {
-        let mut loaded = MorphTarget::default();
-        for (acc, attr, kind, slot) in [
-            (
-                target.positions(),
-                "POSITION",
-                Attribute::PositionDelta,
-                &mut loaded.positions,
-            ),
-            (
-                target.normals(),
-                "NORMAL",
-                Attribute::Normal,
-                &mut loaded.normals,
-            ),
-        ] {
-            if let Some(acc) = acc {
-                let what = format!("morph target {t} {attr}");
-                expect_vertex(
-                    reader,
-                    &acc,
-                    &usage(&what),
-                    Dimensions::Vec3,
-                    kind,
-                    quantized,
-                )?;
-                same_count(&acc, &what)?;
-                *slot = Some(reader.vec3s(&acc, &usage(&what), !sanitize)?);
-            }
-        }
-        targets.push(loaded);
-    }
-
+    let targets = attrs.morph_targets()?;
     let influences = load_influences(reader, prim, where_, vertex_count, warnings)?;
 
     Ok(Some(Primitive {
@@ -394,6 +263,192 @@ fn load_primitive(
         material: prim.material().index(),
         draco_compressed: false,
     }))
+}
+
+/// Reads one primitive's attributes other than POSITION, each checked to
+/// have one element per vertex.
+struct PrimitiveReader<'a> {
+    reader: &'a Reader<'a>,
+    prim: &'a gltf::Primitive<'a>,
+    /// The primitive, as errors and warnings name it.
+    where_: &'a str,
+    sanitize: bool,
+    /// KHR_mesh_quantization is in use: integer attributes are allowed.
+    quantized: bool,
+    position_accessor: usize,
+    vertex_count: usize,
+}
+
+impl PrimitiveReader<'_> {
+    fn usage(&self, attr: &str) -> String {
+        format!("{attr} of {}", self.where_)
+    }
+
+    fn same_count(&self, acc: &gltf::Accessor, attr: &str) -> Result<()> {
+        let vertex_count = self.vertex_count;
+        if acc.count() != vertex_count {
+            return Err(self.reader.error(
+                acc,
+                &self.usage(attr),
+                format!(
+                    "has {} elements but POSITION (accessor {}) has {vertex_count}; every attribute of a \
+                     primitive needs one element per vertex. Fix: re-export the mesh.",
+                    acc.count(),
+                    self.position_accessor
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn normals(&self) -> Result<Option<Vec<Vec3>>> {
+        let (reader, quantized, sanitize) = (self.reader, self.quantized, self.sanitize);
+        Ok(match self.prim.get(&Semantic::Normals) {
+            Some(acc) => {
+                expect_vertex(
+                    reader,
+                    &acc,
+                    &self.usage("NORMAL"),
+                    Dimensions::Vec3,
+                    Attribute::Normal,
+                    quantized,
+                )?;
+                self.same_count(&acc, "NORMAL")?;
+                Some(reader.vec3s(&acc, &self.usage("NORMAL"), !sanitize)?)
+            }
+            None => None,
+        })
+    }
+
+    fn uv_set(&self, set: u32) -> Result<Option<Vec<[f32; 2]>>> {
+        let reader = self.reader;
+        let Some(acc) = self.prim.get(&Semantic::TexCoords(set)) else {
+            return Ok(None);
+        };
+        let attr = format!("TEXCOORD_{set}");
+        expect_vertex(
+            reader,
+            &acc,
+            &self.usage(&attr),
+            Dimensions::Vec2,
+            Attribute::TexCoord,
+            self.quantized,
+        )?;
+        self.same_count(&acc, &attr)?;
+        let flat = reader.floats(&acc, &self.usage(&attr))?;
+        if !self.sanitize {
+            reader.check_finite(&acc, &self.usage(&attr), &flat)?;
+        }
+        Ok(Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
+    }
+
+    /// COLOR_0 multiplies the base colour (glTF 2.0 §3.9.2): RGB or RGBA,
+    /// float or normalized unsigned bytes and shorts.
+    fn colors(&self) -> Result<Option<Vec<[f32; 4]>>> {
+        let reader = self.reader;
+        let usage = |attr: &str| self.usage(attr);
+        let sanitize = self.sanitize;
+        Ok(match self.prim.get(&Semantic::Colors(0)) {
+            Some(acc) => {
+                reader.expect(
+                    &acc,
+                    &usage("COLOR_0"),
+                    &[Dimensions::Vec3, Dimensions::Vec4],
+                    &[DataType::F32, DataType::U8, DataType::U16],
+                )?;
+                self.same_count(&acc, "COLOR_0")?;
+                let flat = reader.floats(&acc, &usage("COLOR_0"))?;
+                if !sanitize {
+                    reader.check_finite(&acc, &usage("COLOR_0"), &flat)?;
+                }
+                let width = if acc.dimensions() == Dimensions::Vec3 {
+                    3
+                } else {
+                    4
+                };
+                Some(
+                    flat.chunks_exact(width)
+                        .map(|c| [c[0], c[1], c[2], if width == 4 { c[3] } else { 1.0 }])
+                        .collect(),
+                )
+            }
+            None => None,
+        })
+    }
+
+    /// The primitive's indices (0..vertex_count without an accessor), each
+    /// naming a vertex.
+    fn indices(&self) -> Result<Vec<u32>> {
+        let (reader, where_, vertex_count) = (self.reader, self.where_, self.vertex_count);
+        Ok(match self.prim.indices() {
+            Some(acc) => {
+                let what = format!("indices of {where_}");
+                reader.expect(
+                    &acc,
+                    &what,
+                    &[Dimensions::Scalar],
+                    &[DataType::U8, DataType::U16, DataType::U32],
+                )?;
+                let indices = reader.uints(&acc, &what)?;
+                if let Some(at) = indices.iter().position(|&i| i as usize >= vertex_count) {
+                    return Err(reader.error(
+                    &acc,
+                    &what,
+                    format!(
+                        "index {} at position {at} is out of range: the primitive has {vertex_count} vertices \
+                         (POSITION accessor {}). Fix: re-export the mesh; its index buffer does not match its \
+                         vertex data.",
+                        indices[at],
+                        self.position_accessor
+                    ),
+                ));
+                }
+                indices
+            }
+            None => (0..vertex_count as u32).collect(),
+        })
+    }
+
+    /// The morph targets' POSITION and NORMAL deltas.
+    fn morph_targets(&self) -> Result<Vec<MorphTarget>> {
+        let reader = self.reader;
+        let usage = |attr: &str| self.usage(attr);
+        let (quantized, sanitize) = (self.quantized, self.sanitize);
+        let mut targets = Vec::new();
+        for (t, target) in self.prim.morph_targets().enumerate() {
+            let mut loaded = MorphTarget::default();
+            for (acc, attr, kind, slot) in [
+                (
+                    target.positions(),
+                    "POSITION",
+                    Attribute::PositionDelta,
+                    &mut loaded.positions,
+                ),
+                (
+                    target.normals(),
+                    "NORMAL",
+                    Attribute::Normal,
+                    &mut loaded.normals,
+                ),
+            ] {
+                if let Some(acc) = acc {
+                    let what = format!("morph target {t} {attr}");
+                    expect_vertex(
+                        reader,
+                        &acc,
+                        &usage(&what),
+                        Dimensions::Vec3,
+                        kind,
+                        quantized,
+                    )?;
+                    self.same_count(&acc, &what)?;
+                    *slot = Some(reader.vec3s(&acc, &usage(&what), !sanitize)?);
+                }
+            }
+            targets.push(loaded);
+        }
+        Ok(targets)
+    }
 }
 
 /// The extension that lets vertex attributes be stored as (normalized)

@@ -144,7 +144,26 @@ fn check_view(
     let length = uint("byteLength", None)?;
     let stride = uint("byteStride", None)?;
     let count = uint("count", None)?;
-    let mode = match ext.get("mode").and_then(Value::as_str) {
+    let mode = view_mode(file, i, ext)?;
+    let filter = view_filter(file, i, ext)?;
+    check_source(file, i, buffers, buffer, offset, length)?;
+    check_decoder_layout(file, i, mode, filter, stride, count)?;
+    check_decoded_size(file, i, view, mode, stride, count, length)?;
+    Ok(CompressedView {
+        view: i,
+        buffer: buffer as usize,
+        offset: offset as usize,
+        length: length as usize,
+        stride: stride as usize,
+        count: count as usize,
+        mode,
+        filter,
+    })
+}
+
+/// The extension's `mode`.
+fn view_mode(file: &str, i: usize, ext: &Map<String, Value>) -> Result<Mode> {
+    Ok(match ext.get("mode").and_then(Value::as_str) {
         Some("ATTRIBUTES") => Mode::Attributes,
         Some("TRIANGLES") => Mode::Triangles,
         Some("INDICES") => Mode::Indices,
@@ -158,8 +177,12 @@ fn check_view(
                 ),
             ))
         }
-    };
-    let filter = match ext.get("filter").map(|f| f.as_str()) {
+    })
+}
+
+/// The extension's `filter` (NONE when absent).
+fn view_filter(file: &str, i: usize, ext: &Map<String, Value>) -> Result<Filter> {
+    Ok(match ext.get("filter").map(|f| f.as_str()) {
         None | Some(Some("NONE")) => Filter::None,
         Some(Some("OCTAHEDRAL")) => Filter::Octahedral,
         Some(Some("QUATERNION")) => Filter::Quaternion,
@@ -174,7 +197,18 @@ fn check_view(
                 ),
             ))
         }
-    };
+    })
+}
+
+/// The compressed bytes lie inside a buffer that holds data.
+fn check_source(
+    file: &str,
+    i: usize,
+    buffers: &[Value],
+    buffer: u64,
+    offset: u64,
+    length: u64,
+) -> Result<()> {
     let source = buffers.get(buffer as usize).ok_or_else(|| {
         invalid(
             file,
@@ -208,9 +242,21 @@ fn check_view(
             ),
         ));
     }
+    Ok(())
+}
+
+/// The mode, filter and stride are a combination the decoder accepts.
+fn check_decoder_layout(
+    file: &str,
+    i: usize,
+    mode: Mode,
+    filter: Filter,
+    stride: u64,
+    count: u64,
+) -> Result<()> {
     // Each check below is one of the decoder's own asserts.
     match mode {
-        Mode::Attributes if stride == 0 || stride > 256 || stride % 4 != 0 => {
+        Mode::Attributes if stride == 0 || stride > 256 || !stride.is_multiple_of(4) => {
             return Err(invalid(
                 file,
                 i,
@@ -224,7 +270,7 @@ fn check_view(
                 format!("its mode is {mode:?} with byteStride {stride}; index modes need 2 or 4"),
             ))
         }
-        Mode::Triangles if count % 3 != 0 => {
+        Mode::Triangles if !count.is_multiple_of(3) => {
             return Err(invalid(
                 file,
                 i,
@@ -244,7 +290,7 @@ fn check_view(
         Filter::None => true,
         Filter::Octahedral => stride == 4 || stride == 8,
         Filter::Quaternion => stride == 8,
-        Filter::Exponential => stride % 4 == 0,
+        Filter::Exponential => stride.is_multiple_of(4),
     };
     if !filter_ok {
         return Err(invalid(
@@ -255,6 +301,20 @@ fn check_view(
             ),
         ));
     }
+    Ok(())
+}
+
+/// What the view decodes to is plausible for its compressed length, within
+/// soupray's limit, and covers the bufferView.
+fn check_decoded_size(
+    file: &str,
+    i: usize,
+    view: &Value,
+    mode: Mode,
+    stride: u64,
+    count: u64,
+    length: u64,
+) -> Result<()> {
     // The data cannot decode to more than the smallest encoding allows: a
     // count that lies about a short payload is refused before allocating.
     let decoded = u128::from(stride) * u128::from(count);
@@ -306,18 +366,8 @@ fn check_view(
             ));
         }
     }
-    Ok(CompressedView {
-        view: i,
-        buffer: buffer as usize,
-        offset: offset as usize,
-        length: length as usize,
-        stride: stride as usize,
-        count: count as usize,
-        mode,
-        filter,
-    })
+    Ok(())
 }
-
 /// Points each compressed view of the `gltf` crate's copy of the JSON at
 /// a buffer of its own (appended after the file's buffers, in the order of
 /// `views`) holding the decoded bytes from offset 0.

@@ -179,17 +179,35 @@ pub(crate) fn light(index: usize, light: &mut LightDef, warnings: &mut Vec<Strin
 pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String>) {
     let what = label("material", index, m.name.as_deref());
     let w = warnings;
+    core_factors(w, &what, m);
+    transmission_and_volume(w, &what, m);
+    specular(w, &what, m);
+    clearcoat_and_sheen(w, &what, m);
+    diffuse_transmission(w, &what, m);
+    iridescence(w, &what, m);
+    anisotropy_and_dispersion(w, &what, m);
+    if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
+        w.push(format!(
+            "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",
+            m.attenuation_distance
+        ));
+        m.attenuation_distance = f32::INFINITY;
+    }
+}
+
+/// The core glTF factors, and the normal scale and alpha cutoff.
+fn core_factors(w: &mut Vec<String>, what: &str, m: &mut Material) {
     for (c, name) in m.base_color_factor.iter_mut().zip([
         "baseColorFactor.r",
         "baseColorFactor.g",
         "baseColorFactor.b",
         "baseColorFactor.a",
     ]) {
-        clamp(w, &what, name, c, 0.0, 1.0, 1.0);
+        clamp(w, what, name, c, 0.0, 1.0, 1.0);
     }
     clamp(
         w,
-        &what,
+        what,
         "metallicFactor",
         &mut m.metallic_factor,
         0.0,
@@ -198,7 +216,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     );
     clamp(
         w,
-        &what,
+        what,
         "roughnessFactor",
         &mut m.roughness_factor,
         0.0,
@@ -210,11 +228,11 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         "emissiveFactor.g",
         "emissiveFactor.b",
     ]) {
-        clamp(w, &what, name, c, 0.0, 1.0, 0.0);
+        clamp(w, what, name, c, 0.0, 1.0, 0.0);
     }
     clamp(
         w,
-        &what,
+        what,
         "emissiveStrength",
         &mut m.emissive_strength,
         0.0,
@@ -223,7 +241,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     );
     clamp(
         w,
-        &what,
+        what,
         "occlusionTexture.strength",
         &mut m.occlusion_strength,
         0.0,
@@ -239,16 +257,21 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     }
     clamp(
         w,
-        &what,
+        what,
         "alphaCutoff",
         &mut m.alpha_cutoff,
         0.0,
         f32::MAX,
         0.5,
     );
+}
+
+/// KHR_materials_transmission, _ior and _volume (but attenuationDistance,
+/// checked last).
+fn transmission_and_volume(w: &mut Vec<String>, what: &str, m: &mut Material) {
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_transmission transmissionFactor",
         &mut m.transmission_factor,
         0.0,
@@ -262,7 +285,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     }
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_ior ior",
         &mut m.ior,
         1.0,
@@ -271,7 +294,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     );
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_volume thicknessFactor",
         &mut m.thickness_factor,
         0.0,
@@ -283,11 +306,15 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         "KHR_materials_volume attenuationColor.g",
         "KHR_materials_volume attenuationColor.b",
     ]) {
-        clamp(w, &what, name, c, 0.0, 1.0, 1.0);
+        clamp(w, what, name, c, 0.0, 1.0, 1.0);
     }
+}
+
+/// KHR_materials_specular.
+fn specular(w: &mut Vec<String>, what: &str, m: &mut Material) {
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_specular specularFactor",
         &mut m.specular_factor,
         0.0,
@@ -299,8 +326,12 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         "KHR_materials_specular specularColorFactor.g",
         "KHR_materials_specular specularColorFactor.b",
     ]) {
-        clamp(w, &what, name, c, 0.0, f32::MAX, 1.0);
+        clamp(w, what, name, c, 0.0, f32::MAX, 1.0);
     }
+}
+
+/// KHR_materials_clearcoat and _sheen.
+fn clearcoat_and_sheen(w: &mut Vec<String>, what: &str, m: &mut Material) {
     for (v, name) in [
         (
             &mut m.clearcoat_factor,
@@ -315,18 +346,22 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
             "KHR_materials_sheen sheenRoughnessFactor",
         ),
     ] {
-        clamp(w, &what, name, v, 0.0, 1.0, 0.0);
+        clamp(w, what, name, v, 0.0, 1.0, 0.0);
     }
     for (c, name) in m.sheen_color.iter_mut().zip([
         "KHR_materials_sheen sheenColorFactor.r",
         "KHR_materials_sheen sheenColorFactor.g",
         "KHR_materials_sheen sheenColorFactor.b",
     ]) {
-        clamp(w, &what, name, c, 0.0, 1.0, 0.0);
+        clamp(w, what, name, c, 0.0, 1.0, 0.0);
     }
+}
+
+/// KHR_materials_diffuse_transmission.
+fn diffuse_transmission(w: &mut Vec<String>, what: &str, m: &mut Material) {
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_diffuse_transmission diffuseTransmissionFactor",
         &mut m.diffuse_transmission,
         0.0,
@@ -338,11 +373,15 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
         "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.g",
         "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.b",
     ]) {
-        clamp(w, &what, name, c, 0.0, 1.0, 1.0);
+        clamp(w, what, name, c, 0.0, 1.0, 1.0);
     }
+}
+
+/// KHR_materials_iridescence.
+fn iridescence(w: &mut Vec<String>, what: &str, m: &mut Material) {
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_iridescence iridescenceFactor",
         &mut m.iridescence,
         0.0,
@@ -353,7 +392,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     // optical path (index times thickness) finite.
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_iridescence iridescenceIor",
         &mut m.iridescence_ior,
         1.0,
@@ -364,7 +403,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     // the interference terms vanish long before.
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_iridescence iridescenceThicknessMinimum",
         &mut m.iridescence_thickness_min,
         0.0,
@@ -373,16 +412,20 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     );
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_iridescence iridescenceThicknessMaximum",
         &mut m.iridescence_thickness_max,
         0.0,
         1.0e5,
         400.0,
     );
+}
+
+/// KHR_materials_anisotropy and _dispersion.
+fn anisotropy_and_dispersion(w: &mut Vec<String>, what: &str, m: &mut Material) {
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_anisotropy anisotropyStrength",
         &mut m.anisotropy_strength,
         0.0,
@@ -394,7 +437,7 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     // beyond any material.
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_dispersion dispersion",
         &mut m.dispersion,
         0.0,
@@ -405,18 +448,11 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     // thousandth of a radian, and an infinite one has no cosine.
     clamp(
         w,
-        &what,
+        what,
         "KHR_materials_anisotropy anisotropyRotation",
         &mut m.anisotropy_rotation,
         -1.0e4,
         1.0e4,
         0.0,
     );
-    if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
-        w.push(format!(
-            "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",
-            m.attenuation_distance
-        ));
-        m.attenuation_distance = f32::INFINITY;
-    }
 }

@@ -151,47 +151,10 @@ pub fn load(path: &Path) -> Result<Source> {
     };
     let mut json: serde_json::Value =
         serde_json::from_slice(json_bytes).map_err(|e| not_json(&e))?;
-    if let Some(required) = json.get("extensionsRequired").and_then(|r| r.as_array()) {
-        for extension in required {
-            let name = extension.as_str().unwrap_or("(not a string)");
-            // Required AVIF is honoured where every AVIF texture has a
-            // fallback image; `choose_texture_images` refuses the rest.
-            if !SUPPORTED_EXTENSIONS.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
-                return Err(SceneError::UnsupportedExtension {
-                    file,
-                    extension: name.to_owned(),
-                    supported: SUPPORTED_EXTENSIONS.join(", "),
-                });
-            }
-        }
-    }
+    check_required_extensions(&file, &json)?;
     // Every index and range checked before the `gltf` crate sees them.
     let mut warnings = super::validate::validate(&file, &mut json)?;
-    // The extensions soupray reads from the raw JSON itself are checked
-    // above; the `gltf` crate, built without them, would refuse them when
-    // required.
-    let mut for_crate = json.clone();
-    if let Some(required) = for_crate
-        .get_mut("extensionsRequired")
-        .and_then(|r| r.as_array_mut())
-    {
-        required.retain(|e| {
-            !e.as_str()
-                .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
-        });
-    }
-    // KHR_animation_pointer channels (`scene::pointer`) are read from the
-    // raw JSON; the crate knows no "pointer" path.
-    if let Some(animations) = for_crate
-        .get_mut("animations")
-        .and_then(|a| a.as_array_mut())
-    {
-        for animation in animations {
-            if let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) {
-                channels.retain(|ch| super::pointer::channel_pointer(ch).is_none());
-            }
-        }
-    }
+    let mut for_crate = json_for_crate(&json);
     // The `gltf` crate needs every texture's `source`; it gets the image
     // soupray samples, which a texture-source extension may have chosen.
     let (texture_images, avif_warning) = texture_source::choose_texture_images(&file, &json)?;
@@ -218,6 +181,104 @@ pub fn load(path: &Path) -> Result<Source> {
         ),
     })?;
 
+    let file_buffers = document.buffers().len() - compressed.len() - draco.len();
+    let (mut buffers, mut short_buffers) = read_file_buffers(
+        &file,
+        &dir,
+        &json,
+        &document,
+        file_buffers,
+        glb,
+        &mut warnings,
+    )?;
+    // Compressed views decode into the buffers `redirect_views` appended.
+    for c in &compressed {
+        let decoded = super::meshopt_views::decode(&file, c, &buffers, &short_buffers)?;
+        buffers.push(decoded);
+        short_buffers.push(None);
+    }
+    for d in &draco {
+        let decoded = super::draco::decode(&file, d, &document, &buffers, &short_buffers)?;
+        buffers.push(decoded);
+        short_buffers.push(None);
+    }
+
+    Ok(Source {
+        file,
+        dir,
+        document,
+        json,
+        buffers,
+        short_buffers,
+        warnings,
+    })
+}
+
+/// Every extension the file requires must be one soupray reads.
+fn check_required_extensions(file: &str, json: &serde_json::Value) -> Result<()> {
+    if let Some(required) = json.get("extensionsRequired").and_then(|r| r.as_array()) {
+        for extension in required {
+            let name = extension.as_str().unwrap_or("(not a string)");
+            // Required AVIF is honoured where every AVIF texture has a
+            // fallback image; `choose_texture_images` refuses the rest.
+            if !SUPPORTED_EXTENSIONS.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
+                return Err(SceneError::UnsupportedExtension {
+                    file: file.to_owned(),
+                    extension: name.to_owned(),
+                    supported: SUPPORTED_EXTENSIONS.join(", "),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The document handed to the `gltf` crate: without what soupray reads
+/// from the raw JSON itself.
+fn json_for_crate(json: &serde_json::Value) -> serde_json::Value {
+    // The extensions soupray reads from the raw JSON itself are checked
+    // above; the `gltf` crate, built without them, would refuse them when
+    // required.
+    let mut for_crate = json.clone();
+    if let Some(required) = for_crate
+        .get_mut("extensionsRequired")
+        .and_then(|r| r.as_array_mut())
+    {
+        required.retain(|e| {
+            !e.as_str()
+                .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
+        });
+    }
+    // KHR_animation_pointer channels (`scene::pointer`) are read from the
+    // raw JSON; the crate knows no "pointer" path.
+    if let Some(animations) = for_crate
+        .get_mut("animations")
+        .and_then(|a| a.as_array_mut())
+    {
+        for animation in animations {
+            if let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) {
+                channels.retain(|ch| super::pointer::channel_pointer(ch).is_none());
+            }
+        }
+    }
+    for_crate
+}
+
+/// Per buffer, why it holds fewer bytes than its byteLength (if it does).
+type ShortBuffers = Vec<Option<String>>;
+
+/// The buffers the file itself holds (the first `count` of the document's;
+/// decoded ones are appended after them), each cut to its byteLength,
+/// with a note for each that is shorter.
+fn read_file_buffers(
+    file: &str,
+    dir: &Path,
+    json: &serde_json::Value,
+    document: &gltf::Document,
+    count: usize,
+    glb: Option<Glb>,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Vec<u8>>, ShortBuffers)> {
     let (glb_bin, glb_truncation) = match glb {
         Some(g) => (g.bin, g.truncation),
         None => (None, None),
@@ -225,8 +286,7 @@ pub fn load(path: &Path) -> Result<Source> {
     let mut glb_bin = glb_bin;
     let mut buffers = Vec::new();
     let mut short_buffers = Vec::new();
-    let file_buffers = document.buffers().len() - compressed.len() - draco.len();
-    for buffer in document.buffers().take(file_buffers) {
+    for buffer in document.buffers().take(count) {
         let raw = &json["buffers"][buffer.index()];
         if super::meshopt_views::is_fallback_buffer(raw) {
             // Only compressed views point here, and they read their
@@ -244,7 +304,7 @@ pub fn load(path: &Path) -> Result<Source> {
                 Some(bin) => (bin, glb_truncation.clone()),
                 None => {
                     return Err(SceneError::Buffer {
-                        file,
+                        file: file.to_owned(),
                         buffer: buffer.index(),
                         uri: "(GLB binary chunk)".into(),
                         problem: "is missing: the buffer has no uri and the file has no GLB BIN chunk. \
@@ -254,7 +314,7 @@ pub fn load(path: &Path) -> Result<Source> {
                 }
             },
             gltf::buffer::Source::Uri(uri) => (
-                read_uri(&file, &dir, buffer.index(), uri, buffer.length(), &mut warnings)?,
+                read_uri(file, dir, buffer.index(), uri, buffer.length(), warnings)?,
                 None,
             ),
         };
@@ -290,29 +350,8 @@ pub fn load(path: &Path) -> Result<Source> {
         buffers.push(data);
         short_buffers.push(note);
     }
-    // Compressed views decode into the buffers `redirect_views` appended.
-    for c in &compressed {
-        let decoded = super::meshopt_views::decode(&file, c, &buffers, &short_buffers)?;
-        buffers.push(decoded);
-        short_buffers.push(None);
-    }
-    for d in &draco {
-        let decoded = super::draco::decode(&file, d, &document, &buffers, &short_buffers)?;
-        buffers.push(decoded);
-        short_buffers.push(None);
-    }
-
-    Ok(Source {
-        file,
-        dir,
-        document,
-        json,
-        buffers,
-        short_buffers,
-        warnings,
-    })
+    Ok((buffers, short_buffers))
 }
-
 fn parse_glb<'a>(file: &str, bytes: &'a [u8]) -> Result<Glb<'a>> {
     let malformed = |detail: String| {
         SceneError::Malformed {

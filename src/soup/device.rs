@@ -16,7 +16,8 @@
 //! operation; `tests/soup_device.rs` holds them to the CPU reference.
 
 use crate::device_struct::{device_consts, device_struct};
-use std::collections::HashMap;
+
+mod host;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
@@ -27,6 +28,7 @@ use super::Soup;
 use crate::device::{build_options, Arg, Device, DeviceError};
 use crate::scene::deform::normal_matrix;
 use crate::scene::{FrameCamera, FrameLight, MeshInstance, Pose, Scene, SceneError};
+use host::HostSoup;
 
 device_consts! {
     fn soup_consts;
@@ -320,6 +322,53 @@ fn cols4(m: &Mat4) -> [[f32; 4]; 4] {
     m.to_cols_array_2d()
 }
 
+/// Uploads the scene's static data: the buffers the program reads, the
+/// optional ones only where its features need them.
+fn upload_statics(
+    device: &Device,
+    features: &SoupFeatures,
+    host: &HostSoup,
+    allocations: &mut usize,
+) -> Result<StaticBuffers, DeviceError> {
+    let morphs = features.morph_targets > 0;
+    let mut up = |present: bool, data: &[[f32; 4]]| -> Result<_, DeviceError> {
+        present
+            .then(|| upload(device, data, &mut *allocations))
+            .transpose()
+    };
+    let base_normals = up(features.normals, &host.base_normals)?;
+    let position_deltas = up(morphs, &host.position_deltas)?;
+    let normal_deltas = up(morphs && features.normals, &host.normal_deltas)?;
+    let influence_weights = up(features.skin, &host.influence_weights)?;
+    let a = allocations;
+    Ok(StaticBuffers {
+        segments: upload(device, &host.segments, a)?,
+        vertex_segment: upload(device, &host.vertex_segment, a)?,
+        triangles: upload(device, &host.triangles, a)?,
+        base_positions: upload(device, &host.base_positions, a)?,
+        base_normals,
+        base_uvs: features
+            .uvs
+            .then(|| upload(device, &host.base_uvs, a))
+            .transpose()?,
+        base_uvs1: features
+            .uvs1
+            .then(|| upload(device, &host.base_uvs1, a))
+            .transpose()?,
+        base_colors: features
+            .colors
+            .then(|| upload(device, &host.base_colors, a))
+            .transpose()?,
+        position_deltas,
+        normal_deltas,
+        influence_joints: features
+            .skin
+            .then(|| upload(device, &host.influence_joints, a))
+            .transpose()?,
+        influence_weights,
+    })
+}
+
 impl<'d> DeviceSoup<'d> {
     /// Compiles the soup program for `scene`'s features on `device`, uploads
     /// the scene's static data and allocates every per-frame buffer.
@@ -331,268 +380,22 @@ impl<'d> DeviceSoup<'d> {
             deform: device.kernel(&program, "deform_vertices")?,
             assemble: device.kernel(&program, "assemble_triangles")?,
         };
-
-        // Host copies of the static data, primitive by primitive. A mesh
-        // placed by several nodes stores its vertex data once.
         let morphs = features.morph_targets > 0;
-        let sets = features.influence_sets;
-        let mut base_positions: Vec<[f32; 4]> = Vec::new();
-        let mut base_normals: Vec<[f32; 4]> = Vec::new();
-        let mut base_uvs: Vec<[f32; 2]> = Vec::new();
-        let mut base_uvs1: Vec<[f32; 2]> = Vec::new();
-        let mut base_colors: Vec<[f32; 4]> = Vec::new();
-        let mut position_deltas: Vec<[f32; 4]> = Vec::new();
-        let mut normal_deltas: Vec<[f32; 4]> = Vec::new();
-        let mut influence_joints: Vec<[u32; 4]> = Vec::new();
-        let mut influence_weights: Vec<[f32; 4]> = Vec::new();
-        let mut segments: Vec<SoupSegment> = Vec::new();
-        let mut vertex_segment: Vec<u32> = Vec::new();
-        let mut triangles: Vec<[u32; 4]> = Vec::new();
-        let mut material_ids: Vec<u32> = Vec::new();
-        let mut ranges = Vec::new();
-        let mut instances = Vec::new();
-        // (mesh, primitive) → (src_vertex, morph_base, influence_base)
-        let mut stored: HashMap<(usize, usize), (u32, u32, u32)> = HashMap::new();
-        let mut skin_base: HashMap<usize, u32> = HashMap::new();
-        let mut joint_count = 0usize;
-        let mut weight_count = 0usize;
-        let default_material = scene.materials().default_material.unwrap_or(0);
-        let v4 = |v: glam::Vec3| [v.x, v.y, v.z, 0.0];
-
-        for (ii, inst) in scene.instances().iter().enumerate() {
-            let mesh = &scene.meshes()[inst.mesh];
-            let joint_base = match inst.skin {
-                Some(s) => {
-                    // Instances of a skin share its joint matrices, except an
-                    // EXT_mesh_gpu_instancing instance, which has its own
-                    // (`MeshInstance::joint_matrices`).
-                    let shared = inst.node_from_instance.is_none().then_some(s);
-                    match shared.and_then(|s| skin_base.get(&s)) {
-                        Some(&b) => Some(b),
-                        None => {
-                            let b = as_u32(&file, "joint matrices", joint_count)?;
-                            joint_count += scene.skins()[s].joints.len();
-                            if let Some(s) = shared {
-                                skin_base.insert(s, b);
-                            }
-                            Some(b)
-                        }
-                    }
-                }
-                None => None,
-            };
-            let weights = if morphs && mesh.target_count > 0 {
-                let base = as_u32(&file, "morph weights", weight_count)?;
-                weight_count += mesh.target_count;
-                Some((base, mesh.target_count))
-            } else {
-                None
-            };
-            instances.push(InstanceSlot {
-                instance: *inst,
-                joint_base,
-                weights,
-            });
-
-            for (pi, prim) in mesh.primitives.iter().enumerate() {
-                let n = prim.vertex_count();
-                // The loader guarantees this; the kernel's delta stride and
-                // weight count both rely on it.
-                if prim.targets.len() != mesh.target_count {
-                    return Err(SceneError::Invalid {
-                        file: file.clone(),
-                        detail: format!(
-                            "mesh {} primitive {} has {} morph targets but the mesh has {}. Fix: re-export the mesh.",
-                            inst.mesh,
-                            prim.index_in_mesh,
-                            prim.targets.len(),
-                            mesh.target_count
-                        ),
-                    }
-                    .into());
-                }
-                let entry = match stored.get(&(inst.mesh, pi)) {
-                    Some(&e) => e,
-                    None => {
-                        let src = as_u32(&file, "vertices", base_positions.len())?;
-                        base_positions.extend(prim.positions.iter().map(|&p| v4(p)));
-                        if features.normals {
-                            match &prim.normals {
-                                Some(nr) => base_normals.extend(nr.iter().map(|&p| v4(p))),
-                                None => base_normals.extend(std::iter::repeat_n([0.0; 4], n)),
-                            }
-                        }
-                        if features.uvs {
-                            match &prim.uvs {
-                                Some(uv) => base_uvs.extend_from_slice(uv),
-                                None => base_uvs.extend(std::iter::repeat_n([0.0; 2], n)),
-                            }
-                        }
-                        if features.uvs1 {
-                            match &prim.uvs1 {
-                                Some(uv) => base_uvs1.extend_from_slice(uv),
-                                None => base_uvs1.extend(std::iter::repeat_n([0.0; 2], n)),
-                            }
-                        }
-                        if features.colors {
-                            match &prim.colors {
-                                Some(c) => base_colors.extend_from_slice(c),
-                                None => base_colors.extend(std::iter::repeat_n([1.0; 4], n)),
-                            }
-                        }
-                        let mut morph_base = SOUP_NONE;
-                        if morphs && mesh.target_count > 0 {
-                            morph_base = as_u32(&file, "morph deltas", position_deltas.len())?;
-                            // Vertex-major, so one vertex's deltas are adjacent.
-                            for v in 0..n {
-                                for target in &prim.targets {
-                                    position_deltas.push(
-                                        target.positions.as_ref().map_or([0.0; 4], |d| v4(d[v])),
-                                    );
-                                    if features.normals {
-                                        normal_deltas.push(
-                                            target.normals.as_ref().map_or([0.0; 4], |d| v4(d[v])),
-                                        );
-                                    }
-                                }
-                            }
-                        }
-                        let e = (src, morph_base, SOUP_NONE);
-                        stored.insert((inst.mesh, pi), e);
-                        e
-                    }
-                };
-                let (src_vertex, morph_base, mut influence_base) = entry;
-                let skinned = joint_base.is_some() && prim.influences.is_some();
-                if let (true, Some(inf)) =
-                    (skinned && influence_base == SOUP_NONE, &prim.influences)
-                {
-                    // Stored the first time a skinned instance needs it, padded
-                    // to INFLUENCE_SETS with zero weights (which the blend
-                    // skips, as the CPU skips them).
-                    influence_base = as_u32(&file, "influence records", influence_joints.len())?;
-                    for v in 0..n {
-                        let (j, w) = inf.of_vertex(v);
-                        for s in 0..sets {
-                            if s < inf.sets {
-                                influence_joints.push([
-                                    j[4 * s],
-                                    j[4 * s + 1],
-                                    j[4 * s + 2],
-                                    j[4 * s + 3],
-                                ]);
-                                influence_weights.push([
-                                    w[4 * s],
-                                    w[4 * s + 1],
-                                    w[4 * s + 2],
-                                    w[4 * s + 3],
-                                ]);
-                            } else {
-                                influence_joints.push([0; 4]);
-                                influence_weights.push([0.0; 4]);
-                            }
-                        }
-                    }
-                    stored.insert((inst.mesh, pi), (src_vertex, morph_base, influence_base));
-                }
-
-                let seg = as_u32(&file, "primitive instances", segments.len())?;
-                let dst_vertex = as_u32(&file, "deformed vertices", vertex_segment.len())?;
-                let mut flags = 0;
-                if prim.normals.is_some() {
-                    flags |= SEG_NORMALS;
-                }
-                if prim.uvs.is_some() {
-                    flags |= SEG_UVS;
-                }
-                if prim.uvs1.is_some() {
-                    flags |= SEG_UVS1;
-                }
-                if prim.colors.is_some() {
-                    flags |= SEG_COLORS;
-                }
-                if skinned {
-                    flags |= SEG_SKINNED;
-                }
-                segments.push(SoupSegment {
-                    src_vertex,
-                    dst_vertex,
-                    vertex_count: as_u32(&file, "vertices", n)?,
-                    instance: as_u32(&file, "mesh instances", ii)?,
-                    influence_base: if skinned { influence_base } else { SOUP_NONE },
-                    joint_base: match (skinned, joint_base) {
-                        (true, Some(base)) => base,
-                        _ => SOUP_NONE,
-                    },
-                    morph_base,
-                    weight_base: weights.map_or(SOUP_NONE, |(b, _)| b),
-                    target_count: if morph_base == SOUP_NONE {
-                        0
-                    } else {
-                        mesh.target_count as u32
-                    },
-                    flags,
-                    pad0: 0,
-                    pad1: 0,
-                });
-                vertex_segment.extend(std::iter::repeat_n(seg, n));
-                ranges.push(TriangleRange {
-                    first: triangles.len(),
-                    instance: ii,
-                    primitive: pi,
-                });
-                let material = prim.material.map_or(default_material, |m| m as u32);
-                triangles.extend(prim.triangles.iter().map(|t| [t[0], t[1], t[2], seg]));
-                material_ids.extend(std::iter::repeat_n(material, prim.triangles.len()));
-            }
-        }
-        let triangle_count = triangles.len();
-        let vertex_count = vertex_segment.len();
+        let host = HostSoup::build(scene, &features, &file)?;
+        let (joint_count, weight_count) = (host.joint_count, host.weight_count);
+        let triangle_count = host.triangles.len();
+        let vertex_count = host.vertex_segment.len();
         // Corner slots 3t+k are computed in 32 bits on the device.
         as_u32(&file, "triangle corners", 3 * triangle_count)?;
         as_u32(&file, "deformed vertices", vertex_count)?;
         as_u32(&file, "joint matrix columns", 4 * joint_count)?;
 
         let mut allocations = 0usize;
-        let mut up = |present: bool, data: &[[f32; 4]]| -> Result<_, DeviceError> {
-            present
-                .then(|| upload(device, data, &mut allocations))
-                .transpose()
-        };
-        let base_normals = up(features.normals, &base_normals)?;
-        let position_deltas = up(morphs, &position_deltas)?;
-        let normal_deltas = up(morphs && features.normals, &normal_deltas)?;
-        let influence_weights = up(features.skin, &influence_weights)?;
+        let statics = upload_statics(device, &features, &host, &mut allocations)?;
         let a = &mut allocations;
-        let statics = StaticBuffers {
-            segments: upload(device, &segments, a)?,
-            vertex_segment: upload(device, &vertex_segment, a)?,
-            triangles: upload(device, &triangles, a)?,
-            base_positions: upload(device, &base_positions, a)?,
-            base_normals,
-            base_uvs: features
-                .uvs
-                .then(|| upload(device, &base_uvs, a))
-                .transpose()?,
-            base_uvs1: features
-                .uvs1
-                .then(|| upload(device, &base_uvs1, a))
-                .transpose()?,
-            base_colors: features
-                .colors
-                .then(|| upload(device, &base_colors, a))
-                .transpose()?,
-            position_deltas,
-            normal_deltas,
-            influence_joints: features
-                .skin
-                .then(|| upload(device, &influence_joints, a))
-                .transpose()?,
-            influence_weights,
-        };
         // Material ids do not depend on the frame (nor on the winding), so
         // the soup's material buffer is filled here, once.
-        let material_ids = upload(device, &material_ids, a)?;
+        let material_ids = upload(device, &host.material_ids, a)?;
         let frame = FrameBuffers {
             joint_matrices: allocate_if(features.skin, device, 4 * joint_count, a)?,
             morph_weights: allocate_if(morphs, device, weight_count, a)?,
@@ -601,7 +404,7 @@ impl<'d> DeviceSoup<'d> {
             uvs: allocate_if(features.uvs, device, 3 * triangle_count, a)?,
             uvs1: allocate_if(features.uvs1, device, 3 * triangle_count, a)?,
             colors: allocate_if(features.colors, device, 3 * triangle_count, a)?,
-            instances: allocate(device, instances.len(), a)?,
+            instances: allocate(device, host.instances.len(), a)?,
             deformed_positions: allocate(device, vertex_count, a)?,
             status: allocate(device, 2, a)?,
             positions: allocate(device, 3 * triangle_count, a)?,
@@ -615,8 +418,8 @@ impl<'d> DeviceSoup<'d> {
             kernels,
             statics,
             frame,
-            instances,
-            ranges,
+            instances: host.instances,
+            ranges: host.ranges,
             joint_count,
             weight_count,
             vertex_count,

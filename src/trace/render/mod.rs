@@ -208,6 +208,83 @@ fn usage(msg: String) -> TraceError {
     TraceError::Unsupported(msg)
 }
 
+/// The render settings the tracer cannot work with are refused up front.
+fn check_settings(settings: &RenderSettings) -> Result<(), TraceError> {
+    if settings.width == 0
+        || settings.height == 0
+        || settings.width > 65536
+        || settings.height > 65536
+    {
+        return Err(usage(format!(
+            "render size {}x{}: both sides must be 1 to 65536 pixels (--width, --height)",
+            settings.width, settings.height
+        )));
+    }
+    if settings.spp == 0 {
+        return Err(usage(
+            "--spp 0: at least one sample per pixel is needed".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The textures the compiled `slots` sample, and their bindings: only
+/// when some material samples one (and not in clay mode, where only alpha
+/// cut-outs would need them: those are kept). A texture set that cannot
+/// be made leaves the materials to their factors, with a warning.
+fn upload_textures<'d>(
+    device: &'d Device,
+    table: &MaterialTable,
+    slots: &[Slot],
+    host_materials: &mut [DeviceMaterial],
+    host_exts: Option<&mut [DeviceMaterialExt]>,
+    warnings: &mut Vec<String>,
+) -> Result<Option<(TextureSet<'d>, Buffer<TextureBinding>)>, TraceError> {
+    let mut textures = None;
+    let textured = table
+        .materials
+        .iter()
+        .any(|m| slots.iter().any(|s| s.of(m).is_some()));
+    if textured {
+        match TextureSet::with_slots(device, table, slots) {
+            Ok(set) if !set.is_empty() => {
+                // Four bindings per material (`PtMaterial`), then
+                // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
+                // (those of slots outside `slots` stay -1).
+                let bindings = bind_textures(&set, &table.materials, host_materials, host_exts);
+                let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
+                device.write(&mut buf, &bindings)?;
+                textures = Some((set, buf));
+            }
+            Ok(_) => {}
+            Err(e) => warnings.push(format!(
+                "textures are not used ({e}); materials are rendered with their factors only"
+            )),
+        }
+    }
+    Ok(textures)
+}
+
+/// The environment map `settings` asks for, uploaded; a constant colour
+/// must be a radiance.
+fn environment_map(
+    device: &Device,
+    settings: &RenderSettings,
+) -> Result<Option<EnvBuffers>, TraceError> {
+    Ok(match &settings.environment {
+        Environment::Map(path) => Some(upload_env_map(device, &EnvMap::load(path)?)?),
+        Environment::Color(c) => {
+            if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(usage(format!(
+                    "--env-color {c:?}: the radiance must be three finite, non-negative numbers"
+                )));
+            }
+            None
+        }
+        Environment::Default => None,
+    })
+}
+
 impl<'d> PathTracer<'d> {
     /// The material features compiled in (`material_features`).
     pub fn material_features(&self) -> &[&'static str] {
@@ -255,21 +332,7 @@ impl<'d> PathTracer<'d> {
         animated: &[crate::scene::Material],
         settings: &RenderSettings,
     ) -> Result<Self, TraceError> {
-        if settings.width == 0
-            || settings.height == 0
-            || settings.width > 65536
-            || settings.height > 65536
-        {
-            return Err(usage(format!(
-                "render size {}x{}: both sides must be 1 to 65536 pixels (--width, --height)",
-                settings.width, settings.height
-            )));
-        }
-        if settings.spp == 0 {
-            return Err(usage(
-                "--spp 0: at least one sample per pixel is needed".into(),
-            ));
-        }
+        check_settings(settings)?;
         let mut warnings = Vec::new();
         let mut host_materials = device_materials(table);
         if settings.backface_culling {
@@ -313,33 +376,14 @@ impl<'d> PathTracer<'d> {
 
         // Textures: only when some material samples one (and not in clay
         // mode, where only alpha cut-outs would need them: those are kept).
-        let mut textures = None;
-        let textured = table
-            .materials
-            .iter()
-            .any(|m| slots.iter().any(|s| s.of(m).is_some()));
-        if textured {
-            match TextureSet::with_slots(device, table, slots) {
-                Ok(set) if !set.is_empty() => {
-                    // Four bindings per material (`PtMaterial`), then
-                    // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
-                    // (those of slots outside `slots` stay -1).
-                    let bindings = bind_textures(
-                        &set,
-                        &table.materials,
-                        &mut host_materials,
-                        host_exts.as_deref_mut(),
-                    );
-                    let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
-                    device.write(&mut buf, &bindings)?;
-                    textures = Some((set, buf));
-                }
-                Ok(_) => {}
-                Err(e) => warnings.push(format!(
-                    "textures are not used ({e}); materials are rendered with their factors only"
-                )),
-            }
-        }
+        let textures = upload_textures(
+            device,
+            table,
+            slots,
+            &mut host_materials,
+            host_exts.as_deref_mut(),
+            &mut warnings,
+        )?;
 
         // Clay is a pure Lambertian: no GGX lobe to compensate.
         let compensation = settings.energy_compensation && !settings.clay;
@@ -368,18 +412,7 @@ impl<'d> PathTracer<'d> {
         };
         let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
 
-        let env_map = match &settings.environment {
-            Environment::Map(path) => Some(upload_env_map(device, &EnvMap::load(path)?)?),
-            Environment::Color(c) => {
-                if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
-                    return Err(usage(format!(
-                        "--env-color {c:?}: the radiance must be three finite, non-negative numbers"
-                    )));
-                }
-                None
-            }
-            Environment::Default => None,
-        };
+        let env_map = environment_map(device, settings)?;
 
         let table_f = film::Filter::default().sampler().table().to_vec();
         let mut filter = device.buffer::<f32>(table_f.len())?;
