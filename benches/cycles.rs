@@ -971,7 +971,7 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
             );
             for (name, img) in [("soupray", &s_ref), ("cycles", &c_ref)] {
                 let p = previews.join(format!("{tag}-{name}.png"));
-                soupray::output::write_png_preview(&p, img, 0.0)
+                soupray::output::write_png_preview(&p, img, 0.0, false)
                     .map_err(|e| format!("{}: {e}", p.display()))?;
             }
             if (s_ref.width, s_ref.height) != (c_ref.width, c_ref.height) {

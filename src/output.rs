@@ -461,9 +461,40 @@ pub fn tonemap_srgb8(image: &Image, exposure: f32) -> Vec<u8> {
         .collect()
 }
 
-/// Writes the tonemapped preview of `image` as a PNG, atomically.
-pub fn write_png_preview(path: &Path, image: &Image, exposure: f32) -> Result<(), OutputError> {
+/// The neutral grey, linear, that `--transparent` previews are composited
+/// over (photographic middle grey).
+pub const PREVIEW_GREY: f32 = 0.18;
+
+/// `image` composited over a constant linear `background` (its beauty is
+/// premultiplied by alpha): what a transparent frame looks like over a plate.
+pub fn over_background(image: &Image, background: [f32; 3]) -> Image {
+    let mut out = image.clone();
+    for p in &mut out.rgba {
+        let a = p[3].clamp(0.0, 1.0);
+        for c in 0..3 {
+            p[c] += (1.0 - a) * background[c];
+        }
+        p[3] = 1.0;
+    }
+    out
+}
+
+/// Writes the tonemapped preview of `image` as a PNG, atomically; a
+/// transparent frame is shown over `PREVIEW_GREY`.
+pub fn write_png_preview(
+    path: &Path,
+    image: &Image,
+    exposure: f32,
+    transparent: bool,
+) -> Result<(), OutputError> {
     use image::ImageEncoder as _;
+    let composited;
+    let image = if transparent {
+        composited = over_background(image, [PREVIEW_GREY; 3]);
+        &composited
+    } else {
+        image
+    };
     let pixels = tonemap_srgb8(image, exposure);
     write_atomic(path, |out| {
         image::codecs::png::PngEncoder::new(out)

@@ -277,6 +277,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         energy_compensation: false,
         backface_culling: false,
         lens: None,
+        transparent: false,
     }
 }
 

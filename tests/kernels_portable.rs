@@ -35,7 +35,7 @@ use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
 use soupray::trace::lens::Lens;
 use soupray::trace::render::{
-    lens_defines, motion_defines, pathtrace_defines, Lobes, Traversal, LOBES,
+    film_defines, motion_defines, pathtrace_defines, Lobes, Traversal, LOBES,
 };
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
@@ -275,8 +275,8 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
-    // Depth of field, alone and with motion blur.
-    let lens = lens_defines(
+    // Depth of field with a transparent film, alone and with motion blur.
+    let lens = film_defines(
         pathtrace_defines(
             Traversal::Wide,
             true,
@@ -292,6 +292,7 @@ fn variants() -> Vec<Variant> {
             blades: 0,
             blade_rotation: 0.0,
         }),
+        true,
     );
     v.push(Variant {
         entry: "pathtrace.cl",

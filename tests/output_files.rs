@@ -322,7 +322,13 @@ fn atomic_writes_leave_no_temporaries_and_no_partial_files() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a.0001.exr");
     write_exr(&path, &test_image(Aovs::ALL), &meta(), false).unwrap();
-    write_png_preview(&path.with_extension("png"), &test_image(Aovs::NONE), 0.0).unwrap();
+    write_png_preview(
+        &path.with_extension("png"),
+        &test_image(Aovs::NONE),
+        0.0,
+        false,
+    )
+    .unwrap();
     write_log(&path.with_extension("json"), &FrameLog::new()).unwrap();
     assert_eq!(
         listing(dir.path()),
@@ -373,7 +379,7 @@ fn png_preview_is_tonemapped_srgb() {
     let mut img = Image::new(3, 2, Aovs::NONE);
     img.rgba[0] = [0.18, 0.36, 4.0, 1.0];
     img.rgba[5] = [0.09, 0.0, -1.0, 1.0];
-    write_png_preview(&path, &img, 1.0).unwrap();
+    write_png_preview(&path, &img, 1.0, false).unwrap();
     let png = image::open(&path).unwrap().to_rgb8();
     assert_eq!(png.dimensions(), (3, 2));
     // +1 stop: 0.36 → 162, 0.72 → 221, 8 → 255 (clamped).

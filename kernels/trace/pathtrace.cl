@@ -1014,6 +1014,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float reach = travelled;
 #endif
         if (!found) {
+#ifdef FILM_TRANSPARENT
+            // --transparent: the environment the camera ray sees directly
+            // (through cut-outs too) is left out; alpha is 0 there.
+            if (bounce == 0u) break;
+#endif
             if (!blocked && s->env.kind != ENV_NONE) {
                 float3 le = env_radiance(s->env, s->env_texels, dir);
                 float w = 1.0f;

@@ -249,6 +249,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
         energy_compensation: true,
         backface_culling: false,
         lens: None,
+        transparent: false,
     }
 }
 

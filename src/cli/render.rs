@@ -231,6 +231,12 @@ pub struct RenderArgs {
     /// a single-sided emitter emits from its front only either way.
     #[arg(long, help_heading = "Image")]
     pub backface_culling: bool,
+    /// Leave the environment out where the camera sees it directly: RGB and
+    /// alpha 0 there (premultiplied), for compositing over a plate. It still
+    /// lights the scene and shows in reflections and through glass. --png
+    /// previews are composited over a neutral grey.
+    #[arg(long, help_heading = "Image")]
+    pub transparent: bool,
     /// Depth of field: open the camera's lens to this f-number (e.g. 2.8;
     /// smaller is blurrier). glTF cameras are pinholes, so soupray adds a
     /// thin lens with Blender's 36 mm sensor across the image's wider side:
@@ -500,11 +506,19 @@ type Written = (i64, Result<String, String>);
 /// Writes finished frames on its own thread, in order: EXR, preview, then
 /// the log (which records the write time), each atomically. The log comes
 /// last, so a frame counts as done only when everything is on disk.
-fn spawn_writer(
+/// How the writer thread writes each frame.
+#[derive(Clone, Copy)]
+struct WriteOptions {
     half: bool,
     png: bool,
+    /// `--transparent`: previews are composited over a neutral grey.
+    transparent: bool,
     spp: u32,
     seed: u64,
+}
+
+fn spawn_writer(
+    options: WriteOptions,
 ) -> (
     mpsc::SyncSender<FrameResult>,
     std::thread::JoinHandle<Vec<Written>>,
@@ -515,7 +529,7 @@ fn spawn_writer(
     let handle = std::thread::spawn(move || {
         let mut results = Vec::new();
         for mut done in receive {
-            let written = write_frame(&mut done, half, png, spp, seed);
+            let written = write_frame(&mut done, options);
             // The run's start-up, on the line of the frame whose log has it.
             let startup = match done.log.timings_ms.startup {
                 ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
@@ -542,13 +556,14 @@ fn spawn_writer(
 }
 
 /// Writes one frame's EXR, preview and log, and records the write time.
-fn write_frame(
-    done: &mut FrameResult,
-    half: bool,
-    png: bool,
-    spp: u32,
-    seed: u64,
-) -> Result<(), output::OutputError> {
+fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), output::OutputError> {
+    let WriteOptions {
+        half,
+        png,
+        transparent,
+        spp,
+        seed,
+    } = options;
     let t = Instant::now();
     let meta = FrameMetadata {
         frame: done.frame,
@@ -573,7 +588,7 @@ fn write_frame(
             }
             None => std::borrow::Cow::Borrowed(&done.image),
         };
-        output::write_png_preview(&done.paths.png, &preview, 0.0)?;
+        output::write_png_preview(&done.paths.png, &preview, 0.0, transparent)?;
         done.log.output.png = Some(done.paths.png.display().to_string());
     }
     done.log.output.half = half;
@@ -806,7 +821,13 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let mut renderer = FrameRenderer::new(&device, &scene, job.settings.clone(), denoiser)?;
     signals.deferred();
     signals.check()?;
-    let (writer, writer_done) = spawn_writer(args.half, args.png, spp, seed);
+    let (writer, writer_done) = spawn_writer(WriteOptions {
+        half: args.half,
+        png: args.png,
+        transparent: args.transparent,
+        spp,
+        seed,
+    });
     let Rendered {
         mut failed,
         interrupted,

@@ -87,6 +87,11 @@ pub struct RenderSettings {
     /// Depth of field (`--aperture`, `--focus-distance`); `None`: a
     /// pinhole camera, everything sharp.
     pub lens: Option<Lens>,
+    /// `--transparent`: the environment seen directly by camera rays is
+    /// left out (RGB and alpha 0 there, premultiplied), for compositing over
+    /// a plate; it still lights the scene and shows in reflections and
+    /// through glass.
+    pub transparent: bool,
 }
 
 impl Default for RenderSettings {
@@ -108,6 +113,7 @@ impl Default for RenderSettings {
             energy_compensation: true,
             backface_culling: false,
             lens: None,
+            transparent: false,
         }
     }
 }

@@ -174,6 +174,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         energy_compensation: false,
         backface_culling: false,
         lens: None,
+        transparent: false,
     }
 }
 

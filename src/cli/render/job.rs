@@ -135,6 +135,7 @@ pub(super) fn resolve_job(
                 energy_compensation: !args.no_energy_compensation,
                 backface_culling: args.backface_culling,
                 lens: lens(args)?,
+                transparent: args.transparent,
             },
             build: params,
             output_aovs,

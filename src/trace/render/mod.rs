@@ -33,7 +33,7 @@ pub use super::settings::{
 };
 use program::Kernels;
 pub use program::{
-    lens_defines, material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES,
+    film_defines, material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES,
 };
 use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
 pub use upload::{device_camera, frame_consts, DeviceCamera, DeviceFrame};
@@ -397,7 +397,7 @@ impl<'d> PathTracer<'d> {
             features_of.materials.iter().any(|m| m.unlit),
             lobes,
         );
-        let defines = lens_defines(defines, settings.lens.as_ref());
+        let defines = film_defines(defines, settings.lens.as_ref(), settings.transparent);
         let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;

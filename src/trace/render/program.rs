@@ -202,15 +202,20 @@ impl FromIterator<usize> for Lobes {
     }
 }
 
-/// `base` with `HAS_DOF` where the camera has a lens: only then does the
-/// camera sample draw a lens point, so a pinhole render's program and image
-/// are those of a build without depth of field.
-pub fn lens_defines(
+/// `base` with the camera's and the film's options: `HAS_DOF` where the
+/// camera has a lens (only then does a camera sample draw a lens point) and
+/// `FILM_TRANSPARENT` for `--transparent`. Without them the program, and so
+/// the image, is that of a build without these features.
+pub fn film_defines(
     mut base: Vec<(&'static str, String)>,
     lens: Option<&Lens>,
+    transparent: bool,
 ) -> Vec<(&'static str, String)> {
     if lens.is_some() {
         base.push(("HAS_DOF", "1".to_owned()));
+    }
+    if transparent {
+        base.push(("FILM_TRANSPARENT", "1".to_owned()));
     }
     base
 }
