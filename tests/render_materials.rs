@@ -6,12 +6,13 @@
 //! thickness, and a glass ball that shows what lies behind it flipped.
 
 mod common;
-mod render_support;
-mod scene_support;
 
-use common::{albedo, check_bsdf_probe, close, run_probe, sphere_albedo, BsdfProbeTally, Rng};
+use common::render::*;
+use common::{
+    albedo, check_bsdf_probe, close, random_dir, random_upper_dir, run_probe, sphere_albedo,
+    BsdfProbeTally, Rng,
+};
 use glam::Vec3;
-use render_support::*;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::material::{
@@ -19,27 +20,12 @@ use soupray::trace::material::{
 };
 use soupray::trace::render::{render_soup, Environment};
 
-fn random_dir(rng: &mut Rng) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            rng.f32() * 2.0 - 1.0,
-            rng.f32() * 2.0 - 1.0,
-            rng.f32() * 2.0 - 1.0,
-        );
-        let l = v.length();
-        if l > 0.05 && l <= 1.0 {
-            return v / l;
-        }
-    }
-}
-
 /// A random outgoing direction above the surface, a random direction
 /// anywhere, and the sampler's three random numbers.
 fn random_case(rng: &mut Rng) -> (Vec3, Vec3, [f32; 3]) {
-    let mut wo = random_dir(rng);
-    wo.z = wo.z.abs().max(0.02);
+    let wo = random_upper_dir(rng);
     let wi = random_dir(rng);
-    (wo.normalize(), wi, [rng.f32(), rng.f32(), rng.f32()])
+    (wo, wi, [rng.f32(), rng.f32(), rng.f32()])
 }
 
 /// Runs `bsdf_ext_probe` (built with `defines`) on `cases` (parameters with
@@ -486,9 +472,7 @@ fn energy_compensated_bsdf_matches_the_reference() {
                 true,
             ));
         }
-        let mut wo = random_dir(&mut rng);
-        wo.z = wo.z.abs().max(0.02);
-        let wo = wo.normalize();
+        let wo = random_upper_dir(&mut rng);
         let mut wi = random_dir(&mut rng);
         if p.dielectric.is_none() {
             wi.z = wi.z.abs();
@@ -783,7 +767,7 @@ fn png_uri(left: [u8; 4], right: [u8; 4]) -> String {
     img.write_to(&mut png, image::ImageFormat::Png).unwrap();
     format!(
         "data:image/png;base64,{}",
-        scene_support::base64(png.get_ref())
+        common::scene::base64(png.get_ref())
     )
 }
 
@@ -806,7 +790,7 @@ fn render_square(
 ) -> soupray::film::Image {
     use serde_json::json;
     let dir = tempfile::tempdir().unwrap();
-    let mut b = scene_support::Builder::default();
+    let mut b = common::scene::Builder::default();
     let p = b.floats(
         &[
             -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
@@ -842,7 +826,7 @@ fn render_square(
         root["scenes"][0]["nodes"] = json!([0, 1, 2]);
     }
     let scene = b.write(root, dir.path(), "square", true);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .arg("render")
         .arg(&scene)
         .args([
