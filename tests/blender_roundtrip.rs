@@ -5,13 +5,14 @@
 //! (`pip install bpy==5.0.1`, Python 3.11; `SOUPRAY_BPY_PATH` names a
 //! `pip install --target` folder) and skips with a message without it.
 
+mod common;
+
 use std::io::Write;
-use std::path::Path;
 use std::process::Command;
 
 #[test]
 fn blender_exports_give_blenders_soup_at_every_frame() {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/blender-roundtrip.py");
+    let script = common::repo_file("scripts/blender-roundtrip.py");
     let out = tempfile::tempdir().unwrap();
     let mut cmd = Command::new("python3");
     if let Some(p) = std::env::var_os("SOUPRAY_BPY_PATH") {
@@ -19,7 +20,7 @@ fn blender_exports_give_blenders_soup_at_every_frame() {
     }
     let o = cmd
         .arg(&script)
-        .args(["--soupray", env!("CARGO_BIN_EXE_soupray")])
+        .args(["--soupray", common::SOUPRAY])
         .arg(out.path())
         .output()
         .expect("python3 runs");

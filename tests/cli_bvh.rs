@@ -3,26 +3,13 @@
 
 mod common;
 
+use common::{mesh_arg, soupray};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn soupray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_soupray"))
-        .args(args)
-        .output()
-        .expect("run soupray")
-}
-
-/// A scanned mesh, read in place from the shared folder.
-#[track_caller]
-fn mesh_path(name: &str) -> Option<String> {
-    common::shared::mesh_path(name).map(|p| p.display().to_string())
-}
 
 #[test]
 fn bvh_json_reports_a_valid_tree_for_every_builder() {
     let mut costs = Vec::new();
-    let Some(input) = mesh_path("beast.ply") else {
+    let Some(input) = mesh_arg("beast.ply") else {
         return;
     };
     for builder in ["device", "cpu-binned", "cpu-sweep"] {
@@ -69,7 +56,7 @@ fn bvh_json_reports_a_valid_tree_for_every_builder() {
 
 #[test]
 fn bins_and_leaf_size_change_the_tree() {
-    let Some(input) = mesh_path("beast.ply") else {
+    let Some(input) = mesh_arg("beast.ply") else {
         return;
     };
     let out = soupray(&["bvh", &input, "--json", "--leaf", "1", "--bins", "8"]);
@@ -121,7 +108,7 @@ fn bad_input_gives_a_clear_error_and_exit_code() {
     );
 
     // The scanned mesh is read in place from the shared folder.
-    let Some(beast_ply) = mesh_path("beast.ply") else {
+    let Some(beast_ply) = mesh_arg("beast.ply") else {
         return;
     };
     let out = soupray(&["bvh", &beast_ply, "--bins", "12"]);
@@ -170,7 +157,7 @@ fn bvh_builds_a_gltf_frame() {
 
 #[test]
 fn bvh_copies_builds_the_benchmark_arrangement() {
-    let Some(beast_ply) = mesh_path("beast.ply") else {
+    let Some(beast_ply) = mesh_arg("beast.ply") else {
         return;
     };
     let one = soupray(&["bvh", &beast_ply, "--json"]);

@@ -8,11 +8,10 @@
 //! in docs/images/khronos-corpus.png).
 
 #[allow(clippy::duplicate_mod)]
-#[path = "common/shared.rs"]
-mod shared;
+mod common;
+use common::shared;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
@@ -175,7 +174,7 @@ fn render(file: &Path, rel: &str, out: &Path) -> Result<Rendered, (Option<i32>, 
     let dir = out.join(&stem);
     // More samples for the contact sheet, which people look at.
     let spp = std::env::var("SOUPRAY_CONTACT_SPP").unwrap_or_else(|_| "4".into());
-    let o = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let o = common::soupray_cmd()
         .args(["render", "--quiet", "--frame", "0", "--spp", &spp, "--png"])
         .args([
             "--width",

@@ -16,7 +16,7 @@ use soupray::denoise::{Denoiser, Quality};
 use soupray::film::{Aovs, Image};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// CesiumMan, read in place from the shared folder; `None` (the caller
 /// skips) when it is absent.
@@ -28,7 +28,7 @@ fn scene() -> Option<String> {
 fn render(out: &Path, spp: u32, extra: &[&str], env: &[(&str, &str)]) -> Option<Output> {
     let scene = scene()?;
     let spp = spp.to_string();
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_soupray"));
+    let mut cmd = common::soupray_cmd();
     cmd.args(["render", scene.as_str(), "--out", out.to_str().unwrap()])
         .args(["--frame", "10", "--width", "256", "--height", "144"])
         .args(["--spp", spp.as_str(), "--quiet"])

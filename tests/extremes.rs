@@ -24,10 +24,9 @@
 //! tests/render_analytic.rs.
 
 mod common;
-mod scene_support;
 
+use common::scene::Builder;
 use glam::{Mat4, Quat, Vec3};
-use scene_support::Builder;
 use serde_json::{json, Value};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{self, BuildParams, Bvh};
@@ -39,7 +38,6 @@ use soupray::soup::device::DeviceSoup;
 use soupray::soup::Soup;
 use soupray::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::{Duration, Instant};
 
 const WIDTH: u32 = 96;
@@ -188,30 +186,12 @@ fn double_sided(mut m: Value) -> Value {
 /// A smooth UV sphere with shared vertices (so it is closed): the poles'
 /// first and last rings hold degenerate triangles, as exporters write them.
 fn sphere(name: &'static str, c: Vec3, r: f32, segments: u32, material: Value) -> Part {
-    let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
-    let rings = segments / 2;
-    for i in 0..=rings {
-        let th = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..=segments {
-            let ph = std::f32::consts::TAU * j as f32 / segments as f32;
-            let n = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
-            positions.push((c + r * n).to_array());
-            normals.push(n.to_array());
-        }
-    }
-    let row = segments + 1;
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b) = (i * row + j, (i + 1) * row + j);
-            // Wound counter-clockwise seen from outside.
-            indices.extend([a, a + 1, b, a + 1, b + 1, b]);
-        }
-    }
+    let s = common::geometry::uv_sphere(c.to_array(), r, segments);
     Part {
         name,
-        positions,
-        normals: Some(normals),
-        indices,
+        positions: s.positions,
+        normals: Some(s.normals),
+        indices: s.indices,
         material,
     }
 }
@@ -1076,7 +1056,7 @@ fn grazing_views_and_grazing_light_have_no_acne() {
 
 /// Runs `soupray render` on frames `frames` of `scene` into `out`.
 fn soupray(scene: &Path, out: &Path, frames: &str, extra: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_soupray"))
+    common::soupray_cmd()
         .arg("render")
         .arg(scene)
         .args(["--frames", frames, "--spp", "4", "--quiet"])

@@ -26,7 +26,7 @@ fn openjd() -> Option<PathBuf> {
 /// Runs the documented template over frames 0-6 in chunks of 2 (tasks
 /// 0-1, 2-3, 4-5 and 6), rendering into `out`.
 fn run_template(openjd: &Path, scene: &Path, work: &Path, out: &Path) -> Output {
-    let bin_dir = Path::new(env!("CARGO_BIN_EXE_soupray")).parent().unwrap();
+    let bin_dir = Path::new(common::SOUPRAY).parent().unwrap();
     let path = format!(
         "{}:{}",
         bin_dir.display(),

@@ -201,10 +201,7 @@ fn the_slurm_job_array_example_renders_every_chunk() {
     std::fs::create_dir_all(&out).unwrap();
     // Chunk 2 (frames 4-5) fails: frame 5's EXR name is taken by a directory.
     std::fs::create_dir_all(out.join("BoxAnimated.0005.exr")).unwrap();
-    let bin_dir = Path::new(env!("CARGO_BIN_EXE_soupray"))
-        .parent()
-        .unwrap()
-        .to_path_buf();
+    let bin_dir = Path::new(common::SOUPRAY).parent().unwrap().to_path_buf();
     let path = format!(
         "{}:{}",
         bin_dir.display(),

@@ -4,6 +4,9 @@
 //! naming the file; none panics or allocates from a count alone. All files
 //! live in a temporary directory.
 
+mod common;
+
+use common::XorshiftStar;
 use std::time::{Duration, Instant};
 
 fn base(binary: bool) -> Vec<u8> {
@@ -47,22 +50,8 @@ fn base(binary: bool) -> Vec<u8> {
     out
 }
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 /// Replaces one header word with a hostile one.
-fn mutate_header(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
+fn mutate_header(bytes: &[u8], rng: &mut XorshiftStar) -> Vec<u8> {
     let end = bytes
         .windows(11)
         .position(|w| w == b"end_header\n")
@@ -121,7 +110,7 @@ fn ply_mutation_fuzz() {
         .min(15);
     let deadline = Instant::now() + Duration::from_secs(secs);
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = XorshiftStar(seed);
     let (mut cases, mut ok, mut refused) = (0usize, 0usize, 0usize);
     let mut failures = Vec::new();
     while Instant::now() < deadline && cases < 200_000 {

@@ -10,17 +10,18 @@
 //! Nothing here writes outside a temporary directory. Paths such as
 //! `/dev/zero` appear only as inputs, opened read-only.
 
-mod scene_support;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use scene_support::asset;
+use common::scene::asset;
+use common::XorshiftStar;
 use serde_json::{json, Value};
 use soupray::scene::{LoadOptions, Scene, LAST_RESORT};
 
 fn corpus() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_corpus")
+    common::fuzz_corpus()
 }
 
 /// Loads `path` and evaluates a few frames; `Err` is the error's message.
@@ -151,21 +152,6 @@ fn devices_and_directories_as_scene_are_refused() {
 // ---------------------------------------------------------------------------
 // Structured mutation fuzz.
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // xorshift64*
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 /// Every location in the document: a path of keys and indices.
 fn locations(v: &Value, at: &mut Vec<Value>, out: &mut Vec<Vec<Value>>) {
     out.push(at.clone());
@@ -203,7 +189,7 @@ fn at_mut<'v>(v: &'v mut Value, path: &[Value]) -> Option<&'v mut Value> {
 /// One mutation a spec-aware adversary would try at a random location:
 /// indices past the end or past 32 bits, wrong types, removed or repeated
 /// members, misaligned offsets, hostile URIs, bad versions and paths.
-fn mutate(doc: &mut Value, rng: &mut Rng) -> String {
+fn mutate(doc: &mut Value, rng: &mut XorshiftStar) -> String {
     let mut all = Vec::new();
     locations(doc, &mut Vec::new(), &mut all);
     let path = all[rng.below(all.len())].clone();
@@ -355,20 +341,18 @@ fn structured_mutation_fuzz() {
     // instancing and compressed views: the shipped animation, and the
     // support module's generated scenes (data-URI buffers).
     let generated = tempfile::tempdir().unwrap();
-    let walker =
-        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("animations/walker/walker.glb"))
-            .unwrap();
+    let walker = std::fs::read(common::repo_file("animations/walker/walker.glb")).unwrap();
     let (json, bin) = glb_parts(&walker);
     bases.push(("animations/walker/walker.glb".into(), json, bin, None));
-    let (meshopt, meshopt_bin) = scene_support::meshopt_quad();
+    let (meshopt, meshopt_bin) = common::scene::meshopt_quad();
     for (name, path) in [
         (
             "generated EXT_mesh_gpu_instancing row",
-            scene_support::instanced_triangles(generated.path(), true),
+            common::scene::instanced_triangles(generated.path(), true),
         ),
         (
             "generated skinned triangle",
-            scene_support::skinned_triangle(
+            common::scene::skinned_triangle(
                 generated.path(),
                 serde_json::json!({"translation": [0.0, 1.0, 0.0]}),
                 [1.0, 0.0, 0.0],
@@ -376,7 +360,7 @@ fn structured_mutation_fuzz() {
         ),
         (
             "generated EXT_meshopt_compression quad",
-            scene_support::write_with_buffer(
+            common::scene::write_with_buffer(
                 meshopt.clone(),
                 &meshopt_bin,
                 generated.path(),
@@ -416,7 +400,7 @@ fn structured_mutation_fuzz() {
         }
     }
     // A Draco-compressed skinned grid, generated (no shared folder needed).
-    let (json, bin) = scene_support::draco_grid(12, 5).draco;
+    let (json, bin) = common::scene::draco_grid(12, 5).draco;
     bases.push(("generated Draco grid".into(), json, bin, None));
     for f in std::fs::read_dir(corpus()).unwrap() {
         let p = f.unwrap().path();
@@ -441,7 +425,7 @@ fn structured_mutation_fuzz() {
             }
         }
     }
-    let mut rng = Rng(seed);
+    let mut rng = XorshiftStar(seed);
     let (mut cases, mut loaded, mut refused) = (0usize, 0usize, 0usize);
     let mut failures = Vec::new();
     while Instant::now() < deadline && cases < 100_000 {
@@ -511,19 +495,19 @@ type Edit = dyn Fn(&mut Value);
 #[test]
 fn draco_payload_mutations_are_refused_cleanly() {
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = Rng(0xD4AC0);
+    let mut rng = XorshiftStar(0xD4AC0);
     let mut failures = Vec::new();
     let (mut cases, mut loaded) = (0usize, 0usize);
     let started = Instant::now();
     for speed in [10, 5, 1] {
-        let pair = scene_support::draco_grid(12, speed);
+        let pair = common::scene::draco_grid(12, speed);
         let (root, bin) = pair.draco.clone();
         let view = root["bufferViews"][pair.payload_view].clone();
         let at = view["byteOffset"].as_u64().unwrap() as usize;
         let len = view["byteLength"].as_u64().unwrap() as usize;
         let mut run = |what: String, root: Value, bin: Vec<u8>, must_fail: bool| {
             let name = format!("draco{cases}");
-            let path = scene_support::write_with_buffer(root, &bin, dir.path(), &name);
+            let path = common::scene::write_with_buffer(root, &bin, dir.path(), &name);
             let t = Instant::now();
             let result = std::panic::catch_unwind(|| outcome(&path));
             let file = format!("{name}.gltf");
@@ -817,8 +801,8 @@ const KTX2_LEVEL0_UNCOMPRESSED: usize = 96;
 fn ktx2_that_lies_is_refused_before_transcoding() {
     let dir = tempfile::tempdir().unwrap();
     let colours = [[200, 10, 10, 255]; 4];
-    let raw = scene_support::ktx2::uastc_ktx2(8, 8, &colours, false, None);
-    let zstd = scene_support::ktx2::uastc_ktx2(8, 8, &colours, true, None);
+    let raw = common::scene::ktx2::uastc_ktx2(8, 8, &colours, false, None);
+    let zstd = common::scene::ktx2::uastc_ktx2(8, 8, &colours, true, None);
     let level_at = u64::from_le_bytes(raw[80..88].try_into().unwrap()) as usize;
     type Lie = fn(&mut Vec<u8>, usize);
     let cases: &[(&str, bool, Lie, &[&str])] = &[
@@ -947,7 +931,7 @@ fn ktx2_that_lies_is_refused_before_transcoding() {
 /// A small ETC1S (BasisLZ) texture of the shared folder, 512x512 with 10
 /// mip levels, for the lies only ETC1S can tell; `None` without the folder.
 fn shared_etc1s() -> Option<Vec<u8>> {
-    let path = scene_support::shared::khronos(
+    let path = common::shared::khronos(
         "StainedGlassLamp/glTF-KTX-BasisU/StainedGlassLamp_hardware_basecolor.ktx2",
     )?;
     Some(std::fs::read(path).unwrap())
@@ -1097,19 +1081,19 @@ fn ktx2_byte_mutation_fuzz() {
         .unwrap_or(10);
     let colours: Vec<[u8; 4]> = (0..16u8).map(|i| [i * 16, 255 - i * 8, i, 200]).collect();
     let mut seeds = vec![
-        scene_support::ktx2::uastc_ktx2(16, 16, &colours, false, Some("rd")),
-        scene_support::ktx2::uastc_ktx2(16, 13, &colours, true, None),
+        common::scene::ktx2::uastc_ktx2(16, 16, &colours, false, Some("rd")),
+        common::scene::ktx2::uastc_ktx2(16, 13, &colours, true, None),
     ];
     seeds.extend(shared_etc1s());
     // UASTC under Zstandard as an encoder writes it, 256x256 with 9 levels.
     seeds.extend(
-        scene_support::shared::khronos(
+        common::shared::khronos(
             "StainedGlassLamp/glTF-KTX-BasisU/StainedGlassLamp_steel_occlusion-rough-metal.ktx2",
         )
         .map(|p| std::fs::read(p).unwrap()),
     );
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = XorshiftStar(seed);
     let deadline = Instant::now() + Duration::from_secs(secs);
     let (mut cases, mut loaded, mut failures) = (0usize, 0usize, Vec::new());
     while Instant::now() < deadline && cases < 20_000 {

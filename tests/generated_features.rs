@@ -6,12 +6,12 @@
 //! textures with transforms and a second uv set, and each material
 //! extension; and every one renders with exit 0 and no warning.
 
-mod scene_support;
+mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
-use scene_support::{assert_soup_matches, load, Raw};
+use common::scene::{assert_soup_matches, load, Raw};
 use soupray::scene::{LightKind, LoadOptions, Projection, Scene};
 
 /// Every file the generator writes, without its `.gltf`.
@@ -27,7 +27,7 @@ const SCENES: [&str; 6] = [
 /// Runs the generator into a temporary directory.
 fn generate() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/make-features.py");
+    let script = common::repo_file("scripts/make-features.py");
     let out = Command::new("python3")
         .arg(&script)
         .arg(dir.path())
@@ -224,7 +224,7 @@ fn every_feature_scene_renders_cleanly() {
     let (_dir, out) = generate();
     let render_dir = tempfile::tempdir().unwrap();
     for name in SCENES {
-        let o = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        let o = common::soupray_cmd()
             .args([
                 "render", "--quiet", "--frame", "6", "--spp", "4", "--width", "48", "--height",
                 "32",

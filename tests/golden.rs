@@ -14,13 +14,11 @@
 //! as PNGs under `out/golden/`.
 
 mod common;
-mod scene_support;
 
-use scene_support::Builder;
+use common::scene::Builder;
 use serde_json::json;
 use soupray::film::Image;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 54;
@@ -42,7 +40,7 @@ fn updating() -> bool {
 /// Renders one frame through the real binary and reads it back.
 fn render(scene: &Path, frame: i64, spp: u32, seed: u64, extra: &[&str]) -> Image {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .arg("render")
         .arg(scene)
         .args(["--frame", &frame.to_string()])
@@ -192,30 +190,13 @@ type Geometry = (Vec<f32>, Vec<f32>, Vec<u32>, Vec<f32>);
 /// A UV sphere of `segments` around, centred at `c` with radius `r`; u
 /// runs around it, v from top to bottom.
 fn sphere(c: [f32; 3], r: f32, segments: usize) -> Geometry {
-    let (mut pos, mut nrm, mut idx, mut uv) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let rings = segments / 2;
-    for i in 0..=rings {
-        let theta = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..=segments {
-            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let n = [
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            ];
-            pos.extend([c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]]);
-            nrm.extend(n);
-            uv.extend([j as f32 / segments as f32, i as f32 / rings as f32]);
-        }
-    }
-    let row = segments as u32 + 1;
-    for i in 0..rings as u32 {
-        for j in 0..segments as u32 {
-            let (a, b) = (i * row + j, (i + 1) * row + j);
-            idx.extend([a, a + 1, b, a + 1, b + 1, b]);
-        }
-    }
-    (pos, nrm, idx, uv)
+    let s = common::geometry::uv_sphere(c, r, segments as u32);
+    (
+        s.positions.concat(),
+        s.normals.concat(),
+        s.indices,
+        s.uvs.concat(),
+    )
 }
 
 /// A horizontal square of half-size `h` at height `y`, facing up.

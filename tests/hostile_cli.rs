@@ -11,29 +11,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn soupray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_soupray"))
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
-
-#[path = "common/shared.rs"]
-mod shared;
-
-/// A sample model's file, read in place from the shared folder.
-#[track_caller]
-fn asset(rel: &str) -> Option<String> {
-    shared::sample(rel).map(|p| p.display().to_string())
-}
+mod common;
+use common::{asset_arg, shared, soupray};
 
 fn corpus(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fuzz_corpus")
-        .join(name)
-        .display()
-        .to_string()
+    common::fuzz_corpus().join(name).display().to_string()
 }
 
 fn mkfifo(path: &Path) {
@@ -73,7 +55,7 @@ fn soup_refuses_to_replace_a_fifo_directory_symlink_or_device() {
 
     let (fifo, fifo_s) = tmp_path(&dir, "out.fifo");
     mkfifo(&fifo);
-    let Some(scene) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(scene) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     let out = soupray(&["soup", &scene, "--frame", "0", "-o", &fifo_s]);
@@ -125,7 +107,7 @@ fn soup_refuses_to_replace_a_fifo_directory_symlink_or_device() {
 fn soup_exit_codes() {
     let dir = tempfile::tempdir().unwrap();
     let (ply, ply_s) = tmp_path(&dir, "box.ply");
-    let Some(scene) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(scene) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     assert_exit(
@@ -167,10 +149,10 @@ fn soup_exit_codes() {
 
 #[test]
 fn soup_to_stdout_with_dash() {
-    let Some(box_animated_glb) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(box_animated_glb) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
-    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .args(["soup", &box_animated_glb, "--frame", "0", "-o", "-"])
         .stdin(Stdio::null())
         .output()
@@ -243,7 +225,7 @@ fn bvh_exit_codes() {
 
 #[test]
 fn info_exit_codes() {
-    let Some(box_animated_glb) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(box_animated_glb) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     assert_exit(&soupray(&["info", &box_animated_glb]), 0, &[]);
@@ -312,7 +294,7 @@ fn render_env_that_cannot_be_read_is_an_input_error() {
     mkfifo(&fifo);
     let (garbage, garbage_s) = tmp_path(&dir, "garbage.exr");
     std::fs::write(&garbage, "not an exr").unwrap();
-    let Some(scene) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(scene) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     for (env, word) in [
@@ -344,10 +326,10 @@ fn render_env_that_cannot_be_read_is_an_input_error() {
 #[test]
 fn sigterm_during_set_up_ends_the_render() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(fox_glb) = asset("Fox/Fox.glb") else {
+    let Some(fox_glb) = asset_arg("Fox/Fox.glb") else {
         return;
     };
-    let child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let child = common::soupray_cmd()
         .args(["render", &fox_glb, "--out", dir.path().to_str().unwrap()])
         .args([
             "--width", "64", "--height", "36", "--spp", "1", "--frames", "0-1000",
@@ -427,7 +409,7 @@ fn skip_existing_does_not_block_on_a_fifo_under_a_frame_name() {
     let fifo = dir.path().join("BoxAnimated.0000.exr");
     mkfifo(&fifo);
     let started = Instant::now();
-    let Some(box_animated_glb) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(box_animated_glb) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     let out = soupray(&[
@@ -476,7 +458,7 @@ fn sigterm_while_loading_a_large_scene_exits_at_once() {
     let scene = dir.path().join("big.gltf");
     std::fs::write(&scene, json).unwrap();
     let out_dir = dir.path().join("out");
-    let child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let child = common::soupray_cmd()
         .args([
             "render",
             scene.to_str().unwrap(),
@@ -510,7 +492,7 @@ fn sigterm_while_loading_a_large_scene_exits_at_once() {
 
 #[test]
 fn an_unknown_adaptive_allocation_is_a_usage_error() {
-    let Some(box_animated_glb) = asset("BoxAnimated/BoxAnimated.glb") else {
+    let Some(box_animated_glb) = asset_arg("BoxAnimated/BoxAnimated.glb") else {
         return;
     };
     assert_exit(

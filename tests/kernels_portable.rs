@@ -25,6 +25,8 @@
 //! anywhere, and `-cl-fp32-correctly-rounded-divide-sqrt` wherever the device
 //! reports `CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT`.
 
+mod common;
+
 use soupray::bvh::device_builder::{program_defines, Mapping};
 use soupray::bvh::BuildParams;
 use soupray::device::{assemble_source, assemble_text, build_options, Device};
@@ -56,7 +58,7 @@ const NVIDIA_EXTENSIONS: &str = "-all,+cl_khr_fp64,+cl_khr_byte_addressable_stor
 const GPU_LOCAL_MEM: u64 = 48 * 1024;
 
 fn kernels_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels")
+    common::repo_file("kernels")
 }
 
 /// kernels/ and each folder in it.
@@ -679,7 +681,7 @@ fn kernel_sources_follow_the_numerical_rules() {
         "cos", "divide", "exp", "exp2", "exp10", "log", "log2", "log10", "powr", "recip", "rsqrt",
         "sin", "sqrt", "tan",
     ];
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = common::repo();
     for (path, text) in sources(&root.join("kernels"), &["cl", "h"]) {
         let name = path.display();
         assert!(

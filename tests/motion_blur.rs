@@ -7,10 +7,10 @@
 //! equal to the unblurred render bit for bit.
 
 mod common;
-mod render_support;
 
+use common::render::*;
+use common::{asset, soupray};
 use glam::{Mat4, Vec3};
-use render_support::*;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::BuildParams;
 use soupray::device::Arg;
@@ -23,13 +23,6 @@ use soupray::trace::motion::{
 };
 use soupray::trace::render::{Environment, PathTracer};
 use soupray::trace::{Hit, Ray};
-use std::process::Command;
-
-/// A sample model's file, read in place from the shared folder.
-#[track_caller]
-fn asset(rel: &str) -> Option<std::path::PathBuf> {
-    common::shared::sample(rel)
-}
 
 /// `soup` moved by `offset`.
 fn moved(soup: &Soup, offset: Vec3) -> Soup {
@@ -472,13 +465,6 @@ fn a_turning_bar_blurs_along_the_arc_with_enough_steps() {
         "arc pixel {v}, expected {} ± {se}",
         1.0 - f
     );
-}
-
-fn soupray(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_soupray"))
-        .args(args)
-        .output()
-        .expect("run soupray")
 }
 
 #[test]

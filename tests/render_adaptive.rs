@@ -5,10 +5,9 @@
 //! render, and the estimate against the measured error.
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use glam::Vec3;
-use render_support::*;
 use soupray::film::{Aovs, Image};
 use soupray::soup::Soup;
 use soupray::trace::render::{
@@ -303,7 +302,7 @@ fn render_shipped(
     soupray::output::FrameLog,
 )> {
     let scene = common::shared::cesium_man()?;
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .arg("render")
         .arg(&scene)
         .args([

@@ -7,10 +7,9 @@
 //! emitter, a sky and a point light together.
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use glam::Vec3;
-use render_support::*;
 use soupray::scene::LightKind;
 use soupray::soup::Soup;
 use soupray::trace::lights::LOOPED_PUNCTUAL_MAX;

@@ -7,10 +7,9 @@
 //! with no light gets the studio sky and says so; the AOVs.
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use glam::Vec3;
-use render_support::*;
 use soupray::film::Aovs;
 use soupray::scene::{AlphaMode, LightKind};
 use soupray::soup::Soup;

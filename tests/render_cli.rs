@@ -5,7 +5,8 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use common::soupray;
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -13,17 +14,10 @@ use std::time::{Duration, Instant};
 /// Read in place from the shared folder; `None` (the caller skips) when it
 /// is absent.
 fn scene() -> Option<String> {
-    common::shared::sample("BoxAnimated/BoxAnimated.glb").map(|p| p.display().to_string())
+    common::asset_arg("BoxAnimated/BoxAnimated.glb")
 }
 
 const SMALL: &[&str] = &["--width", "48", "--height", "27", "--spp", "2"];
-
-fn soupray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_soupray"))
-        .args(args)
-        .output()
-        .expect("run soupray")
-}
 
 fn render(out: &Path, extra: &[&str]) -> Option<Output> {
     let scene = scene()?;
@@ -169,7 +163,7 @@ fn a_killed_run_leaves_no_partial_frame_and_resumes() {
     let Some(scene) = scene() else {
         return;
     };
-    let mut child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let mut child = common::soupray_cmd()
         .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
         .args([
             "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-40",
@@ -205,7 +199,7 @@ fn a_killed_run_leaves_no_partial_frame_and_resumes() {
     }
     // Resume: the complete frames are skipped, the rest rendered, and
     // stale temporaries of the killed run do not count as frames.
-    let out = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
         .args([
             "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-40",
@@ -304,7 +298,7 @@ fn sigint_and_sigterm_stop_cleanly() {
         let Some(scene) = scene() else {
             return;
         };
-        let child = Command::new(env!("CARGO_BIN_EXE_soupray"))
+        let child = common::soupray_cmd()
             .args(["render", &scene, "--out", dir.path().to_str().unwrap()])
             .args([
                 "--width", "160", "--height", "90", "--spp", "8", "--frames", "0-100",
@@ -342,7 +336,7 @@ fn sigint_and_sigterm_stop_cleanly() {
 fn the_default_animation_is_shipped_with_its_license() {
     // The project's own walker (tests/shipped_animation.rs checks that it is
     // the generator's output); animations/README.md gives its licence.
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("animations");
+    let dir = common::repo_file("animations");
     assert!(dir.join("walker/walker.glb").is_file());
     assert!(dir.join("README.md").is_file());
 }

@@ -15,11 +15,12 @@
 //! loses a little, which the quadrature below predicts.
 
 mod common;
-mod render_support;
 
-use common::{albedo, check_bsdf_probe, run_probe, BsdfProbeTally, Rng};
+use common::render::*;
+use common::{
+    albedo, check_bsdf_probe, random_dir, random_upper_dir, run_probe, BsdfProbeTally, Rng,
+};
 use glam::Vec3;
-use render_support::*;
 use soupray::scene::Material;
 use soupray::soup::Soup;
 use soupray::trace::energy::{ggx_albedo, sheen_albedo};
@@ -28,20 +29,6 @@ use soupray::trace::material::{
     BsdfParams, Dielectric, Layers,
 };
 use soupray::trace::render::{render_soup, Environment};
-
-fn random_dir(rng: &mut Rng) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            rng.f32() * 2.0 - 1.0,
-            rng.f32() * 2.0 - 1.0,
-            rng.f32() * 2.0 - 1.0,
-        );
-        let l = v.length();
-        if l > 0.05 && l <= 1.0 {
-            return v / l;
-        }
-    }
-}
 
 /// White Lambert: the base model with neither specular layer nor metal.
 fn white_lambert() -> BsdfParams {
@@ -169,9 +156,7 @@ fn layered_bsdf_matches_the_reference() {
                 l = l.with_coat_normal(Vec3::new(t.x, t.y, 1.0).normalize());
             }
             let p = p.with_layers(l);
-            let mut wo = random_dir(&mut rng);
-            wo.z = wo.z.abs().max(0.02);
-            let wo = wo.normalize();
+            let wo = random_upper_dir(&mut rng);
             let mut wi = random_dir(&mut rng);
             if !c.transmission {
                 wi.z = wi.z.abs();

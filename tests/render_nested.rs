@@ -8,11 +8,10 @@
 //! transmittance; an area light close by: no light counted twice).
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use common::{run_probe, Rng};
 use glam::Vec3;
-use render_support::*;
 use soupray::scene::{LightKind, Material};
 use soupray::soup::Soup;
 use soupray::trace::material::{

@@ -1,10 +1,10 @@
 //! The `info` and `soup` commands, called as functions the way main.rs
 //! calls them.
 
-mod scene_support;
+mod common;
 
 use clap::Parser;
-use scene_support::{asset, load};
+use common::scene::{asset, load};
 use soupray::cli::scene::{describe, run_info, run_soup, InfoArgs, SoupArgs};
 
 #[derive(Parser)]
@@ -90,7 +90,7 @@ fn soup_writes_the_frame_as_ply() {
 fn info_lists_the_material_extensions_as_read() {
     use serde_json::json;
     let dir = tempfile::tempdir().unwrap();
-    let mut b = scene_support::Builder::default();
+    let mut b = common::scene::Builder::default();
     let p = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
     let root = json!({
         "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume", "KHR_materials_specular", "KHR_materials_unlit"],

@@ -4,9 +4,9 @@
 //! kept, and a small synthetic file per feature tests it without the
 //! shared folder.
 
-mod scene_support;
+mod common;
 
-use scene_support::{load, shared::khronos, Builder};
+use common::scene::{load, shared::khronos, Builder};
 use serde_json::json;
 
 /// The largest distance between corresponding corners of two soups with
@@ -343,9 +343,9 @@ fn glb_json(path: &std::path::Path) -> serde_json::Value {
 #[test]
 fn synthetic_meshopt_quad_decodes_every_codec_and_filter() {
     let dir = tempfile::tempdir().unwrap();
-    let (root, bin) = scene_support::meshopt_quad();
+    let (root, bin) = common::scene::meshopt_quad();
     let scene = load(
-        &scene_support::write_with_buffer(root, &bin, dir.path(), "meshopt"),
+        &common::scene::write_with_buffer(root, &bin, dir.path(), "meshopt"),
         None,
     );
     let prim = &scene.meshes()[0].primitives[0];
@@ -452,15 +452,15 @@ fn synthetic_draco_grid_matches_its_plain_twin_with_every_connectivity_coder() {
     let dir = tempfile::tempdir().unwrap();
     // Sequential, EdgeBreaker and EdgeBreaker valence connectivity.
     for speed in [10, 5, 1] {
-        let pair = scene_support::draco_grid(12, speed);
+        let pair = common::scene::draco_grid(12, speed);
         let (root, bin) = pair.plain.clone();
         let plain_scene = load(
-            &scene_support::write_with_buffer(root, &bin, dir.path(), &format!("plain{speed}")),
+            &common::scene::write_with_buffer(root, &bin, dir.path(), &format!("plain{speed}")),
             None,
         );
         let (root, bin) = pair.draco.clone();
         let draco_path =
-            scene_support::write_with_buffer(root, &bin, dir.path(), &format!("draco{speed}"));
+            common::scene::write_with_buffer(root, &bin, dir.path(), &format!("draco{speed}"));
         let draco_scene = load(&draco_path, None);
         let prim = &draco_scene.meshes()[0].primitives[0];
         assert!(prim.draco_compressed);
@@ -517,10 +517,10 @@ fn append_view(root: &mut serde_json::Value, bin: &mut Vec<u8>, bytes: &[u8]) ->
 #[test]
 fn optional_draco_is_decoded_in_preference_to_the_fallback_data() {
     let dir = tempfile::tempdir().unwrap();
-    let pair = scene_support::draco_grid(12, 5);
+    let pair = common::scene::draco_grid(12, 5);
     let (root, bin) = pair.plain.clone();
     let plain_scene = load(
-        &scene_support::write_with_buffer(root, &bin, dir.path(), "plain"),
+        &common::scene::write_with_buffer(root, &bin, dir.path(), "plain"),
         None,
     );
     // Draco listed as used only, and POSITION given a fallback bufferView
@@ -534,7 +534,7 @@ fn optional_draco_is_decoded_in_preference_to_the_fallback_data() {
     let view = append_view(&mut root, &mut bin, &zeros);
     root["accessors"][pos]["bufferView"] = view.into();
     let scene = load(
-        &scene_support::write_with_buffer(root, &bin, dir.path(), "fallback"),
+        &common::scene::write_with_buffer(root, &bin, dir.path(), "fallback"),
         None,
     );
     let bound = 3f64.sqrt() / 2.0 * pair.position_step + 0.05 * pair.position_step / 2.0 + 1e-5;
@@ -552,8 +552,8 @@ fn draco_primitives_sharing_accessors_each_read_their_own_payload() {
     // Two primitives naming the same accessors, compressed by different
     // connectivity coders into two payloads; each morph target in its own
     // payload's vertex order.
-    let first = scene_support::draco_grid(12, 10);
-    let second = scene_support::draco_grid(12, 5);
+    let first = common::scene::draco_grid(12, 10);
+    let second = common::scene::draco_grid(12, 5);
     let (mut root, mut bin) = first.draco.clone();
     let (root2, bin2) = &second.draco;
     let payload2 = {
@@ -588,7 +588,7 @@ fn draco_primitives_sharing_accessors_each_read_their_own_payload() {
         .unwrap()
         .push(prim);
     let scene = load(
-        &scene_support::write_with_buffer(root, &bin, dir.path(), "shared"),
+        &common::scene::write_with_buffer(root, &bin, dir.path(), "shared"),
         None,
     );
     let prims = &scene.meshes()[0].primitives;
@@ -602,7 +602,7 @@ fn draco_primitives_sharing_accessors_each_read_their_own_payload() {
         .unwrap()
         .push(p0);
     let plain_scene = load(
-        &scene_support::write_with_buffer(plain, &plain_bin, dir.path(), "plain2"),
+        &common::scene::write_with_buffer(plain, &plain_bin, dir.path(), "plain2"),
         None,
     );
     let step = first.position_step.max(second.position_step);

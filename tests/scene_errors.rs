@@ -1,9 +1,9 @@
 //! Bad input: every broken file gives an error that names the file and the
 //! accessor or extension at fault and says how to fix it; none panics.
 
-mod scene_support;
+mod common;
 
-use scene_support::{asset, Builder};
+use common::scene::{asset, Builder};
 use serde_json::json;
 use soupray::scene::{LoadOptions, Scene};
 
@@ -250,13 +250,8 @@ fn no_truncation_or_corruption_panics() {
         return;
     };
     let bytes = std::fs::read(&rigged_simple_glb).unwrap();
-    let mut state = 0x2545_f491_u32;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        state
-    };
+    let mut rng = common::Xorshift32(0x2545_f491);
+    let mut next = move || rng.next();
     for i in 0..60 {
         let mut data = bytes.clone();
         if i % 2 == 0 {

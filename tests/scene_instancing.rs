@@ -3,9 +3,9 @@
 //! instances follow the node's animation; malformed instance data and soups
 //! too large to exist are refused before anything is allocated for them.
 
-mod scene_support;
+mod common;
 
-use scene_support::{instanced_triangles, load, shared::khronos, skinned_triangle, Builder};
+use common::scene::{instanced_triangles, load, shared::khronos, skinned_triangle, Builder};
 use serde_json::json;
 use soupray::scene::soup_size::{physical_memory_bytes, MAX_SOUP_TRIANGLES};
 use soupray::scene::{LoadOptions, Scene};
@@ -72,7 +72,7 @@ fn an_instanced_skinned_mesh_moves_about_its_node() {
     let mut b = Builder::default();
     // Re-embed with one more accessor: the instances' translations.
     let uri = root["buffers"][0]["uri"].as_str().unwrap().to_owned();
-    let bin = scene_support::decode_data_uri(&uri);
+    let bin = common::scene::decode_data_uri(&uri);
     b.bin = bin;
     b.views = root["bufferViews"].as_array().unwrap().clone();
     b.accessors = root["accessors"].as_array().unwrap().clone();

@@ -3,10 +3,10 @@
 //! reader), for every interpolation mode, plus small generated files for
 //! what the asset lacks: the slerp short-path trap and CUBICSPLINE weights.
 
-mod scene_support;
+mod common;
 
+use common::scene::{asset, instance_triangles, load, Builder, Raw};
 use glam::{Quat, Vec3};
-use scene_support::{asset, instance_triangles, load, Builder, Raw};
 use serde_json::json;
 
 const FILE: &str = "InterpolationTest/InterpolationTest.glb";

@@ -2,10 +2,10 @@
 //! accessors, scene selection, matrix nodes, cameras, lights, the default
 //! framing camera and the material table.
 
-mod scene_support;
+mod common;
 
+use common::scene::{assert_soup_matches, asset, load, Builder, Raw};
 use glam::{Mat4, Vec3, Vec4};
-use scene_support::{assert_soup_matches, asset, load, Builder, Raw};
 use serde_json::json;
 use soupray::scene::{AlphaMode, LightKind, LoadOptions, Projection, Scene};
 

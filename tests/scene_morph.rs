@@ -2,9 +2,9 @@
 //! MorphStressTest against the independent reference, and the precedence
 //! of mesh.weights, node.weights and the animation.
 
-mod scene_support;
+mod common;
 
-use scene_support::{assert_soup_matches, asset, load, Builder, Raw};
+use common::scene::{assert_soup_matches, asset, load, Builder, Raw};
 use serde_json::json;
 
 #[test]

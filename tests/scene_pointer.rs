@@ -6,12 +6,10 @@
 //! per-frame material upload is what is tested.
 
 mod common;
-mod scene_support;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use scene_support::{shared, Builder};
+use common::scene::{shared, Builder};
 use serde_json::{json, Value};
 use soupray::scene::{LoadOptions, Projection, Scene};
 
@@ -135,7 +133,7 @@ fn quad_scene(
 /// the images back in frame order.
 fn render(scene: &Path, frames: &str, spp: u32) -> Vec<soupray::film::Image> {
     let out = scene.with_extension("out");
-    let run = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let run = common::soupray_cmd()
         .args(["render", scene.to_str().unwrap(), "--frames", frames])
         .args(["--width", "32", "--height", "32", "--spp", &spp.to_string()])
         .args(["--env-color", "0,0,0", "--out", out.to_str().unwrap()])

@@ -3,10 +3,10 @@
 //! reference evaluator (nalgebra, f64); and generated files for mirrored
 //! skins, JOINTS_1/WEIGHTS_1 and quantized weights.
 
-mod scene_support;
+mod common;
 
+use common::scene::{assert_soup_matches, asset, bounds_of, load, skinned_triangle, Builder, Raw};
 use nalgebra::Vector3;
-use scene_support::{assert_soup_matches, asset, bounds_of, load, skinned_triangle, Builder, Raw};
 use serde_json::json;
 
 fn near(p: [f32; 3], q: [f64; 3], tol: f64) -> bool {

@@ -3,14 +3,12 @@
 //! scene it says (a skinned, textured walker with a sun, a sky and a camera
 //! over 49 frames).
 
-use std::path::Path;
+mod common;
+
+use common::repo;
 use std::process::Command;
 
 use soupray::scene::{LoadOptions, Scene};
-
-fn repo() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 #[test]
 fn the_committed_walker_is_what_the_generator_writes() {

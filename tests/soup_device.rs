@@ -7,10 +7,9 @@
 //! BVH built straight from the device soup.
 
 mod common;
-mod scene_support;
 
+use common::scene::{asset, load, skinned_triangle, Builder};
 use opencl3::memory::ClMem;
-use scene_support::{asset, load, skinned_triangle, Builder};
 use serde_json::json;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{validate, BuildParams};
@@ -268,7 +267,7 @@ fn mixed_generated_scene_matches_cpu_every_frame() {
 #[test]
 fn gpu_instances_match_cpu_every_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(&scene_support::instanced_triangles(dir.path(), true), None);
+    let scene = load(&common::scene::instanced_triangles(dir.path(), true), None);
     check_scene(&scene, "generated EXT_mesh_gpu_instancing row");
     // A skinned mesh drawn by two instances: each gets joint matrices of
     // its own.
@@ -281,7 +280,7 @@ fn gpu_instances_match_cpu_every_frame() {
         serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
     let mut b = Builder::default();
     let uri = root["buffers"][0]["uri"].as_str().unwrap().to_owned();
-    b.bin = scene_support::decode_data_uri(&uri);
+    b.bin = common::scene::decode_data_uri(&uri);
     b.views = root["bufferViews"].as_array().unwrap().clone();
     b.accessors = root["accessors"].as_array().unwrap().clone();
     let t = b.floats(&[0.0, 0.0, 0.0, 0.0, 3.0, 10.0], 3);
@@ -290,8 +289,7 @@ fn gpu_instances_match_cpu_every_frame() {
     let scene = load(&b.write(root, dir.path(), "skinned_instanced", true), None);
     assert_eq!(scene.triangle_count(), 2);
     check_scene(&scene, "instanced skinned triangle");
-    if let Some(path) =
-        scene_support::shared::khronos("SimpleInstancing/glTF-Binary/SimpleInstancing.glb")
+    if let Some(path) = common::shared::khronos("SimpleInstancing/glTF-Binary/SimpleInstancing.glb")
     {
         check_scene(&load(&path, None), "SimpleInstancing");
     }

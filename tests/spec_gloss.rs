@@ -3,12 +3,11 @@
 //! derived from a glossiness texture, and the Khronos SpecGlossVsMetalRough
 //! bottles, whose two versions must render alike.
 
-mod scene_support;
+mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use scene_support::{shared, Builder};
+use common::scene::{shared, Builder};
 use serde_json::json;
 use soupray::scene::{LoadOptions, Scene};
 
@@ -202,7 +201,7 @@ fn spec_gloss_and_metal_rough_bottles_render_alike() {
     // show a bottle are compared.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let run = Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let run = common::soupray_cmd()
         .args(["render", path.to_str().unwrap(), "--frames", "0"])
         .args(["--width", "96", "--height", "64", "--spp", "16"])
         .args(["--env-color", "1,1,1", "--out", out.to_str().unwrap()])

@@ -12,9 +12,8 @@
 //! rounding of `floor` inputs would still pass, and print the largest gap.
 
 mod common;
-mod scene_support;
 
-use scene_support::asset;
+use common::scene::asset;
 use soupray::scene::material::{Filter, Wrap};
 use soupray::scene::{LoadOptions, Scene, TextureTransform};
 use soupray::trace::texture::*;

@@ -6,10 +6,10 @@
 //! Third-party files are read in place from the shared folder; the
 //! synthetic ones are made here.
 
-mod scene_support;
+mod common;
 
-use scene_support::ktx2::uastc_ktx2;
-use scene_support::shared::khronos;
+use common::scene::ktx2::uastc_ktx2;
+use common::shared::khronos;
 use serde_json::{json, Value};
 use soupray::scene::material::DecodedImage;
 use soupray::scene::{LoadOptions, Scene};
@@ -168,7 +168,7 @@ fn required_webp_embedded_without_fallback_loads() {
     let dir = tempfile::tempdir().unwrap();
     let pixels = checker();
     let bytes = webp(4, 2, &pixels);
-    let uri = format!("data:image/webp;base64,{}", scene_support::base64(&bytes));
+    let uri = format!("data:image/webp;base64,{}", common::scene::base64(&bytes));
     let path = write_gltf(
         dir.path(),
         "webp_required.gltf",
@@ -458,9 +458,9 @@ fn avif_required_without_fallback_is_refused_with_the_fix() {
 }
 
 /// A glTF of two textures whose AVIF images (made here, see
-/// scene_support::avif) have a PNG fallback, and a third without one.
+/// common::scene::avif) have a PNG fallback, and a third without one.
 fn avif_with_fallbacks(dir: &Path, required: bool, third: bool) -> PathBuf {
-    use scene_support::avif::{bytes, GRADIENT_LOSSLESS};
+    use common::scene::avif::{bytes, GRADIENT_LOSSLESS};
     std::fs::write(dir.join("logo.avif"), bytes(GRADIENT_LOSSLESS)).unwrap();
     std::fs::write(dir.join("fallback.png"), png(4, 2, &checker())).unwrap();
     let avif = |fallback: Option<u32>| {

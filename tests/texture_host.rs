@@ -5,9 +5,9 @@
 //! records and bindings (only sampled slots decoded, images shared, sRGB per
 //! binding), and the errors for missing, corrupt and unsupported inputs.
 
-mod scene_support;
+mod common;
 
-use scene_support::asset;
+use common::scene::asset;
 use serde_json::{json, Value};
 use soupray::kernels::KERNEL_SOURCES;
 use soupray::scene::material::{Filter, Wrap};
@@ -377,7 +377,7 @@ fn untextured_tables_give_an_empty_set() {
 fn a_missing_image_names_the_file_and_the_image() {
     // The original in a temporary copy without CesiumMan_img0.jpg.
     let Some((_dir, cesium_man_gltf)) =
-        scene_support::shared::sample_without("CesiumMan/CesiumMan.gltf", &["CesiumMan_img0.jpg"])
+        common::shared::sample_without("CesiumMan/CesiumMan.gltf", &["CesiumMan_img0.jpg"])
     else {
         return;
     };
@@ -399,10 +399,9 @@ fn only_sampled_slots_are_decoded() {
     // MorphStressTest in a temporary copy without its occlusion map
     // Base_AO.png: the shaded slots load, asking for occlusion names the
     // missing image.
-    let Some((_dir, morph_stress_test_gltf)) = scene_support::shared::sample_without(
-        "MorphStressTest/MorphStressTest.gltf",
-        &["Base_AO.png"],
-    ) else {
+    let Some((_dir, morph_stress_test_gltf)) =
+        common::shared::sample_without("MorphStressTest/MorphStressTest.gltf", &["Base_AO.png"])
+    else {
         return;
     };
     let scene = materials_of(&morph_stress_test_gltf);

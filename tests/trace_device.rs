@@ -5,15 +5,14 @@
 //! limit; buffer reuse; and the primary-ray generator.
 
 mod common;
-mod trace_support;
 
+use common::trace::{assert_any_agrees, assert_same, device, random_rays, trace_everything};
 use common::{mesh, random_soup};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{sweep, BuildParams, Bvh, BvhNode, Child, MAX_DEPTH};
 use soupray::soup::Soup;
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
-use trace_support::{assert_any_agrees, assert_same, device, random_rays, trace_everything};
 
 /// All ten tracings agree, and agree with brute force on a sample.
 fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {

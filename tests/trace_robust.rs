@@ -6,16 +6,15 @@
 //! counts every crossing (brute force); the device must agree bit for bit.
 
 mod common;
-mod trace_support;
 
+use common::trace::{
+    assert_any_agrees, assert_same, cube_grid, device, icosphere, trace_everything, Mesh,
+};
 use common::Rng;
 use soupray::soup::Soup;
 use soupray::trace::intersect::{geometric_normal, hit_point, is_degenerate, offset_ray_origin};
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, Hit, Ray};
-use trace_support::{
-    assert_any_agrees, assert_same, cube_grid, device, icosphere, trace_everything, Mesh,
-};
 
 /// (scale, offset) of every test: 1e-3, 1 and 1e5 about the origin, and
 /// 1 and 1e3 a million units away.

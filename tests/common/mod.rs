@@ -1,13 +1,25 @@
-//! Shared helpers for the integration tests: the device, deterministic
-//! geometry, and the scanned meshes (read from the shared folder).
+//! The integration tests' one support module (each test file has
+//! `mod common;`): the device, the soupray binary, asset paths, random
+//! numbers and generated geometry, and by topic the render scenes
+//! (`render`), the glTF builder and reference evaluator (`scene`) and the
+//! trace helpers (`trace`).
 #![allow(dead_code)]
 
 use soupray::device::Device;
 use soupray::film::Image;
 use soupray::soup::Soup;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
 
+pub mod geometry;
+pub mod render;
+pub mod rng;
+pub mod scene;
 pub mod shared;
+pub mod trace;
+
+#[allow(unused_imports)]
+pub use rng::{random_dir, random_upper_dir, Rng, Xorshift32, XorshiftStar};
 
 /// The OpenCL device the tests run on (SOUPRAY_DEVICE picks another).
 /// Opening is serialised: PoCL's platform discovery is not safe to run from
@@ -28,26 +40,58 @@ pub fn repo() -> PathBuf {
     }
 }
 
+/// A file under the repository root (`"animations/walker/walker.glb"`).
+pub fn repo_file(rel: &str) -> PathBuf {
+    repo().join(rel)
+}
+
+/// The hostile-input corpus, `tests/fuzz_corpus/`.
+pub fn fuzz_corpus() -> PathBuf {
+    repo().join("tests/fuzz_corpus")
+}
+
+/// A sample model's file (`"Fox/Fox.glb"`), read in place from the shared
+/// folder; `None` (the caller skips) after naming it when it is absent.
+#[track_caller]
+pub fn asset(rel: &str) -> Option<PathBuf> {
+    shared::sample(rel)
+}
+
+/// `asset` as a command-line argument.
+#[track_caller]
+pub fn asset_arg(rel: &str) -> Option<String> {
+    asset(rel).map(|p| p.display().to_string())
+}
+
+/// A scanned mesh's path (`"beast.ply"`) as a command-line argument.
+#[track_caller]
+pub fn mesh_arg(name: &str) -> Option<String> {
+    shared::mesh_path(name).map(|p| p.display().to_string())
+}
+
+/// The soupray binary cargo built for this test run.
+pub const SOUPRAY: &str = env!("CARGO_BIN_EXE_soupray");
+
+/// A command running the soupray binary, for the caller's arguments.
+pub fn soupray_cmd() -> Command {
+    Command::new(SOUPRAY)
+}
+
+/// Runs soupray with `args` (standard input closed) and waits for it.
+pub fn soupray(args: &[&str]) -> Output {
+    soupray_cmd()
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run soupray")
+}
+
 /// A scanned mesh from the shared folder (`"beast.ply"`), or `None` (the
 /// caller skips) after naming it when it is absent.
 #[track_caller]
 pub fn mesh(name: &str) -> Option<Soup> {
     let p = shared::mesh_path(name)?;
     Some(soupray::ply::read_soup(&p).unwrap_or_else(|e| panic!("{e}")))
-}
-
-/// A small xorshift generator, so test soups are the same everywhere.
-pub struct Rng(pub u64);
-impl Rng {
-    pub fn new(seed: u64) -> Rng {
-        Rng(seed.wrapping_mul(0x9E3779B97F4A7C15) | 1)
-    }
-    pub fn f32(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
 }
 
 /// `n` random triangles of size about `size` in the unit cube.

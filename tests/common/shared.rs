@@ -8,8 +8,9 @@
 //! output. Under CI (`CI` set) a missing file is a failure instead: CI has
 //! the folder and must run every test.
 //!
-//! This file has no dependencies so that every support module can include
-//! it (`#[path = "../common/shared.rs"] mod shared;`).
+//! This file has no dependencies so that the benches can include it too
+//! (`#[path = "../../tests/common/shared.rs"] mod shared;` in
+//! benches/support); the tests reach it as `common::shared`.
 #![allow(dead_code)]
 
 use std::io::Write;

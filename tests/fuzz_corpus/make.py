@@ -388,7 +388,7 @@ def _(d):
 
 # KHR_texture_basisu payloads: an 8x8 UASTC KTX2 of four solid-colour
 # blocks (UASTC mode 8, which needs no encoder), raw or under a Zstandard
-# frame of stored blocks; the same layout as tests/scene_support/ktx2.rs.
+# frame of stored blocks; the same layout as tests/common/scene/ktx2.rs.
 def uastc_solid(r, g, b, a):
     return (0x17 | r << 5 | g << 13 | b << 21 | a << 29).to_bytes(16, "little")
 

@@ -1,6 +1,7 @@
-//! Shared scene builders for the path tracer's tests: analytic geometry
-//! (spheres, quads, boxes) with known winding, cameras and lights made in
-//! code, materials, and small statistics helpers.
+//! Shared scene builders for the path tracer's tests (`common::render`):
+//! the analytic geometry of `common::geometry` (spheres, quads, boxes with
+//! known winding), cameras and lights made in code, materials, and small
+//! statistics helpers.
 #![allow(dead_code)]
 
 use glam::{Mat4, Vec3};
@@ -9,73 +10,9 @@ use soupray::scene::{FrameCamera, FrameLight, LightKind, Material, MaterialTable
 use soupray::soup::Soup;
 use soupray::trace::render::{Environment, RenderSettings, Traversal};
 
-/// Appends triangle (a, b, c), wound so that its geometric normal points
-/// along `outward`, with material `mat`.
-pub fn push_tri(soup: &mut Soup, a: Vec3, b: Vec3, c: Vec3, outward: Vec3, mat: u32) {
-    let n = (b - a).cross(c - a);
-    let (b, c) = if n.dot(outward) < 0.0 { (c, b) } else { (b, c) };
-    for p in [a, b, c] {
-        soup.positions.push([p.x, p.y, p.z, 0.0]);
-    }
-    soup.material_ids.push(mat);
-}
-
-/// A flat-shaded UV sphere (convex polyhedron), outward facing.
-pub fn sphere(soup: &mut Soup, center: Vec3, r: f32, lat: usize, lon: usize, mat: u32) {
-    let p = |i: usize, j: usize| {
-        let th = std::f32::consts::PI * i as f32 / lat as f32;
-        let ph = std::f32::consts::TAU * j as f32 / lon as f32;
-        center + r * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
-    };
-    for i in 0..lat {
-        for j in 0..lon {
-            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
-            let mid = (a + b + c + d) * 0.25 - center;
-            if i != lat - 1 {
-                push_tri(soup, a, b, c, mid, mat);
-            }
-            if i != 0 {
-                push_tri(soup, a, c, d, mid, mat);
-            }
-        }
-    }
-}
-
-/// A rectangle centred at `c` spanned by half-axes `u`, `v`, facing `n`.
-pub fn quad(soup: &mut Soup, c: Vec3, u: Vec3, v: Vec3, n: Vec3, mat: u32) {
-    let (a, b, cc, d) = (c - u - v, c + u - v, c + u + v, c - u + v);
-    push_tri(soup, a, b, cc, n, mat);
-    push_tri(soup, a, cc, d, n, mat);
-}
-
-/// An axis-aligned box, outward facing.
-/// A 100 x 100 ground plane through the origin, facing +Y, material 0.
-pub fn ground_plane() -> Soup {
-    let mut s = Soup::default();
-    quad(
-        &mut s,
-        Vec3::ZERO,
-        Vec3::X * 50.0,
-        Vec3::Z * 50.0,
-        Vec3::Y,
-        0,
-    );
-    s
-}
-
-pub fn cube(soup: &mut Soup, c: Vec3, h: f32, mat: u32) {
-    for axis in 0..3 {
-        for s in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = s;
-            let mut u = Vec3::ZERO;
-            u[(axis + 1) % 3] = h;
-            let mut v = Vec3::ZERO;
-            v[(axis + 2) % 3] = h;
-            quad(soup, c + n * h, u, v, n, mat);
-        }
-    }
-}
+// Re-exported so `use common::render::*` brings the geometry.
+#[allow(unused_imports)]
+pub use super::geometry::{cube, ground_plane, push_tri, quad, sphere};
 
 pub fn perspective(eye: Vec3, target: Vec3, up: Vec3, yfov_deg: f32) -> FrameCamera {
     FrameCamera {

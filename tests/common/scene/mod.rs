@@ -1,4 +1,4 @@
-//! Shared by the `scene_*` tests: paths of the shared sample models, a builder
+//! Shared by the `scene_*` tests (`common::scene`): paths of the shared sample models, a builder
 //! for small synthetic glTF files, and an independent reference evaluator.
 //!
 //! The reference reads the JSON with serde_json and the buffers by hand,
@@ -14,20 +14,12 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Matrix4, Quaternion, UnitQuaternion, Vector3, Vector4};
 use serde_json::{json, Value};
 
-// Tests that use both support modules load it twice; it has no state.
-#[allow(clippy::duplicate_mod)]
-#[path = "../common/shared.rs"]
-pub mod shared;
+// Re-exported so `use common::scene::*` brings the asset paths.
+#[allow(unused_imports)]
+pub use super::{asset, shared};
 
 pub mod avif;
 pub mod ktx2;
-
-/// A sample model's file (`"Fox/Fox.glb"`), read in place from the shared
-/// folder; `None` (the caller skips) after naming it when it is absent.
-#[track_caller]
-pub fn asset(rel: &str) -> Option<PathBuf> {
-    shared::sample(rel)
-}
 
 // ---------------------------------------------------------------------------
 // Synthetic files

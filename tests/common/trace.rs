@@ -3,166 +3,18 @@
 //! every way there is (device and CPU, stack and stackless, closest and any).
 #![allow(dead_code)]
 
-pub use crate::common::device;
-use crate::common::Rng;
+#[allow(unused_imports)]
+pub use super::device;
+use super::Rng;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
 use soupray::device::Device;
 use soupray::soup::Soup;
 use soupray::trace::{self, DeviceTracer, Hit, Ray, TraceKind};
 
-/// An indexed mesh, expanded into a soup so shared vertices are bit-equal.
-pub struct Mesh {
-    pub vertices: Vec<[f32; 3]>,
-    pub faces: Vec<[u32; 3]>,
-}
-
-impl Mesh {
-    pub fn soup(&self) -> Soup {
-        let tris: Vec<[[f32; 3]; 3]> = self
-            .faces
-            .iter()
-            .map(|f| f.map(|i| self.vertices[i as usize]))
-            .collect();
-        Soup::from_triangles(&tris)
-    }
-
-    /// Scaled by `s` about the origin, then moved by `offset` on every axis.
-    pub fn transformed(&self, s: f32, offset: f32) -> Mesh {
-        Mesh {
-            vertices: self
-                .vertices
-                .iter()
-                .map(|v| v.map(|c| c * s + offset))
-                .collect(),
-            faces: self.faces.clone(),
-        }
-    }
-
-    /// Every edge once, as (a, b) with a < b.
-    pub fn edges(&self) -> Vec<(u32, u32)> {
-        let mut e: Vec<(u32, u32)> = self
-            .faces
-            .iter()
-            .flat_map(|f| [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])])
-            .map(|(a, b)| (a.min(b), a.max(b)))
-            .collect();
-        e.sort_unstable();
-        e.dedup();
-        e
-    }
-}
-
-/// The cube [-1, 1]^3, each face an n x n grid of quads split into two
-/// triangles, outward-facing, with vertices shared exactly between faces.
-pub fn cube_grid(n: u32) -> Mesh {
-    let mut vertices: Vec<[f32; 3]> = Vec::new();
-    let mut faces = Vec::new();
-    let mut index = std::collections::HashMap::new();
-    let mut vid = |p: [f32; 3], vertices: &mut Vec<[f32; 3]>| -> u32 {
-        *index.entry(p.map(f32::to_bits)).or_insert_with(|| {
-            vertices.push(p);
-            vertices.len() as u32 - 1
-        })
-    };
-    let coord = |i: u32| -1.0 + 2.0 * i as f32 / n as f32;
-    for axis in 0..3 {
-        for side in [-1.0f32, 1.0] {
-            let (u_ax, v_ax) = ((axis + 1) % 3, (axis + 2) % 3);
-            for i in 0..n {
-                for j in 0..n {
-                    let corner = |di: u32, dj: u32| {
-                        let mut p = [0.0; 3];
-                        p[axis] = side;
-                        p[u_ax] = coord(i + di);
-                        p[v_ax] = coord(j + dj);
-                        p
-                    };
-                    let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
-                    let q = q.map(|p| vid(p, &mut vertices));
-                    // Outward winding: (u, v, axis) is right-handed.
-                    if side > 0.0 {
-                        faces.push([q[0], q[1], q[2]]);
-                        faces.push([q[0], q[2], q[3]]);
-                    } else {
-                        faces.push([q[0], q[2], q[1]]);
-                        faces.push([q[0], q[3], q[2]]);
-                    }
-                }
-            }
-        }
-    }
-    Mesh { vertices, faces }
-}
-
-/// A unit icosphere: an icosahedron subdivided `levels` times, projected.
-pub fn icosphere(levels: u32) -> Mesh {
-    let t = (1.0 + 5.0f64.sqrt()) / 2.0;
-    let mut v: Vec<[f64; 3]> = vec![
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for tri in &f {
-            let mut m = [0u32; 3];
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                m[k] = *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    let (pa, pb) = (v[a as usize], v[b as usize]);
-                    v.push(std::array::from_fn(|i| 0.5 * (pa[i] + pb[i])));
-                    v.len() as u32 - 1
-                });
-            }
-            next.push([tri[0], m[0], m[2]]);
-            next.push([tri[1], m[1], m[0]]);
-            next.push([tri[2], m[2], m[1]]);
-            next.push(m);
-        }
-        f = next;
-    }
-    let vertices = v
-        .iter()
-        .map(|p| {
-            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-            p.map(|c| (c / l) as f32)
-        })
-        .collect();
-    Mesh { vertices, faces: f }
-}
+// Re-exported so `use common::trace::*` brings the closed meshes.
+#[allow(unused_imports)]
+pub use super::geometry::{cube_grid, icosphere, Mesh};
 
 /// `n` rays from random points of the soup's box (grown by 20%) towards
 /// other random points of it; every 16th ray gets one or two direction
