@@ -4,11 +4,10 @@
 //! (or the aperture's polygon) of radius R |1/F - 1/z| on the image plane.
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use common::{run_probe, Rng};
 use glam::Vec3;
-use render_support::*;
 use soupray::soup::Soup;
 use soupray::trace::lens::{camera_aperture_point, camera_lens_ray, Lens};
 use soupray::trace::render::{render_soup, Environment, RenderSettings};
@@ -265,14 +264,14 @@ fn a_six_bladed_aperture_makes_hexagonal_bokeh() {
 
 #[test]
 fn an_aperture_without_a_focus_distance_is_refused_with_the_fix() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .args(["render", "--aperture", "2.8", "--frames", "0"])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--focus-distance"), "{err}");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .args(["render", "--focus-distance", "3", "--frames", "0"])
         .output()
         .unwrap();
@@ -305,7 +304,7 @@ fn walker_hips_distance(t: f64) -> f64 {
 #[test]
 fn focus_on_a_node_follows_it_frame_by_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .current_dir(common::repo())
         .args([
             "render", "--frames", "0,24", "--spp", "1", "--width", "32", "--height", "18",
@@ -340,7 +339,7 @@ fn focus_on_a_node_follows_it_frame_by_frame() {
         assert_eq!(log["camera"]["f_stop"].as_f64(), Some(2.8f32 as f64));
     }
     // A name the file lacks is refused with the names it has.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .current_dir(common::repo())
         .args([
             "render",

@@ -3,10 +3,9 @@
 //! previews composite such frames over a neutral grey.
 
 mod common;
-mod render_support;
 
+use common::render::*;
 use glam::Vec3;
-use render_support::*;
 use soupray::film::{Aovs, Image};
 use soupray::output::{over_background, PREVIEW_GREY};
 use soupray::soup::Soup;
@@ -68,7 +67,10 @@ fn previews_composite_transparent_frames_over_grey() {
     let mut img = Image::new(3, 1, Aovs::NONE);
     img.rgba = vec![[0.0; 4], [0.5, 0.25, 0.1, 1.0], [0.2, 0.2, 0.2, 0.5]];
     let over = over_background(&img, [PREVIEW_GREY; 3]);
-    assert_eq!(over.rgba[0], [PREVIEW_GREY, PREVIEW_GREY, PREVIEW_GREY, 1.0]);
+    assert_eq!(
+        over.rgba[0],
+        [PREVIEW_GREY, PREVIEW_GREY, PREVIEW_GREY, 1.0]
+    );
     assert_eq!(over.rgba[1], [0.5, 0.25, 0.1, 1.0]);
     let half = 0.2 + 0.5 * PREVIEW_GREY;
     assert_eq!(over.rgba[2], [half, half, half, 1.0]);
@@ -77,18 +79,26 @@ fn previews_composite_transparent_frames_over_grey() {
 #[test]
 fn the_cli_writes_a_transparent_frame_and_a_grey_preview() {
     let dir = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_soupray"))
+    let out = common::soupray_cmd()
         .current_dir(common::repo())
-        .args(["render", "--frames", "0", "--spp", "2", "--width", "32", "--height", "18"])
+        .args([
+            "render", "--frames", "0", "--spp", "2", "--width", "32", "--height", "18",
+        ])
         .args(["--transparent", "--png", "--quiet", "--out"])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let exr = common::read_exr(&dir.path().join("walker.0000.exr"));
     // The walker's top-left corner sees only the sky.
     assert_eq!(exr.rgba[0], [0.0; 4]);
-    let png = image::open(dir.path().join("walker.0000.png")).unwrap().to_rgb8();
+    let png = image::open(dir.path().join("walker.0000.png"))
+        .unwrap()
+        .to_rgb8();
     // Middle grey in sRGB: 0.18 -> 118.
     assert_eq!(png.get_pixel(0, 0).0, [118, 118, 118]);
 }
