@@ -38,6 +38,10 @@ use std::time::Instant;
 
 /// The environment variable naming the OIDN library to load.
 pub const ENV_VAR: &str = "SOUPRAY_OIDN";
+
+/// The EXR layer that keeps the raw beauty of a denoised frame (written by
+/// `output`, named in the frame log's `denoise.raw_layer`).
+pub const NOISY_LAYER: &str = "noisy";
 /// The library's file name (soname) on Linux.
 pub const LIBRARY_NAME: &str = "libOpenImageDenoise.so.2";
 /// The `pyoidn` release `scripts/setup.sh` installs (OIDN 2.5.1).
@@ -431,7 +435,7 @@ impl Denoiser {
             clean_aux: true,
             aux: vec!["albedo".into(), "normal".into()],
             quality: self.quality.name().into(),
-            raw_layer: crate::output::NOISY_LAYER.into(),
+            raw_layer: NOISY_LAYER.into(),
             raw_background: true,
             time_ms,
         }

@@ -52,7 +52,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
 /// them and probes every field's layout on the device.
 pub fn generated_headers() -> Vec<GeneratedHeader> {
     use bvh::layout as b;
-    use trace::{escape, lights, material, render, texture, wide};
+    use trace::{camera, escape, lights, material, render, texture, wide};
     vec![
         GeneratedHeader {
             file: "bvh_types.h",
@@ -106,7 +106,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
             ]
             .concat(),
             structs: vec![
-                render::DeviceCamera::layout(),
+                camera::DeviceCamera::layout(),
                 render::DeviceFrame::layout(),
                 material::DeviceMaterial::layout(),
                 material::DeviceMaterialExt::layout(),

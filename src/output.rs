@@ -42,6 +42,8 @@
 //!
 //! **Build log.** `FrameLog` below documents the JSON schema.
 
+use crate::bvh::device_builder::StageTimes;
+use crate::denoise::NOISY_LAYER;
 use crate::film::Image;
 use exr::prelude::traits::*;
 use exr::prelude::{
@@ -188,9 +190,6 @@ pub fn write_atomic(
     }
     Ok(())
 }
-
-/// The EXR layer that keeps the raw beauty of a denoised frame.
-pub const NOISY_LAYER: &str = "noisy";
 
 /// Reads the R, G, B, A channels of an EXR's first RGBA layer (the AOVs
 /// are not read): for comparisons in the tests and benchmarks.
@@ -691,8 +690,6 @@ pub struct BuildLog {
     /// Device kernel time per stage from profiling events (zero on CPU).
     pub stages_ms: StageTimes,
 }
-
-pub use crate::bvh::device_builder::StageTimes;
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]

@@ -42,7 +42,7 @@
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by
 // xmag and ymag.
-// `DeviceCamera` in src/trace/render/upload.rs (96 bytes).
+// `DeviceCamera` in src/trace/camera.rs (96 bytes).
 typedef struct {
     float origin[4];
     float right[4];

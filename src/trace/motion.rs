@@ -17,7 +17,7 @@
 
 use super::{trace_closest, Hit, Ray};
 use crate::bvh::Bvh;
-use crate::trace::render::DeviceCamera;
+use crate::trace::camera::DeviceCamera;
 
 /// Where the shutter is open relative to the frame's instant (Blender's
 /// "Position" of the motion blur shutter).

@@ -27,6 +27,7 @@ mod passes;
 mod program;
 mod upload;
 
+pub use super::camera::{device_camera, with_lens, DeviceCamera};
 pub use super::settings::{
     check_counts, Adaptive, Allocation, Environment, RenderSettings, Schedule, Traversal,
     ADAPTIVE_STEP,
@@ -36,7 +37,7 @@ pub use program::{
     film_defines, material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES,
 };
 use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
-pub use upload::{device_camera, frame_consts, DeviceCamera, DeviceFrame};
+pub use upload::{frame_consts, DeviceFrame};
 
 use opencl3::memory::Buffer;
 

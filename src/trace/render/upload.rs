@@ -11,9 +11,9 @@ use super::{usage, MotionSteps, PathTracer, SoupBuffers};
 use crate::bvh::Bvh;
 use crate::device::{Arg, Device};
 use crate::device_struct::{device_consts, device_struct};
+use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
-use crate::scene::{FrameCamera, Projection};
-use crate::trace::lens::Lens;
+use crate::trace::camera::{device_camera, with_lens, DeviceCamera};
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
     ENV_CONSTANT, ENV_NONE,
@@ -23,31 +23,6 @@ use crate::trace::material::{DeviceMaterial, DeviceMaterialExt};
 use crate::trace::settings::{Environment, Traversal};
 use crate::trace::texture::{Slot, TextureBinding, TextureSet};
 use crate::trace::TraceError;
-
-device_struct! {
-/// The camera. For a perspective camera `right` and `up` are scaled by the
-/// half extents of the image plane at distance 1; for an orthographic one by
-/// xmag and ymag.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct DeviceCamera as "PtCamera" {
-    pub origin: [f32; 4],
-    pub right: [f32; 4],
-    pub up: [f32; 4],
-    pub forward: [f32; 4],
-    pub ortho: u32,
-    pub znear: f32,
-    /// Depth of field (`HAS_DOF` kernels only): the lens radius in scene
-    /// units (0: a pinhole), the distance to the plane in focus along
-    /// `forward`, and the aperture's corners (below 3: a disk) and the
-    /// first corner's angle (src/trace/lens.rs).
-    pub lens_radius: f32,
-    pub focus_distance: f32,
-    pub blades: u32,
-    pub blade_rotation: f32,
-    pub pad: [u32; 2],
-}
-}
 
 device_struct! {
 /// Per-frame constants. Next-event estimation at a path vertex samples every
@@ -93,56 +68,6 @@ device_consts! {
     pub const FRAME_UVS1: u32 = 8;
     /// The soup carries COLOR_0.
     pub const FRAME_COLORS: u32 = 16;
-}
-
-/// The camera for a `width` x `height` image. The image's aspect ratio is
-/// used (a file's `aspectRatio` would stretch the picture); an
-/// orthographic camera keeps `ymag` and widens `xmag` to the image.
-pub fn device_camera(cam: &FrameCamera, width: u32, height: u32) -> DeviceCamera {
-    let m = cam.world_from_camera;
-    let origin = m.w_axis.truncate();
-    let right = m.x_axis.truncate().normalize_or(Vec3::X);
-    let up = m.y_axis.truncate().normalize_or(Vec3::Y);
-    let forward = (-m.z_axis.truncate()).normalize_or(Vec3::NEG_Z);
-    let aspect = width as f32 / height as f32;
-    let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
-    let (half_x, half_y, ortho, znear) = match cam.projection {
-        Projection::Perspective { yfov, znear, .. } => {
-            let t = (0.5 * yfov).tan();
-            (t * aspect, t, 0, znear)
-        }
-        Projection::Orthographic { ymag, znear, .. } => (ymag * aspect, ymag, 1, znear),
-    };
-    DeviceCamera {
-        origin: v4(origin),
-        right: v4(right * half_x),
-        up: v4(up * half_y),
-        forward: v4(forward),
-        ortho,
-        znear: if znear.is_finite() {
-            znear.max(0.0)
-        } else {
-            0.0
-        },
-        lens_radius: 0.0,
-        focus_distance: 0.0,
-        blades: 0,
-        blade_rotation: 0.0,
-        pad: [0; 2],
-    }
-}
-
-/// `camera` with `lens` (a perspective camera only: an orthographic one
-/// stays sharp everywhere).
-pub fn with_lens(mut camera: DeviceCamera, lens: Option<&Lens>) -> DeviceCamera {
-    if let Some(lens) = lens.filter(|_| camera.ortho == 0) {
-        let half = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]).length();
-        camera.lens_radius = lens.radius(half(camera.right), half(camera.up));
-        camera.focus_distance = lens.focus_distance;
-        camera.blades = lens.blades;
-        camera.blade_rotation = lens.blade_rotation;
-    }
-    camera
 }
 
 /// The texture bindings of `materials` in `set`: four per material
