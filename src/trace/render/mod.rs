@@ -108,6 +108,26 @@ struct SoupBuffers<'a> {
     triangles: usize,
 }
 
+impl<'a> SoupBuffers<'a> {
+    /// The device soup's buffers, with `positions` and `normals` in place
+    /// of its own (the motion steps' for a frame that moves).
+    fn of(
+        soup: &'a DeviceSoup<'a>,
+        positions: &'a Buffer<[f32; 4]>,
+        normals: Option<&'a Buffer<[f32; 4]>>,
+    ) -> SoupBuffers<'a> {
+        SoupBuffers {
+            positions,
+            normals,
+            uvs: soup.uvs(),
+            uvs1: soup.uvs1(),
+            colors: soup.colors(),
+            material_ids: soup.material_ids(),
+            triangles: soup.triangle_count(),
+        }
+    }
+}
+
 /// A frame that moves within the shutter, for `PathTracer::render_motion`:
 /// the soup at each motion step on the device (`trace::motion` gives the
 /// layout), its tree built over `motion_bounds`, and the camera at each
@@ -554,15 +574,7 @@ impl<'d> PathTracer<'d> {
         frame: &FrameInput,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
-        let soup = SoupBuffers {
-            positions: frame.soup.positions(),
-            normals: frame.soup.normals(),
-            uvs: frame.soup.uvs(),
-            uvs1: frame.soup.uvs1(),
-            colors: frame.soup.colors(),
-            material_ids: frame.soup.material_ids(),
-            triangles: frame.soup.triangle_count(),
-        };
+        let soup = SoupBuffers::of(frame.soup, frame.soup.positions(), frame.soup.normals());
         self.render_buffers(
             &soup,
             frame.bvh,
@@ -596,15 +608,7 @@ impl<'d> PathTracer<'d> {
         motion: &MotionFrame,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
-        let soup = SoupBuffers {
-            positions: motion.positions,
-            normals: motion.normals,
-            uvs: frame.soup.uvs(),
-            uvs1: frame.soup.uvs1(),
-            colors: frame.soup.colors(),
-            material_ids: frame.soup.material_ids(),
-            triangles: frame.soup.triangle_count(),
-        };
+        let soup = SoupBuffers::of(frame.soup, motion.positions, motion.normals);
         self.render_buffers(
             &soup,
             frame.bvh,
