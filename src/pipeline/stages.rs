@@ -105,6 +105,7 @@ impl FrameRenderer<'_> {
             lights: self.scene.frame_lights(&pose),
             warnings,
             reused: false,
+            pose,
         };
         Ok(Evaluated {
             info,
@@ -165,7 +166,7 @@ impl FrameRenderer<'_> {
         // KHR_animation_pointer material channels: the frame's materials.
         set_frame_materials(&mut self.tracer, self.scene, ev.info.time)?;
         if let Some(node) = self.settings.focus_node {
-            let distance = focus_distance(self.scene, node, &ev.info.camera, ev.info.time);
+            let distance = focus_distance(&ev.info.pose, node, &ev.info.camera);
             self.tracer.set_focus_distance(distance);
         }
         let prim_ids = self
@@ -203,16 +204,14 @@ impl FrameRenderer<'_> {
     }
 }
 
-/// The distance along `camera`'s view direction to `node`'s origin at
-/// `time` (`--focus-on`); a node beside or behind the camera gives the
+/// The distance along `camera`'s view direction to `node`'s origin in
+/// `pose` (`--focus-on`); a node beside or behind the camera gives the
 /// near plane's distance, the closest focus there is.
 fn focus_distance(
-    scene: &crate::scene::Scene,
+    pose: &crate::scene::Pose,
     node: usize,
     camera: &crate::scene::FrameCamera,
-    time: f64,
 ) -> f32 {
-    let pose = scene.pose(time);
     let target = pose.world_from_node[node].w_axis.truncate();
     let m = camera.world_from_camera;
     let forward = (-m.z_axis.truncate()).normalize_or(glam::Vec3::NEG_Z);

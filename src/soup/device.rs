@@ -188,6 +188,9 @@ pub struct FrameInfo {
     /// The pose equalled the previous frame's, so the soup on the device
     /// was kept and no kernel ran.
     pub reused: bool,
+    /// The pose the frame was evaluated at, for what else a frame reads of
+    /// its nodes (`--focus-on`) without evaluating the animation again.
+    pub pose: Pose,
 }
 
 /// A mesh instance as the per-frame pose upload sees it.
@@ -465,6 +468,7 @@ impl<'d> DeviceSoup<'d> {
             lights: scene.frame_lights(&pose),
             warnings,
             reused,
+            pose,
         })
     }
 
