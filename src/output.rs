@@ -452,11 +452,12 @@ fn srgb8(linear: f32, gain: f32) -> u8 {
 /// Tonemaps `image` as described in the module documentation (exposure in
 /// stops) into 8-bit sRGB, row-major, 3 bytes per pixel.
 pub fn tonemap_srgb8(image: &Image, exposure: f32) -> Vec<u8> {
+    tonemap_pixels(image.rgba.iter().copied(), exposure)
+}
+
+fn tonemap_pixels(rgba: impl Iterator<Item = [f32; 4]>, exposure: f32) -> Vec<u8> {
     let gain = exposure.exp2();
-    image
-        .rgba
-        .iter()
-        .flat_map(|p| [srgb8(p[0], gain), srgb8(p[1], gain), srgb8(p[2], gain)])
+    rgba.flat_map(|p| [srgb8(p[0], gain), srgb8(p[1], gain), srgb8(p[2], gain)])
         .collect()
 }
 
@@ -469,11 +470,17 @@ pub const PREVIEW_GREY: f32 = 0.18;
 pub fn over_background(image: &Image, background: [f32; 3]) -> Image {
     let mut out = image.clone();
     for p in &mut out.rgba {
-        let a = p[3].clamp(0.0, 1.0);
-        for c in 0..3 {
-            p[c] += (1.0 - a) * background[c];
-        }
-        p[3] = 1.0;
+        *p = over(*p, background);
+    }
+    out
+}
+
+/// One premultiplied pixel over a constant linear `background`.
+fn over(p: [f32; 4], background: [f32; 3]) -> [f32; 4] {
+    let a = p[3].clamp(0.0, 1.0);
+    let mut out = [0.0, 0.0, 0.0, 1.0];
+    for c in 0..3 {
+        out[c] = p[c] + (1.0 - a) * background[c];
     }
     out
 }
@@ -487,14 +494,14 @@ pub fn write_png_preview(
     transparent: bool,
 ) -> Result<(), OutputError> {
     use image::ImageEncoder as _;
-    let composited;
-    let image = if transparent {
-        composited = over_background(image, [PREVIEW_GREY; 3]);
-        &composited
+    // Composited pixel by pixel as they are tonemapped: no copy of the
+    // frame and its AOVs.
+    let pixels = if transparent {
+        let grey = [PREVIEW_GREY; 3];
+        tonemap_pixels(image.rgba.iter().map(|&p| over(p, grey)), exposure)
     } else {
-        image
+        tonemap_srgb8(image, exposure)
     };
-    let pixels = tonemap_srgb8(image, exposure);
     write_atomic(path, |out| {
         image::codecs::png::PngEncoder::new(out)
             .write_image(
