@@ -292,6 +292,32 @@ pub fn write_exr_denoised(
         }
     }
 
+    // Motion vectors stay f32: Blender's Vector pass layout, in pixels.
+    if let Some(m) = &image.motion {
+        for (c, name) in ["Vector.X", "Vector.Y", "Vector.Z", "Vector.W"]
+            .into_iter()
+            .enumerate()
+        {
+            let v = m.iter().map(|p| p[c]).collect();
+            channels.push(AnyChannel::new(name, samples(v, false)));
+        }
+    }
+    // Cryptomatte: ids and coverages stay f32 whatever --half says (an id
+    // is a hash's 32 bits).
+    for layer in &image.mattes {
+        for k in 0..layer.depth / 2 {
+            for (c, name) in layer.channel_names(k).iter().enumerate() {
+                let (rank, part) = (2 * k + c / 2, c % 2);
+                let v = layer
+                    .ranks
+                    .chunks(layer.depth)
+                    .map(|ranks| ranks[rank][part])
+                    .collect();
+                channels.push(AnyChannel::new(name.as_str(), samples(v, false)));
+            }
+        }
+    }
+
     let mut attrs = LayerAttributes {
         software_name: Some(Text::from(format!("soupray {VERSION}").as_str())),
         ..LayerAttributes::default()
@@ -305,6 +331,16 @@ pub fn write_exr_denoised(
             .map_or(AttributeValue::F64(meta.frame as f64), AttributeValue::I32),
     );
     put("time", AttributeValue::F64(meta.time));
+    for layer in &image.mattes {
+        for (k, v) in layer.attributes() {
+            // UTF-8 bytes as Cycles writes them: names need not be
+            // Latin-1, which is all `Text::from` takes.
+            put(
+                &k,
+                AttributeValue::Text(Text::from_slice_unchecked(v.as_bytes())),
+            );
+        }
+    }
     put(
         "spp",
         i32::try_from(meta.spp).map_or(AttributeValue::F64(meta.spp as f64), AttributeValue::I32),
@@ -758,6 +794,10 @@ pub struct OutputLog {
     pub half: bool,
     /// The AOVs in the EXR, as `--aov` names them.
     pub aovs: Vec<String>,
+    /// The Cryptomatte layers in the EXR (`CryptoObject`, ...), and the
+    /// ranks each keeps per pixel.
+    pub cryptomatte: Vec<String>,
+    pub cryptomatte_depth: Option<u32>,
 }
 
 impl FrameLog {

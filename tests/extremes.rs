@@ -256,8 +256,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         aovs: Aovs::NONE,
         energy_compensation: false,
         backface_culling: false,
-        lens: None,
-        transparent: false,
+        ..RenderSettings::default()
     }
 }
 

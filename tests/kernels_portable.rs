@@ -37,7 +37,7 @@ use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
 use soupray::trace::lens::Lens;
 use soupray::trace::render::{
-    film_defines, motion_defines, pathtrace_defines, Lobes, Traversal, LOBES,
+    film_defines, motion_defines, pathtrace_defines, FilmFeatures, Lobes, Traversal, LOBES,
 };
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
@@ -277,7 +277,14 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
-    // Depth of field with a transparent film, alone and with motion blur.
+    // Depth of field with a transparent film, Cryptomatte and motion
+    // vectors, alone and with motion blur.
+    let lens = Lens {
+        f_stop: 2.8,
+        focus_distance: 1.0,
+        blades: 0,
+        blade_rotation: 0.0,
+    };
     let lens = film_defines(
         pathtrace_defines(
             Traversal::Wide,
@@ -288,13 +295,12 @@ fn variants() -> Vec<Variant> {
             false,
             Lobes::NONE,
         ),
-        Some(&Lens {
-            f_stop: 2.8,
-            focus_distance: 1.0,
-            blades: 0,
-            blade_rotation: 0.0,
-        }),
-        true,
+        &FilmFeatures {
+            lens: Some(&lens),
+            transparent: true,
+            matte_slots: Some(6),
+            vectors: true,
+        },
     );
     v.push(Variant {
         entry: "pathtrace.cl",

@@ -111,6 +111,18 @@ typedef struct {
 #ifdef HAS_MATERIAL_EXT
     const __global PtMaterialExt* material_exts;
 #endif
+#ifdef FILM_MATTES
+    // Per soup triangle, its (object, material) pair (scene::MatteTable).
+    const __global uint* triangle_mattes;
+#endif
+#ifdef FILM_VECTORS
+    // The soup one frame before the frame's centre, at it and one frame
+    // after (three steps of 3 * vector_triangles corners), and the camera
+    // at each: the motion vectors' ends (trace::vectors).
+    const __global float4* vector_positions;
+    const __global PtCamera* vector_cameras;
+    uint vector_triangles;
+#endif
 } PtScene;
 
 // The scene's geometry at the path's time (the soup itself without
@@ -140,6 +152,70 @@ typedef struct {
 #define MATX_DECL , __global const PtMaterialExt* material_exts
 #else
 #define MATX_DECL
+#endif
+#ifdef FILM_MATTES
+// Cryptomatte (film::cryptomatte): each triangle's matte pair, and per
+// pixel MATTE_SLOTS slots of (pair + 1, samples whose first hit it was).
+#define MATTE_DECL , __global const uint* triangle_mattes, __global uint2* matte_slots
+#define MATTE_CLEAR_DECL , __global uint2* matte_slots
+#else
+#define MATTE_DECL
+#define MATTE_CLEAR_DECL
+#endif
+#ifdef FILM_VECTORS
+// Motion vectors (`--aov motion`): the soup and the camera a frame before,
+// at and a frame after the frame's centre, and per pixel the sum of the
+// first hits' vectors.
+#define VECTOR_DECL , __global const float4* vector_positions, \
+    __global const PtCamera* vector_cameras, uint vector_triangles, __global float4* accum_motion
+#define VECTOR_CLEAR_DECL , __global float4* accum_motion
+
+// Where world point `p` lands on camera `c`'s image, in pixels from the
+// bottom-left corner (x right, y up, as Blender's and Nuke's vectors
+// count); false behind a perspective camera. The inverse of pt_path's
+// camera ray: a perspective ray runs along forward + right sx + up sy, an
+// orthographic one starts at origin + right sx + up sy, with the image
+// spanning sx, sy in [-1, 1] (Rust twin: trace::vectors::project).
+inline bool pt_project(PtCamera c, float3 p, float width, float height, float2* at) {
+    float3 o = (float3)(c.origin[0], c.origin[1], c.origin[2]);
+    float3 r = (float3)(c.right[0], c.right[1], c.right[2]);
+    float3 u = (float3)(c.up[0], c.up[1], c.up[2]);
+    float3 f = (float3)(c.forward[0], c.forward[1], c.forward[2]);
+    float3 d = p - o;
+    float sx = dot(d, r) / dot(r, r);
+    float sy = dot(d, u) / dot(u, u);
+    if (c.ortho == 0u) {
+        float z = dot(d, f) / dot(f, f);
+        if (!(z > 0.0f)) return false;
+        sx = sx / z;
+        sy = sy / z;
+    }
+    *at = (float2)((sx + 1.0f) * 0.5f * width, (sy + 1.0f) * 0.5f * height);
+    return true;
+}
+
+// The point at barycentrics (u, v) of triangle `prim` in vector step `k`.
+inline float3 pt_vector_point(const PtScene* s, uint k, uint prim, float u, float v) {
+    const __global float4* t = s->vector_positions + ((size_t)k * s->vector_triangles + prim) * 3u;
+    float w = 1.0f - u - v;
+    return ((w * t[0] + u * t[1]) + v * t[2]).xyz;
+}
+
+// The first hit's motion in pixels, as Cycles' Vector pass has it: from
+// the frame before to this one in xy, from this one to the next in zw.
+// The same point of the surface (triangle and barycentrics) in each step,
+// seen by each step's camera; 0 where an end is behind the camera.
+inline float4 pt_motion_vector(const PtScene* s, uint prim, float u, float v) {
+    float w = (float)s->frame.width, h = (float)s->frame.height;
+    float2 before, now, after;
+    bool seen = pt_project(s->vector_cameras[0], pt_vector_point(s, 0u, prim, u, v), w, h, &before);
+    seen = seen && pt_project(s->vector_cameras[1], pt_vector_point(s, 1u, prim, u, v), w, h, &now);
+    seen = seen && pt_project(s->vector_cameras[2], pt_vector_point(s, 2u, prim, u, v), w, h, &after);
+    return seen ? (float4)(now - before, after - now) : (float4)(0.0f);
+}
+#else
+#define VECTOR_DECL
+#define VECTOR_CLEAR_DECL
 #endif
 
 inline Hit pt_trace_closest(PtScene* s, Ray ray) {
@@ -909,6 +985,12 @@ typedef struct {
     float depth;
     float3 normal;
     float3 albedo;
+#ifdef FILM_MATTES
+    uint matte; // the first hit's matte pair + 1; 0: no hit
+#endif
+#ifdef FILM_VECTORS
+    float4 motion; // the first hit's motion vectors (pt_motion_vector)
+#endif
 } PtSample;
 
 inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const float* filter,
@@ -919,6 +1001,12 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     out.depth = 0.0f;
     out.normal = (float3)(0.0f);
     out.albedo = (float3)(0.0f);
+#ifdef FILM_MATTES
+    out.matte = 0u;
+#endif
+#ifdef FILM_VECTORS
+    out.motion = (float4)(0.0f);
+#endif
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
                                    s->frame.frame_hi, pixel, sample);
@@ -1059,6 +1147,12 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             out.depth = travelled;
             out.normal = sf.ns;
             out.albedo = albedo;
+#ifdef FILM_MATTES
+            out.matte = s->triangle_mattes[h.prim] + 1u;
+#endif
+#ifdef FILM_VECTORS
+            out.motion = pt_motion_vector(s, h.prim, h.u, h.v);
+#endif
         }
         // A single-sided emitter emits from its front only (the light
         // sampler's pdf is 0 behind it too).
@@ -1222,6 +1316,25 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 
 // One sample pass over one tile: samples [sample_begin, sample_end) of
 // every pixel of the tile, added to the pixel's sums in sample order.
+#ifdef FILM_MATTES
+// Counts a sample under matte pair `key` (+ 1) in a pixel's slots, which
+// fill in order: the first slot that holds the key, or the first empty one.
+// With every slot taken by other pairs the sample is not counted (the
+// pixel's mattes then add up to less than its alpha).
+inline void matte_count(uint2* slots, uint key) {
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) {
+        if (slots[j].x == key) {
+            slots[j].y += 1u;
+            return;
+        }
+        if (slots[j].x == 0u) {
+            slots[j] = (uint2)(key, 1u);
+            return;
+        }
+    }
+}
+#endif
+
 // accum_color: rgb, alpha; accum_normal / accum_albedo: rgb; accum_aux:
 // depth sum over hits, hit count, dropped samples, samples taken;
 // accum_snapshots: two per pixel, the running sums at the last two powers
@@ -1248,7 +1361,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
-                        MATX_DECL MOTION_DECL) {
+                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -1292,6 +1405,14 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef HAS_MATERIAL_EXT
     s.material_exts = material_exts;
 #endif
+#ifdef FILM_MATTES
+    s.triangle_mattes = triangle_mattes;
+#endif
+#ifdef FILM_VECTORS
+    s.vector_positions = vector_positions;
+    s.vector_cameras = vector_cameras;
+    s.vector_triangles = vector_triangles;
+#endif
     if (px >= s.frame.width || py >= s.frame.height) return;
     uint i = py * s.frame.width + px;
     if (adaptive != 0u && active[i] == 0u) return;
@@ -1303,6 +1424,13 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     float4 nrm = accum_normal[i];
     float4 alb = accum_albedo[i];
     float4 aux = accum_aux[i];
+#ifdef FILM_VECTORS
+    float4 motion = accum_motion[i];
+#endif
+#ifdef FILM_MATTES
+    uint2 mattes[MATTE_SLOTS];
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) mattes[j] = matte_slots[i * MATTE_SLOTS + j];
+#endif
     for (uint k = sample_begin; k < sample_end; ++k) {
         if (k != 0u && (k & (k - 1u)) == 0u) {
             if (((31u - clz(k)) & 1u) == 0u) {
@@ -1327,6 +1455,16 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
             aux.x += r.depth;
             aux.y += 1.0f;
         }
+#ifdef FILM_MATTES
+        if (r.matte != 0u) matte_count(mattes, r.matte);
+#endif
+#ifdef FILM_VECTORS
+        // Summed over the samples that hit, as depth is (film::resolve).
+        if (r.alpha > 0.0f && isfinite(r.motion.x) && isfinite(r.motion.y) &&
+            isfinite(r.motion.z) && isfinite(r.motion.w)) {
+            motion += r.motion;
+        }
+#endif
     }
     aux.w += (float)(sample_end - sample_begin);
     accum_color[i] = color;
@@ -1336,15 +1474,27 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     accum_albedo[i] = alb;
     accum_aux[i] = aux;
     ray_counts[i] += s.rays;
+#ifdef FILM_MATTES
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) matte_slots[i * MATTE_SLOTS + j] = mattes[j];
+#endif
+#ifdef FILM_VECTORS
+    accum_motion[i] = motion;
+#endif
 }
 
 // Clears the sums of a frame; every pixel starts active.
 __kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
                        __global float4* accum_albedo, __global float4* accum_aux,
                        __global uint* ray_counts, __global float4* accum_snapshots,
-                       __global uint* active, uint n) {
+                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL) {
     uint i = get_global_id(0);
     if (i >= n) return;
+#ifdef FILM_MATTES
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) matte_slots[i * MATTE_SLOTS + j] = (uint2)(0u);
+#endif
+#ifdef FILM_VECTORS
+    accum_motion[i] = (float4)(0.0f);
+#endif
     accum_color[i] = (float4)(0.0f);
     accum_normal[i] = (float4)(0.0f);
     accum_albedo[i] = (float4)(0.0f);

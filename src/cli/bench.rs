@@ -248,8 +248,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
         },
         energy_compensation: true,
         backface_culling: false,
-        lens: None,
-        transparent: false,
+        ..RenderSettings::default()
     }
 }
 

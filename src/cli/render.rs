@@ -114,9 +114,24 @@ pub struct RenderArgs {
     /// Extra EXR channels, comma-separated: depth (Z), normal (N.X N.Y N.Z),
     /// albedo (albedo.R albedo.G albedo.B), sample_count (samples each pixel
     /// took), noise (each pixel's estimated relative error), rays (rays each
-    /// pixel traced: where the frame's time went).
+    /// pixel traced: where the frame's time went), motion (Vector.X .. W:
+    /// each pixel's motion in pixels to the frame before and to the next,
+    /// as Blender's Vector pass).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
+    /// Cryptomatte layers, comma-separated: object (each glTF node that
+    /// places a mesh, by name, or by its path of names where names repeat),
+    /// material (by name) and asset (the object's root node). Written to
+    /// the specification Cycles, Nuke and Blender's compositor read:
+    /// layers CryptoObject, CryptoMaterial, CryptoAsset with their
+    /// manifests. Coverage comes from the same samples as the beauty, so a
+    /// pixel's mattes add up to its alpha.
+    #[arg(long, value_name = "LIST", help_heading = "Output")]
+    pub cryptomatte: Option<String>,
+    /// Ranks per pixel in each Cryptomatte layer: how many objects can
+    /// share a pixel's edge (rounded up to even; 1 to 16).
+    #[arg(long, value_name = "N", default_value_t = 6, help_heading = "Output")]
+    pub cryptomatte_depth: u32,
     /// Also write a tonemapped sRGB PNG preview beside each EXR.
     #[arg(long, help_heading = "Output")]
     pub png: bool,
@@ -466,6 +481,13 @@ fn render_frame(
         png: None,
         half: false,
         aovs: job.aov_names.clone(),
+        cryptomatte: done
+            .image
+            .mattes
+            .iter()
+            .map(|m| m.kind.layer_name().to_owned())
+            .collect(),
+        cryptomatte_depth: job.settings.render.cryptomatte.as_ref().map(|c| c.depth),
     };
     if let Some(dark) = &done.dark {
         progress.warn(&format!("frame {frame}: {dark}"));

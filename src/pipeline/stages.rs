@@ -10,6 +10,7 @@ use crate::soup::device::FrameInfo;
 use crate::soup::motion::motion_steps;
 use crate::trace::motion::{step_times, Shutter};
 use crate::trace::render::{FrameInput, MotionFrame, RenderOutput};
+use crate::trace::vectors::vector_times;
 use anyhow::Context as _;
 use std::time::Instant;
 
@@ -48,6 +49,9 @@ impl FrameRenderer<'_> {
     /// blur and something moving within the shutter, at every motion step.
     pub(super) fn evaluate(&mut self, time: f64) -> anyhow::Result<Evaluated> {
         let fps = self.scene.options().fps;
+        if self.settings.render.aovs.motion {
+            self.evaluate_vector_steps(time, fps)?;
+        }
         let planned = match (self.settings.shutter, &self.motion) {
             (Some(shutter), Some(_)) => {
                 let (open, close) = shutter.interval(time, fps);
@@ -119,6 +123,23 @@ impl FrameRenderer<'_> {
             }),
             shutter: planned,
         })
+    }
+
+    /// Motion vectors' steps (`trace::vectors`): the soup and the camera a
+    /// frame before the frame's centre (its instant, or the middle of its
+    /// shutter), at it and a frame after, handed to the tracer. Evaluated
+    /// before the frame itself, which leaves the soup's buffers holding it.
+    fn evaluate_vector_steps(&mut self, time: f64, fps: f64) -> anyhow::Result<()> {
+        let centre = self.settings.shutter.map_or(time, |shutter| {
+            let (open, close) = shutter.interval(time, fps);
+            0.5 * (open + close)
+        });
+        for (step, t) in vector_times(centre, fps).into_iter().enumerate() {
+            let info = self.soup.evaluate(self.scene, t)?;
+            self.tracer
+                .set_vector_step(step, &self.soup, &info.camera)?;
+        }
+        Ok(())
     }
 
     /// Builds the frame's tree: over the soup, or over every triangle's

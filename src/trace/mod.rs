@@ -36,6 +36,7 @@ pub mod sampling;
 pub mod settings;
 pub mod texture;
 pub mod traverse;
+pub mod vectors;
 pub mod wide;
 
 pub use camera::PinholeCamera;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use super::lens::Lens;
 use super::sampling::{NoisePattern, Sampler};
-use crate::film::Aovs;
+use crate::film::{Aovs, Cryptomatte};
 
 /// Which traversal the integrator compiles in. All three find the same
 /// hits and the same occlusion, so they make the same image.
@@ -92,6 +92,8 @@ pub struct RenderSettings {
     /// a plate; it still lights the scene and shows in reflections and
     /// through glass.
     pub transparent: bool,
+    /// `--cryptomatte`: the Cryptomatte layers each frame carries, or none.
+    pub cryptomatte: Option<Cryptomatte>,
 }
 
 impl Default for RenderSettings {
@@ -114,6 +116,7 @@ impl Default for RenderSettings {
             backface_culling: false,
             lens: None,
             transparent: false,
+            cryptomatte: None,
         }
     }
 }

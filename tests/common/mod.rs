@@ -353,3 +353,23 @@ pub fn dielectric_probe_params(
         dl.f0_color.z,
     ]
 }
+
+/// `python3` with Blender 5 importable as `bpy` (`pip install bpy==5.0.1`;
+/// `SOUPRAY_BPY_PATH` names a `pip install --target` folder): a maker of
+/// such commands, or `None` where it is not installed.
+pub fn bpy_python() -> Option<fn() -> Command> {
+    fn python() -> Command {
+        let mut cmd = Command::new("python3");
+        if let Some(p) = std::env::var_os("SOUPRAY_BPY_PATH") {
+            cmd.env("PYTHONPATH", p);
+        }
+        cmd
+    }
+    let found = python()
+        .args(["-c", "import bpy; assert bpy.app.version >= (5, 0, 0)"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    found.then_some(python as fn() -> Command)
+}

@@ -110,8 +110,7 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         aovs: soupray::film::Aovs::NONE,
         energy_compensation: false,
         backface_culling: false,
-        lens: None,
-        transparent: false,
+        ..RenderSettings::default()
     }
 }
 

@@ -4,7 +4,7 @@
 use super::RenderArgs;
 use crate::bvh::BuildParams;
 use crate::cli::frames::{self, FrameArgs, NamePattern};
-use crate::film::Aovs;
+use crate::film::{Aovs, Cryptomatte};
 use crate::pipeline::FrameSettings;
 use crate::scene::{Projection, Scene};
 use crate::trace::lens::Lens;
@@ -136,6 +136,11 @@ pub(super) fn resolve_job(
                 backface_culling: args.backface_culling,
                 lens: lens(args)?,
                 transparent: args.transparent,
+                cryptomatte: args
+                    .cryptomatte
+                    .as_deref()
+                    .map(|list| Cryptomatte::parse(list, args.cryptomatte_depth))
+                    .transpose()?,
             },
             build: params,
             output_aovs,

@@ -34,7 +34,8 @@ pub use super::settings::{
 };
 use program::Kernels;
 pub use program::{
-    film_defines, material_features, motion_defines, pathtrace_defines, Lobe, Lobes, LOBES,
+    film_defines, material_features, motion_defines, pathtrace_defines, FilmFeatures, Lobe, Lobes,
+    LOBES,
 };
 use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
 pub use upload::{frame_consts, DeviceFrame};
@@ -48,12 +49,13 @@ use super::material::{
     MAT_DOUBLE_SIDED,
 };
 use super::texture::{Slot, TextureBinding, TextureSet};
+use super::vectors::VECTOR_STEPS;
 use super::TraceError;
 use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh};
 use crate::device::{Arg, Device, GrowBuffer};
 use crate::film::{self, Image, NoiseStats};
-use crate::scene::{FrameCamera, FrameLight, MaterialTable, Scene};
+use crate::scene::{FrameCamera, FrameLight, MaterialTable, MatteTable, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
 
@@ -206,6 +208,17 @@ pub struct PathTracer<'d> {
     motion_kernels: Option<Kernels>,
     /// The camera at each motion step.
     motion_cameras: GrowBuffer<DeviceCamera>,
+    /// With `--cryptomatte`: the scene's matte names and each triangle's
+    /// pair on the device (`set_mattes`), and the per-pixel slots.
+    mattes: Option<(MatteTable, Buffer<u32>)>,
+    matte_slots: GrowBuffer<[u32; 2]>,
+    /// With `--aov motion`: the soup and the camera at each vector step
+    /// (`set_vector_step`), the steps set since the last frame (bits) for
+    /// how many triangles, and the per-pixel sums.
+    vector_positions: GrowBuffer<[f32; 4]>,
+    vector_cameras: Buffer<DeviceCamera>,
+    vector_steps: (u8, usize),
+    accum_motion: GrowBuffer<[f32; 4]>,
 }
 
 struct HostSoupBuffers {
@@ -332,7 +345,12 @@ impl<'d> PathTracer<'d> {
         } else {
             Vec::new()
         };
-        Self::with_animated_materials(device, scene.materials(), &animated, settings)
+        let mut tracer =
+            Self::with_animated_materials(device, scene.materials(), &animated, settings)?;
+        if settings.cryptomatte.is_some() {
+            tracer.set_mattes(MatteTable::of(scene))?;
+        }
+        Ok(tracer)
     }
 
     /// As `new`, from a material table alone (scenes made in code).
@@ -418,7 +436,7 @@ impl<'d> PathTracer<'d> {
             features_of.materials.iter().any(|m| m.unlit),
             lobes,
         );
-        let defines = film_defines(defines, settings.lens.as_ref(), settings.transparent);
+        let defines = film_defines(defines, &FilmFeatures::of(settings));
         let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
@@ -486,7 +504,56 @@ impl<'d> PathTracer<'d> {
             defines,
             motion_kernels: None,
             motion_cameras: GrowBuffer::new(),
+            mattes: None,
+            matte_slots: GrowBuffer::new(),
+            vector_positions: GrowBuffer::new(),
+            vector_cameras: device.buffer(VECTOR_STEPS)?,
+            vector_steps: (0, 0),
+            accum_motion: GrowBuffer::new(),
         })
+    }
+
+    /// The scene's matte names, for `--cryptomatte`: its triangles' pairs
+    /// go to the device once, as the soup's triangle order never changes.
+    pub fn set_mattes(&mut self, table: MatteTable) -> Result<(), TraceError> {
+        let mut pairs = self
+            .device
+            .buffer::<u32>(table.triangle_pairs.len().max(1))?;
+        if !table.triangle_pairs.is_empty() {
+            self.device.write(&mut pairs, &table.triangle_pairs)?;
+        }
+        self.mattes = Some((table, pairs));
+        Ok(())
+    }
+
+    /// Keeps `soup` as it is now, and `camera`, as motion-vector step
+    /// `step` (`--aov motion`; `trace::vectors`): 0 a frame before the
+    /// frame's centre, 1 at it, 2 a frame after. Each frame needs all three.
+    pub fn set_vector_step(
+        &mut self,
+        step: usize,
+        soup: &DeviceSoup,
+        camera: &FrameCamera,
+    ) -> Result<(), TraceError> {
+        assert!(step < VECTOR_STEPS, "vector step {step}");
+        let d = self.device;
+        let n3 = 3 * soup.triangle_count();
+        if self.vector_steps.1 != soup.triangle_count() {
+            self.vector_steps = (0, soup.triangle_count());
+        }
+        let positions = self
+            .vector_positions
+            .ensure(d, (VECTOR_STEPS * n3).max(1))?;
+        if n3 > 0 {
+            d.copy(soup.positions(), positions, step * n3, n3)?;
+        }
+        let (w, h) = (self.settings.width, self.settings.height);
+        let mut cameras = vec![DeviceCamera::default(); VECTOR_STEPS];
+        d.read(&self.vector_cameras, &mut cameras)?;
+        cameras[step] = device_camera(camera, w, h);
+        d.write(&mut self.vector_cameras, &cameras)?;
+        self.vector_steps.0 |= 1 << step;
+        Ok(())
     }
 
     /// Replaces the materials' factors (and texture transforms) with
@@ -811,6 +878,28 @@ impl<'d> PathTracer<'d> {
         motion: Option<MotionSteps>,
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
+        // The kernel reads every vector step of every triangle it hits.
+        if self.settings.aovs.motion {
+            let all = (1u8 << VECTOR_STEPS) - 1;
+            if self.vector_steps != (all, soup.triangles) {
+                return Err(usage(format!(
+                    "--aov motion needs the soup at each of the {VECTOR_STEPS} vector steps of this \
+                     frame (PathTracer::set_vector_step)"
+                )));
+            }
+        }
+        // The kernel reads a matte pair for every triangle it hits.
+        if self.settings.cryptomatte.is_some() {
+            let pairs = self.mattes.as_ref().map(|(t, _)| t.triangle_pairs.len());
+            if pairs != Some(soup.triangles) {
+                return Err(usage(format!(
+                    "--cryptomatte needs the matte names of the scene's {} triangles (PathTracer::set_mattes), \
+                     but has them for {}",
+                    soup.triangles,
+                    pairs.map_or("none".to_owned(), |n| n.to_string())
+                )));
+            }
+        }
         let mut warnings = std::mem::take(&mut self.setup_warnings);
         let (w, h) = (self.settings.width, self.settings.height);
         let pixels = w as usize * h as usize;
@@ -838,7 +927,16 @@ impl<'d> PathTracer<'d> {
         let trace_ms = self.device_ms_since(first_event);
 
         let accumulated = self.read_accumulators(pixels)?;
-        let resolved = film::resolve(&accumulated, w, h, self.settings.aovs);
+        let mut resolved = film::resolve(&accumulated, w, h, self.settings.aovs);
+        if let (Some(c), Some((table, _))) = (&self.settings.cryptomatte, &self.mattes) {
+            let kept: Vec<u32> = accumulated
+                .aux
+                .iter()
+                .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
+                .collect();
+            resolved.image.mattes =
+                film::cryptomatte::resolve_mattes(&accumulated.matte_slots, &kept, table, c);
+        }
         if resolved.dropped > 0 {
             warnings.push(format!(
                 "path tracing: dropped {} of {} samples with NaN or infinite values",

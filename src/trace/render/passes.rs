@@ -76,22 +76,40 @@ impl PathTracer<'_> {
         self.active.ensure(d, pixels)?;
         self.unconverged.ensure(d, pixels)?;
         self.pixel_list.ensure(d, pixels)?;
+        let slots = self
+            .settings
+            .cryptomatte
+            .as_ref()
+            .map(|c| c.slots() as usize);
+        if let Some(slots) = slots {
+            self.matte_slots.ensure(d, slots * pixels)?;
+        }
+        if self.settings.aovs.motion {
+            self.accum_motion.ensure(d, pixels)?;
+        }
         let first_event = d.pending_events().len();
+        let mut args = vec![
+            Arg::Buf(self.accum_color.get()),
+            Arg::Buf(self.accum_normal.get()),
+            Arg::Buf(self.accum_albedo.get()),
+            Arg::Buf(self.accum_aux.get()),
+            Arg::Buf(self.ray_counts.get()),
+            Arg::Buf(self.accum_snapshots.get()),
+            Arg::Buf(self.active.get()),
+            Arg::U32(pixels as u32),
+        ];
+        if slots.is_some() {
+            args.push(Arg::Buf(self.matte_slots.get()));
+        }
+        if self.settings.aovs.motion {
+            args.push(Arg::Buf(self.accum_motion.get()));
+        }
         d.launch(
             "pathtrace/clear",
             &self.kernels.clear,
             pixels.div_ceil(64),
             64,
-            &[
-                Arg::Buf(self.accum_color.get()),
-                Arg::Buf(self.accum_normal.get()),
-                Arg::Buf(self.accum_albedo.get()),
-                Arg::Buf(self.accum_aux.get()),
-                Arg::Buf(self.ray_counts.get()),
-                Arg::Buf(self.accum_snapshots.get()),
-                Arg::Buf(self.active.get()),
-                Arg::U32(pixels as u32),
-            ],
+            &args,
         )?;
         Ok(first_event)
     }
@@ -235,6 +253,8 @@ impl PathTracer<'_> {
             rays: vec![0u32; pixels],
             normal: Vec::new(),
             albedo: Vec::new(),
+            motion: Vec::new(),
+            matte_slots: Vec::new(),
         };
         d.read(self.accum_color.get(), &mut acc.color)?;
         d.read(self.accum_aux.get(), &mut acc.aux)?;
@@ -247,6 +267,14 @@ impl PathTracer<'_> {
         if self.settings.aovs.albedo {
             acc.albedo = vec![[0.0f32; 4]; pixels];
             d.read(self.accum_albedo.get(), &mut acc.albedo)?;
+        }
+        if self.settings.aovs.motion {
+            acc.motion = vec![[0.0f32; 4]; pixels];
+            d.read(self.accum_motion.get(), &mut acc.motion)?;
+        }
+        if let Some(c) = &self.settings.cryptomatte {
+            acc.matte_slots = vec![[0u32; 2]; c.slots() as usize * pixels];
+            d.read(self.matte_slots.get(), &mut acc.matte_slots)?;
         }
         Ok(acc)
     }
@@ -366,6 +394,17 @@ impl PathTracer<'_> {
                 if let Some(steps) = motion_steps {
                     args.push(Arg::U32(steps));
                     args.push(Arg::U32(soup.triangles as u32));
+                }
+                if self.settings.cryptomatte.is_some() {
+                    let pairs = self.mattes.as_ref().map(|(_, b)| b);
+                    args.push(Arg::Buf(pairs.unwrap_or(&self.dummy_u32)));
+                    args.push(Arg::Buf(self.matte_slots.get()));
+                }
+                if self.settings.aovs.motion {
+                    args.push(Arg::Buf(self.vector_positions.get()));
+                    args.push(Arg::Buf(&self.vector_cameras));
+                    args.push(Arg::U32(soup.triangles as u32));
+                    args.push(Arg::Buf(self.accum_motion.get()));
                 }
                 d.launch(
                     "pathtrace/render",

@@ -11,7 +11,7 @@ use crate::device::Device;
 use crate::scene::{Material, MaterialTable};
 use crate::trace::lens::Lens;
 use crate::trace::sampling::Sampler;
-use crate::trace::settings::Traversal;
+use crate::trace::settings::{RenderSettings, Traversal};
 use crate::trace::texture::Slot;
 use crate::trace::TraceError;
 
@@ -202,20 +202,51 @@ impl FromIterator<usize> for Lobes {
     }
 }
 
-/// `base` with the camera's and the film's options: `HAS_DOF` where the
-/// camera has a lens (only then does a camera sample draw a lens point) and
-/// `FILM_TRANSPARENT` for `--transparent`. Without them the program, and so
+/// The camera's and the film's options that change the program: each is
+/// compiled in only when asked for, so without them the program, and so
 /// the image, is that of a build without these features.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FilmFeatures<'a> {
+    /// `HAS_DOF`: the camera has a lens (only then does a camera sample
+    /// draw a lens point).
+    pub lens: Option<&'a Lens>,
+    /// `FILM_TRANSPARENT`: `--transparent`.
+    pub transparent: bool,
+    /// `FILM_MATTES` with `MATTE_SLOTS` slots per pixel: `--cryptomatte`.
+    pub matte_slots: Option<u32>,
+    /// `FILM_VECTORS`: `--aov motion`.
+    pub vectors: bool,
+}
+
+impl<'a> FilmFeatures<'a> {
+    /// The options `settings` asks for.
+    pub fn of(settings: &'a RenderSettings) -> FilmFeatures<'a> {
+        FilmFeatures {
+            lens: settings.lens.as_ref(),
+            transparent: settings.transparent,
+            matte_slots: settings.cryptomatte.as_ref().map(|c| c.slots()),
+            vectors: settings.aovs.motion,
+        }
+    }
+}
+
+/// `base` with the defines of `film`'s options.
 pub fn film_defines(
     mut base: Vec<(&'static str, String)>,
-    lens: Option<&Lens>,
-    transparent: bool,
+    film: &FilmFeatures,
 ) -> Vec<(&'static str, String)> {
-    if lens.is_some() {
+    if film.lens.is_some() {
         base.push(("HAS_DOF", "1".to_owned()));
     }
-    if transparent {
+    if film.transparent {
         base.push(("FILM_TRANSPARENT", "1".to_owned()));
+    }
+    if let Some(slots) = film.matte_slots {
+        base.push(("FILM_MATTES", "1".to_owned()));
+        base.push(("MATTE_SLOTS", slots.to_string()));
+    }
+    if film.vectors {
+        base.push(("FILM_VECTORS", "1".to_owned()));
     }
     base
 }

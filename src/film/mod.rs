@@ -24,6 +24,10 @@
 //! camera distance averaged over the samples that hit, and
 //! `BACKGROUND_DEPTH` where none did, as Blender does.
 
+pub mod cryptomatte;
+
+pub use cryptomatte::{Cryptomatte, MatteKind, MatteLayer};
+
 use crate::UsageError;
 
 /// Depth written where no sample hit anything (Blender's value).
@@ -194,6 +198,9 @@ pub struct Aovs {
     pub noise: bool,
     /// Rays each pixel traced (`rays`): where the frame's time went.
     pub rays: bool,
+    /// Screen-space motion of the first hit, to the frame before and to
+    /// the frame after (`motion`; EXR `Vector.X` .. `Vector.W`).
+    pub motion: bool,
 }
 
 impl Aovs {
@@ -204,6 +211,7 @@ impl Aovs {
         sample_count: false,
         noise: false,
         rays: false,
+        motion: false,
     };
     /// The first-hit AOVs: depth, normal and albedo.
     pub const ALL: Aovs = Aovs {
@@ -213,9 +221,10 @@ impl Aovs {
         sample_count: false,
         noise: false,
         rays: false,
+        motion: false,
     };
 
-    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays` (any subset,
+    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays,motion` (any subset,
     /// any order).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
@@ -227,10 +236,11 @@ impl Aovs {
                 "sample_count" | "samples" => aovs.sample_count = true,
                 "noise" => aovs.noise = true,
                 "rays" => aovs.rays = true,
+                "motion" | "vector" => aovs.motion = true,
                 _ => {
                     return Err(UsageError(format!(
                         "--aov: unknown AOV {item:?}; choose from depth, normal, albedo, \
-                         sample_count, noise, rays (e.g. --aov depth,normal,albedo)"
+                         sample_count, noise, rays, motion (e.g. --aov depth,normal,albedo)"
                     )))
                 }
             }
@@ -259,6 +269,9 @@ impl Aovs {
         if self.rays {
             v.push("rays");
         }
+        if self.motion {
+            v.push("motion");
+        }
         v
     }
 }
@@ -275,6 +288,11 @@ pub struct Image {
     pub sample_count: Option<Vec<f32>>,
     pub noise: Option<Vec<f32>>,
     pub rays: Option<Vec<f32>>,
+    /// Per pixel, the motion in pixels (x right, y up) from the frame
+    /// before to this one (0, 1) and from this one to the next (2, 3).
+    pub motion: Option<Vec<[f32; 4]>>,
+    /// The Cryptomatte layers (`--cryptomatte`), or none.
+    pub mattes: Vec<MatteLayer>,
 }
 
 /// A frame whose pixels that see geometry average less linear luminance
@@ -329,6 +347,8 @@ impl Image {
             sample_count: aovs.sample_count.then(|| vec![0.0; n]),
             noise: aovs.noise.then(|| vec![0.0; n]),
             rays: aovs.rays.then(|| vec![0.0; n]),
+            motion: aovs.motion.then(|| vec![[0.0; 4]; n]),
+            mattes: Vec::new(),
         }
     }
 
@@ -341,6 +361,7 @@ impl Image {
             sample_count: self.sample_count.is_some(),
             noise: self.noise.is_some(),
             rays: self.rays.is_some(),
+            motion: self.motion.is_some(),
         }
     }
 }
@@ -394,6 +415,12 @@ pub struct Accumulated {
     pub snapshots: Vec<[f32; 4]>,
     pub aux: Vec<[f32; 4]>,
     pub rays: Vec<u32>,
+    /// With `--aov motion`: per pixel, the sum of the motion vectors of
+    /// the samples that hit (empty otherwise).
+    pub motion: Vec<[f32; 4]>,
+    /// With `--cryptomatte`: per pixel, its slots of (matte pair + 1,
+    /// samples that first hit it); empty otherwise.
+    pub matte_slots: Vec<[u32; 2]>,
 }
 
 /// A resolved frame: the image with its AOVs, and per pixel the samples it
@@ -454,6 +481,13 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
         if let Some(a) = &mut image.albedo {
             let s = acc.albedo[i];
             a[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
+        }
+        if let Some(m) = &mut image.motion {
+            // Averaged over the samples that hit, as depth is.
+            if aux[1] > 0.0 {
+                let s = acc.motion[i];
+                m[i] = [s[0], s[1], s[2], s[3]].map(|v| v / aux[1]);
+            }
         }
         if let Some(z) = &mut image.depth {
             z[i] = if aux[1] > 0.0 {
@@ -703,6 +737,8 @@ mod tests {
             snapshots: vec![[0.0; 4]; 4],
             aux: vec![[6.0, 2.0, 1.0, 4.0], [0.0, 0.0, 2.0, 2.0]],
             rays: vec![9, 4],
+            motion: Vec::new(),
+            matte_slots: Vec::new(),
         };
         let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
         let r = resolve(&acc, 2, 1, every);
