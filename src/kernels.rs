@@ -103,6 +103,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 render::frame_consts(),
                 material::material_consts(),
                 lights::light_consts(),
+                crate::scene::compositing::compositing_consts(),
             ]
             .concat(),
             structs: vec![

@@ -302,6 +302,13 @@ pub fn write_exr_denoised(
             channels.push(AnyChannel::new(name, samples(v, false)));
         }
     }
+    // The shadow catchers' shadow factor, f32 like the other passes.
+    if let Some(shadow) = &image.shadow {
+        for (c, name) in ["shadow.R", "shadow.G", "shadow.B"].into_iter().enumerate() {
+            let v = shadow.iter().map(|p| p[c]).collect();
+            channels.push(AnyChannel::new(name, samples(v, false)));
+        }
+    }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id
     // is a hash's 32 bits).
     for layer in &image.mattes {

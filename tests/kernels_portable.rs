@@ -277,8 +277,8 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
-    // Depth of field with a transparent film, Cryptomatte and motion
-    // vectors, alone and with motion blur.
+    // Depth of field with a transparent film, Cryptomatte, motion vectors
+    // and shadow catchers, alone and with motion blur.
     let lens = Lens {
         f_stop: 2.8,
         focus_distance: 1.0,
@@ -300,6 +300,7 @@ fn variants() -> Vec<Variant> {
             transparent: true,
             matte_slots: Some(6),
             vectors: true,
+            catcher: true,
         },
     );
     v.push(Variant {

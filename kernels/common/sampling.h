@@ -44,6 +44,7 @@ inline uint pcg_hash(uint v) {
 //   set 1 + 2 b           bounce b's light sample: (u, v, light choice, -)
 //   set 2 + 2 b           bounce b's BSDF sample: (u, v, lobe, roulette)
 //   SET_LENS              the lens point of depth of field: (u, v, -, -)
+//   SET_CATCHER           a shadow catcher's light: (u, v, light choice, -)
 //   SET_PASS + ...        pass-through decisions (stochastic BLEND coverage)
 //                         keyed by bounce, ray kind and crossing count.
 // The pixel filter and the first bounces' light and BSDF samples thus each
@@ -247,6 +248,8 @@ inline float rng_1d(SampleRng r, uint dim) {
 // The lens point of depth of field (HAS_DOF): a set of its own, so its two
 // dimensions are a set's best stratified pair.
 #define SET_LENS 0x08000000u
+// The light a shadow catcher receives (FILM_CATCHER): its own set.
+#define SET_CATCHER 0x08000001u
 
 inline uint set_bounce(uint bounce, uint slot) { return SET_BOUNCE + 2u * bounce + slot; }
 

@@ -38,6 +38,10 @@
 #define ENV_CONSTANT 1u
 // An equirectangular map times `PtEnv.color`.
 #define ENV_MAP 2u
+// A triangle's flags (`triangle_flags`): a shadow catcher's.
+#define TRIANGLE_SHADOW_CATCHER 1u
+// A holdout's.
+#define TRIANGLE_HOLDOUT 2u
 
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by

@@ -115,6 +115,10 @@ typedef struct {
     // Per soup triangle, its (object, material) pair (scene::MatteTable).
     const __global uint* triangle_mattes;
 #endif
+#ifdef FILM_CATCHER
+    // Per soup triangle, its TRIANGLE_* flags (scene::compositing).
+    const __global uint* triangle_flags;
+#endif
 #ifdef FILM_VECTORS
     // The soup one frame before the frame's centre, at it and one frame
     // after (three steps of 3 * vector_triangles corners), and the camera
@@ -161,6 +165,18 @@ typedef struct {
 #else
 #define MATTE_DECL
 #define MATTE_CLEAR_DECL
+#endif
+#ifdef FILM_CATCHER
+// Shadow catchers and holdouts (scene::compositing): each triangle's flags,
+// and per pixel three sums over the samples whose camera ray met a
+// catcher: the light it received (rgb) and their count (w), the light it
+// would have received were nothing else there, and the radiance seen
+// through it.
+#define CATCHER_DECL , __global const uint* triangle_flags, __global float4* accum_catcher
+#define CATCHER_CLEAR_DECL , __global float4* accum_catcher
+#else
+#define CATCHER_DECL
+#define CATCHER_CLEAR_DECL
 #endif
 #ifdef FILM_VECTORS
 // Motion vectors (`--aov motion`): the soup and the camera a frame before,
@@ -977,6 +993,66 @@ inline float3 pt_env_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfPa
                           rng, bounce TEX_PASS);
 }
 
+#ifdef FILM_CATCHER
+// Whether the segment from `org` along `dir` (to `tmax`) is clear, as a
+// colour (with HAS_TRANSMISSION thin glass lets some light through).
+inline float3 pt_catcher_visible(PtScene* s, float3 org, float3 dir, float tmax, SampleRng rng
+                                 TEX_DECL) {
+#ifdef HAS_TRANSMISSION
+    return pt_shadow_transmittance(s, org, dir, tmax, NO_MEDIUM, -1, rng, 0u TEX_PASS);
+#else
+    return pt_occluded(s, org, dir, tmax, rng, 0u TEX_PASS) ? (float3)(0.0f) : (float3)(1.0f);
+#endif
+}
+
+// The light a shadow catcher at `p` (normal `n`, on the camera's side of
+// triangle `prim`) receives as a white Lambertian, with the rest of the
+// scene's shadows (`lit`) and without them (`unshadowed`): one
+// cosine-distributed direction towards the environment and one punctual
+// light, from the same random numbers, so that where nothing shadows the
+// two are equal and the pixel stays clear. Emissive meshes are not
+// counted (they rarely light a plate's ground).
+inline void pt_catcher_light(PtScene* s, float3 p, float3 n, uint prim, SampleRng rng,
+                             float3* lit, float3* unshadowed TEX_DECL) {
+    float4 u = rng_4d(rng, SET_CATCHER);
+    float3 above = offset_ray_origin_scaled(p, n, offset_scale(SGEOM(s), prim));
+    *lit = (float3)(0.0f);
+    *unshadowed = (float3)(0.0f);
+    if (s->env.kind != ENV_NONE) {
+        float3 t, b;
+        onb(n, &t, &b);
+        float3 l = sample_cosine_hemisphere(u.x, u.y);
+        float3 wi = (t * l.x + b * l.y) + n * l.z;
+        // Cosine-distributed: the Lambertian's f cos / pdf is 1.
+        float3 le = env_radiance(s->env, s->env_texels, wi);
+        *unshadowed += le;
+        if (le.x > 0.0f || le.y > 0.0f || le.z > 0.0f) {
+            *lit += le * pt_catcher_visible(s, above, wi, INFINITY, rng TEX_PASS);
+        }
+    }
+    uint count = s->frame.light_count;
+    if (count > 0u) {
+        uint i = min((uint)(u.z * (float)count), count - 1u);
+        PtLight light = pt_light(s, i);
+        float3 wi, e;
+        float dist;
+        if (punctual_incident(light, p, &wi, &dist, &e)) {
+            float c = dot(wi, n);
+            if (c > 0.0f) {
+                float3 v = e * ((c / PT_PI) * (float)count);
+                *unshadowed += v;
+                float3 dir = wi;
+                float tmax = INFINITY;
+                if (!isinf(dist)) {
+                    dir = (float3)(light.position[0], light.position[1], light.position[2]) - above;
+                    tmax = 1.0f;
+                }
+                *lit += v * pt_catcher_visible(s, above, dir, tmax, rng TEX_PASS);
+            }
+        }
+    }
+}
+#endif
 
 // Results of one camera sample.
 typedef struct {
@@ -990,6 +1066,13 @@ typedef struct {
 #endif
 #ifdef FILM_VECTORS
     float4 motion; // the first hit's motion vectors (pt_motion_vector)
+#endif
+#ifdef FILM_CATCHER
+    // The camera ray met a shadow catcher first: the light there with the
+    // scene's shadows and without them (pt_catcher_light).
+    bool catcher;
+    float3 catcher_lit;
+    float3 catcher_unshadowed;
 #endif
 } PtSample;
 
@@ -1006,6 +1089,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
 #ifdef FILM_VECTORS
     out.motion = (float4)(0.0f);
+#endif
+#ifdef FILM_CATCHER
+    out.catcher = false;
+    out.catcher_lit = (float3)(0.0f);
+    out.catcher_unshadowed = (float3)(0.0f);
 #endif
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
@@ -1095,6 +1183,32 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         uint crossings = 0u;
         bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
                                      &crossings TEX_PASS);
+#ifdef FILM_CATCHER
+        // The camera ray: a holdout cuts the frame (nothing of the sample
+        // is kept); it sees through shadow catchers (a closed one has two
+        // sides to cross), measuring the light at the first.
+        for (uint k = 0u; bounce == 0u && found && k < MAX_CROSSINGS; ++k) {
+            uint flags = s->triangle_flags[h.prim];
+            if ((flags & TRIANGLE_HOLDOUT) != 0u) return out;
+            if ((flags & TRIANGLE_SHADOW_CATCHER) == 0u) break;
+            float3 p = hit_point(SGEOM(s), h.prim, h.u, h.v);
+            float3 ng = geometric_normal(SGEOM(s), h.prim);
+            float3 facing = dot(dir, ng) > 0.0f ? -ng : ng;
+            if (!out.catcher) {
+                out.catcher = true;
+                pt_catcher_light(s, p, facing, h.prim, rng, &out.catcher_lit,
+                                 &out.catcher_unshadowed TEX_PASS);
+            }
+            float3 o = offset_ray_origin_scaled(p, -facing, offset_scale(SGEOM(s), h.prim));
+            ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
+            ray.tmin = 0.0f;
+            ray.tmax = INFINITY;
+            float before = travelled;
+            found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
+                                    &crossings TEX_PASS);
+            travelled += before;
+        }
+#endif
 #ifdef HAS_TRANSMISSION
         beta = beta * pt_attenuation(sigma, found ? travelled : INFINITY);
         float reach = carried + travelled;
@@ -1361,7 +1475,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
-                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL) {
+                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL CATCHER_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -1408,6 +1522,9 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_MATTES
     s.triangle_mattes = triangle_mattes;
 #endif
+#ifdef FILM_CATCHER
+    s.triangle_flags = triangle_flags;
+#endif
 #ifdef FILM_VECTORS
     s.vector_positions = vector_positions;
     s.vector_cameras = vector_cameras;
@@ -1426,6 +1543,11 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     float4 aux = accum_aux[i];
 #ifdef FILM_VECTORS
     float4 motion = accum_motion[i];
+#endif
+#ifdef FILM_CATCHER
+    float4 catcher_lit = accum_catcher[3u * i];
+    float4 catcher_unshadowed = accum_catcher[3u * i + 1u];
+    float4 catcher_behind = accum_catcher[3u * i + 2u];
 #endif
 #ifdef FILM_MATTES
     uint2 mattes[MATTE_SLOTS];
@@ -1458,6 +1580,15 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_MATTES
         if (r.matte != 0u) matte_count(mattes, r.matte);
 #endif
+#ifdef FILM_CATCHER
+        if (r.catcher && isfinite(r.catcher_lit.x) && isfinite(r.catcher_lit.y) &&
+            isfinite(r.catcher_lit.z) && isfinite(r.catcher_unshadowed.x) &&
+            isfinite(r.catcher_unshadowed.y) && isfinite(r.catcher_unshadowed.z)) {
+            catcher_lit += (float4)(r.catcher_lit, 1.0f);
+            catcher_unshadowed += (float4)(r.catcher_unshadowed, 0.0f);
+            catcher_behind += (float4)(r.radiance, r.alpha);
+        }
+#endif
 #ifdef FILM_VECTORS
         // Summed over the samples that hit, as depth is (film::resolve).
         if (r.alpha > 0.0f && isfinite(r.motion.x) && isfinite(r.motion.y) &&
@@ -1480,13 +1611,18 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_VECTORS
     accum_motion[i] = motion;
 #endif
+#ifdef FILM_CATCHER
+    accum_catcher[3u * i] = catcher_lit;
+    accum_catcher[3u * i + 1u] = catcher_unshadowed;
+    accum_catcher[3u * i + 2u] = catcher_behind;
+#endif
 }
 
 // Clears the sums of a frame; every pixel starts active.
 __kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
                        __global float4* accum_albedo, __global float4* accum_aux,
                        __global uint* ray_counts, __global float4* accum_snapshots,
-                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL) {
+                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL CATCHER_CLEAR_DECL) {
     uint i = get_global_id(0);
     if (i >= n) return;
 #ifdef FILM_MATTES
@@ -1494,6 +1630,11 @@ __kernel void pt_clear(__global float4* accum_color, __global float4* accum_norm
 #endif
 #ifdef FILM_VECTORS
     accum_motion[i] = (float4)(0.0f);
+#endif
+#ifdef FILM_CATCHER
+    accum_catcher[3u * i] = (float4)(0.0f);
+    accum_catcher[3u * i + 1u] = (float4)(0.0f);
+    accum_catcher[3u * i + 2u] = (float4)(0.0f);
 #endif
     accum_color[i] = (float4)(0.0f);
     accum_normal[i] = (float4)(0.0f);

@@ -119,6 +119,20 @@ pub struct RenderArgs {
     /// as Blender's Vector pass).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
+    /// Make NODE's meshes (and its children's) a shadow catcher: invisible
+    /// to the camera except for the shadows the rest of the scene casts on
+    /// them, written to alpha and to the `shadow` channels, so a CG
+    /// element composites onto a filmed plate. Pair with --transparent.
+    /// By name or index; repeatable. A node's glTF extras
+    /// {"soupray": {"shadow_catcher": true}} do the same.
+    #[arg(long, value_name = "NODE", help_heading = "Compositing")]
+    pub shadow_catcher: Vec<String>,
+    /// Cut NODE's meshes (and its children's) out of the frame: RGB and
+    /// alpha 0 where the camera sees them, while they still hide what is
+    /// behind them and light and shadow the rest. By name or index;
+    /// repeatable; or the node's extras {"soupray": {"holdout": true}}.
+    #[arg(long, value_name = "NODE", help_heading = "Compositing")]
+    pub holdout: Vec<String>,
     /// Cryptomatte layers, comma-separated: object (each glTF node that
     /// places a mesh, by name, or by its path of names where names repeat),
     /// material (by name) and asset (the object's root node). Written to

@@ -293,6 +293,10 @@ pub struct Image {
     pub motion: Option<Vec<[f32; 4]>>,
     /// The Cryptomatte layers (`--cryptomatte`), or none.
     pub mattes: Vec<MatteLayer>,
+    /// With shadow catchers: per pixel, the share of the light that
+    /// reaches the catcher (1: no shadow, 0: all of it shadowed), the
+    /// factor to multiply a plate by; 1 where no catcher is seen.
+    pub shadow: Option<Vec<[f32; 3]>>,
 }
 
 /// A frame whose pixels that see geometry average less linear luminance
@@ -349,6 +353,7 @@ impl Image {
             rays: aovs.rays.then(|| vec![0.0; n]),
             motion: aovs.motion.then(|| vec![[0.0; 4]; n]),
             mattes: Vec::new(),
+            shadow: None,
         }
     }
 
@@ -418,6 +423,11 @@ pub struct Accumulated {
     /// With `--aov motion`: per pixel, the sum of the motion vectors of
     /// the samples that hit (empty otherwise).
     pub motion: Vec<[f32; 4]>,
+    /// With shadow catchers: per pixel three sums over the samples whose
+    /// camera ray met one: the light it received (RGB) and their count,
+    /// the light it would have received unshadowed, and the radiance and
+    /// alpha seen through it; empty otherwise.
+    pub catcher: Vec<[f32; 4]>,
     /// With `--cryptomatte`: per pixel, its slots of (matte pair + 1,
     /// samples that first hit it); empty otherwise.
     pub matte_slots: Vec<[u32; 2]>,
@@ -489,6 +499,23 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
                 m[i] = [s[0], s[1], s[2], s[3]].map(|v| v / aux[1]);
             }
         }
+        if !acc.catcher.is_empty() {
+            let shadow = image.shadow.get_or_insert_with(|| vec![[1.0; 3]; pixels]);
+            let cast = catcher_shadow(
+                [
+                    acc.catcher[3 * i],
+                    acc.catcher[3 * i + 1],
+                    acc.catcher[3 * i + 2],
+                ],
+                kept,
+            );
+            if let Some((factor, rgba)) = cast {
+                shadow[i] = factor;
+                for k in 0..4 {
+                    image.rgba[i][k] += rgba[k];
+                }
+            }
+        }
         if let Some(z) = &mut image.depth {
             z[i] = if aux[1] > 0.0 {
                 aux[0] / aux[1]
@@ -499,6 +526,40 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
     }
     out.image = image;
     out
+}
+
+/// A pixel's shadow-catcher sums (`Accumulated::catcher`) over its `kept`
+/// samples as the shadow factor, the light over the unshadowed light per
+/// channel (the ratio of the sums, so where nothing shadows it is exactly
+/// one), and what the catcher adds to the pixel: the shadow's opacity to
+/// alpha, over the share of samples that saw the environment through the
+/// catcher, and the radiance seen through it darkened by the shadow.
+/// `None` where no sample met a catcher.
+fn catcher_shadow(sums: [[f32; 4]; 3], kept: u32) -> Option<([f32; 3], [f32; 4])> {
+    let [lit, unshadowed, behind] = sums;
+    let count = lit[3];
+    if count <= 0.0 || count.is_nan() || kept == 0 {
+        return None;
+    }
+    let factor = [0, 1, 2].map(|c| {
+        if unshadowed[c] > 0.0 {
+            (lit[c] / unshadowed[c]).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    });
+    let density = 1.0 - (factor[0] + factor[1] + factor[2]) / 3.0;
+    let inv = 1.0 / kept as f32;
+    // Samples that saw the environment through the catcher (alpha 0 there)
+    // take the shadow's opacity.
+    let clear = (count - behind[3]).max(0.0) * inv;
+    let rgba = [
+        -behind[0] * inv * (1.0 - factor[0]),
+        -behind[1] * inv * (1.0 - factor[1]),
+        -behind[2] * inv * (1.0 - factor[2]),
+        clear * density,
+    ];
+    Some((factor, rgba))
 }
 
 /// The error below which a pixel stops sampling (`pt_stop_threshold` in
@@ -739,6 +800,7 @@ mod tests {
             rays: vec![9, 4],
             motion: Vec::new(),
             matte_slots: Vec::new(),
+            catcher: Vec::new(),
         };
         let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
         let r = resolve(&acc, 2, 1, every);

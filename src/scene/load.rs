@@ -715,6 +715,7 @@ fn load_nodes(file: &str, doc: &gltf::Document) -> Result<Vec<Node>> {
                 camera: n.camera().map(|c| c.index()),
                 light: n.light().map(|l| l.index()),
                 weights: n.weights().map(<[f32]>::to_vec),
+                role: super::compositing::Role::of_extras(n.extras().as_deref()),
             }
         })
         .collect();

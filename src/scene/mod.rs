@@ -11,6 +11,7 @@
 mod accessor;
 pub mod animation;
 pub mod camera;
+pub mod compositing;
 pub mod deform;
 mod draco;
 pub mod error;
@@ -115,6 +116,8 @@ pub struct Node {
     pub light: Option<usize>,
     /// `node.weights`, overriding `mesh.weights`.
     pub weights: Option<Vec<f32>>,
+    /// Its own `extras.soupray` compositing role (`compositing`).
+    pub role: Option<compositing::Role>,
 }
 
 #[derive(Debug, Clone)]

@@ -112,6 +112,8 @@ impl std::str::FromStr for NoisePattern {
 pub const SET_CAMERA: u32 = 0;
 /// The lens point of depth of field (`SET_LENS`).
 pub const SET_LENS: u32 = 0x0800_0000;
+/// The light a shadow catcher receives (`SET_CATCHER`).
+pub const SET_CATCHER: u32 = 0x0800_0001;
 /// Slots of a bounce's sets (`set_bounce`).
 pub const SET_LIGHT: u32 = 0;
 pub const SET_BSDF: u32 = 1;

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use super::lens::Lens;
 use super::sampling::{NoisePattern, Sampler};
 use crate::film::{Aovs, Cryptomatte};
+use crate::scene::compositing::RoleOverrides;
 
 /// Which traversal the integrator compiles in. All three find the same
 /// hits and the same occlusion, so they make the same image.
@@ -94,6 +95,10 @@ pub struct RenderSettings {
     pub transparent: bool,
     /// `--cryptomatte`: the Cryptomatte layers each frame carries, or none.
     pub cryptomatte: Option<Cryptomatte>,
+    /// `--shadow-catcher` and `--holdout`: nodes whose meshes the camera
+    /// sees only as shadows, or as a hole (`scene::compositing`; a scene's
+    /// own extras add to them).
+    pub roles: RoleOverrides,
 }
 
 impl Default for RenderSettings {
@@ -117,6 +122,7 @@ impl Default for RenderSettings {
             lens: None,
             transparent: false,
             cryptomatte: None,
+            roles: RoleOverrides::default(),
         }
     }
 }

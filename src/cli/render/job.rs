@@ -6,6 +6,7 @@ use crate::bvh::BuildParams;
 use crate::cli::frames::{self, FrameArgs, NamePattern};
 use crate::film::{Aovs, Cryptomatte};
 use crate::pipeline::FrameSettings;
+use crate::scene::compositing::RoleOverrides;
 use crate::scene::{Projection, Scene};
 use crate::trace::lens::Lens;
 use crate::trace::motion::{Shutter, ShutterPosition};
@@ -141,6 +142,7 @@ pub(super) fn resolve_job(
                     .as_deref()
                     .map(|list| Cryptomatte::parse(list, args.cryptomatte_depth))
                     .transpose()?,
+                roles: role_overrides(args, scene)?,
             },
             build: params,
             output_aovs,
@@ -247,30 +249,48 @@ fn environment(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Environment> 
 /// `--motion-steps`.
 /// `--focus-on NODE`: the node, by name or index.
 fn focus_node(args: &RenderArgs, scene: &Scene) -> Result<Option<usize>, UsageError> {
-    let Some(want) = &args.focus_on else {
-        return Ok(None);
+    args.focus_on
+        .as_deref()
+        .map(|want| node_named("--focus-on", want, scene))
+        .transpose()
+}
+
+/// `--shadow-catcher` and `--holdout`: their nodes.
+fn role_overrides(args: &RenderArgs, scene: &Scene) -> Result<RoleOverrides, UsageError> {
+    let nodes = |option: &str, list: &[String]| -> Result<Vec<usize>, UsageError> {
+        list.iter()
+            .map(|want| node_named(option, want, scene))
+            .collect()
     };
+    Ok(RoleOverrides {
+        shadow_catchers: nodes("--shadow-catcher", &args.shadow_catcher)?,
+        holdouts: nodes("--holdout", &args.holdout)?,
+    })
+}
+
+/// The node `option` names, by name or index.
+fn node_named(option: &str, want: &str, scene: &Scene) -> Result<usize, UsageError> {
     let nodes = scene.nodes();
     let by_name: Vec<usize> = (0..nodes.len())
-        .filter(|&i| nodes[i].name.as_deref() == Some(want.as_str()))
+        .filter(|&i| nodes[i].name.as_deref() == Some(want))
         .collect();
     match (by_name.as_slice(), want.parse::<usize>()) {
-        ([one], _) => Ok(Some(*one)),
-        ([], Ok(i)) if i < nodes.len() => Ok(Some(i)),
+        ([one], _) => Ok(*one),
+        ([], Ok(i)) if i < nodes.len() => Ok(i),
         ([], _) => {
             let names: Vec<String> = (0..nodes.len())
                 .take(12)
                 .map(|i| scene.node_label(i))
                 .collect();
             Err(UsageError(format!(
-                "--focus-on {want}: no node has that name or index. Fix: pass one of the {} nodes \
+                "{option} {want}: no node has that name or index. Fix: pass one of the {} nodes \
                  (`soupray info SCENE` lists them), e.g. {}",
                 nodes.len(),
                 names.join(", ")
             )))
         }
         (many, _) => Err(UsageError(format!(
-            "--focus-on {want}: {} nodes have that name; pass the index of one ({})",
+            "{option} {want}: {} nodes have that name; pass the index of one ({})",
             many.len(),
             many.iter()
                 .map(|i| i.to_string())

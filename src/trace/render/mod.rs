@@ -55,6 +55,7 @@ use crate::bvh::device_builder::DeviceBuilder;
 use crate::bvh::{BuildParams, Bvh};
 use crate::device::{Arg, Device, GrowBuffer};
 use crate::film::{self, Image, NoiseStats};
+use crate::scene::compositing::triangle_flags;
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, MatteTable, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::soup::Soup;
@@ -219,6 +220,10 @@ pub struct PathTracer<'d> {
     vector_cameras: Buffer<DeviceCamera>,
     vector_steps: (u8, usize),
     accum_motion: GrowBuffer<[f32; 4]>,
+    /// With shadow catchers or holdouts: each triangle's flags on the
+    /// device (and how many), and three sums per pixel.
+    triangle_flags: Option<(Buffer<u32>, usize)>,
+    accum_catcher: GrowBuffer<[f32; 4]>,
 }
 
 struct HostSoupBuffers {
@@ -345,10 +350,22 @@ impl<'d> PathTracer<'d> {
         } else {
             Vec::new()
         };
+        // The nodes' own compositing roles join the command line's.
+        let settings = &RenderSettings {
+            roles: settings.roles.with_extras_of(scene),
+            ..settings.clone()
+        };
         let mut tracer =
             Self::with_animated_materials(device, scene.materials(), &animated, settings)?;
         if settings.cryptomatte.is_some() {
             tracer.set_mattes(MatteTable::of(scene))?;
+        }
+        if let Some(flags) = triangle_flags(scene, &settings.roles) {
+            let mut buf = device.buffer::<u32>(flags.len().max(1))?;
+            if !flags.is_empty() {
+                device.write(&mut buf, &flags)?;
+            }
+            tracer.triangle_flags = Some((buf, flags.len()));
         }
         Ok(tracer)
     }
@@ -510,6 +527,8 @@ impl<'d> PathTracer<'d> {
             vector_cameras: device.buffer(VECTOR_STEPS)?,
             vector_steps: (0, 0),
             accum_motion: GrowBuffer::new(),
+            triangle_flags: None,
+            accum_catcher: GrowBuffer::new(),
         })
     }
 
@@ -885,6 +904,17 @@ impl<'d> PathTracer<'d> {
                 return Err(usage(format!(
                     "--aov motion needs the soup at each of the {VECTOR_STEPS} vector steps of this \
                      frame (PathTracer::set_vector_step)"
+                )));
+            }
+        }
+        // The kernel reads the flags of every triangle a camera ray hits.
+        if !self.settings.roles.is_empty() {
+            let flags = self.triangle_flags.as_ref().map(|(_, n)| *n);
+            if flags != Some(soup.triangles) {
+                return Err(usage(format!(
+                    "--shadow-catcher and --holdout need the flags of the scene's {} triangles, which \
+                     only a tracer made for the scene (PathTracer::new) has",
+                    soup.triangles
                 )));
             }
         }

@@ -87,6 +87,10 @@ impl PathTracer<'_> {
         if self.settings.aovs.motion {
             self.accum_motion.ensure(d, pixels)?;
         }
+        let catcher = !self.settings.roles.is_empty();
+        if catcher {
+            self.accum_catcher.ensure(d, 3 * pixels)?;
+        }
         let first_event = d.pending_events().len();
         let mut args = vec![
             Arg::Buf(self.accum_color.get()),
@@ -103,6 +107,9 @@ impl PathTracer<'_> {
         }
         if self.settings.aovs.motion {
             args.push(Arg::Buf(self.accum_motion.get()));
+        }
+        if catcher {
+            args.push(Arg::Buf(self.accum_catcher.get()));
         }
         d.launch(
             "pathtrace/clear",
@@ -255,6 +262,7 @@ impl PathTracer<'_> {
             albedo: Vec::new(),
             motion: Vec::new(),
             matte_slots: Vec::new(),
+            catcher: Vec::new(),
         };
         d.read(self.accum_color.get(), &mut acc.color)?;
         d.read(self.accum_aux.get(), &mut acc.aux)?;
@@ -267,6 +275,10 @@ impl PathTracer<'_> {
         if self.settings.aovs.albedo {
             acc.albedo = vec![[0.0f32; 4]; pixels];
             d.read(self.accum_albedo.get(), &mut acc.albedo)?;
+        }
+        if !self.settings.roles.is_empty() {
+            acc.catcher = vec![[0.0f32; 4]; 3 * pixels];
+            d.read(self.accum_catcher.get(), &mut acc.catcher)?;
         }
         if self.settings.aovs.motion {
             acc.motion = vec![[0.0f32; 4]; pixels];
@@ -405,6 +417,11 @@ impl PathTracer<'_> {
                     args.push(Arg::Buf(&self.vector_cameras));
                     args.push(Arg::U32(soup.triangles as u32));
                     args.push(Arg::Buf(self.accum_motion.get()));
+                }
+                if !self.settings.roles.is_empty() {
+                    let flags = self.triangle_flags.as_ref().map(|(b, _)| b);
+                    args.push(Arg::Buf(flags.unwrap_or(&self.dummy_u32)));
+                    args.push(Arg::Buf(self.accum_catcher.get()));
                 }
                 d.launch(
                     "pathtrace/render",

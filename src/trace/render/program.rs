@@ -216,6 +216,8 @@ pub struct FilmFeatures<'a> {
     pub matte_slots: Option<u32>,
     /// `FILM_VECTORS`: `--aov motion`.
     pub vectors: bool,
+    /// `FILM_CATCHER`: some node is a shadow catcher or a holdout.
+    pub catcher: bool,
 }
 
 impl<'a> FilmFeatures<'a> {
@@ -226,6 +228,7 @@ impl<'a> FilmFeatures<'a> {
             transparent: settings.transparent,
             matte_slots: settings.cryptomatte.as_ref().map(|c| c.slots()),
             vectors: settings.aovs.motion,
+            catcher: !settings.roles.is_empty(),
         }
     }
 }
@@ -247,6 +250,9 @@ pub fn film_defines(
     }
     if film.vectors {
         base.push(("FILM_VECTORS", "1".to_owned()));
+    }
+    if film.catcher {
+        base.push(("FILM_CATCHER", "1".to_owned()));
     }
     base
 }
