@@ -302,6 +302,25 @@ pub fn write_exr_denoised(
             channels.push(AnyChannel::new(name, samples(v, false)));
         }
     }
+    // First-hit geometry, f32 like the other data passes.
+    if let Some(p) = &image.position {
+        for (c, name) in ["Position.X", "Position.Y", "Position.Z"]
+            .into_iter()
+            .enumerate()
+        {
+            let v = p.iter().map(|q| q[c]).collect();
+            channels.push(AnyChannel::new(name, samples(v, false)));
+        }
+    }
+    if let Some(uv) = &image.uv {
+        for (c, name) in ["UV.U", "UV.V"].into_iter().enumerate() {
+            let v = uv.iter().map(|q| q[c]).collect();
+            channels.push(AnyChannel::new(name, samples(v, false)));
+        }
+    }
+    if let Some(ids) = &image.object_id {
+        channels.push(AnyChannel::new("object_id", samples(ids.clone(), false)));
+    }
     // The shadow catchers' shadow factor, f32 like the other passes.
     if let Some(shadow) = &image.shadow {
         for (c, name) in ["shadow.R", "shadow.G", "shadow.B"].into_iter().enumerate() {

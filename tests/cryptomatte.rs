@@ -24,8 +24,9 @@ const BACK: [f32; 4] = [0.05, 0.8, -0.3, 0.5];
 fn card(b: &mut Builder, r: [f32; 4], z: f32, material: usize) -> serde_json::Value {
     let positions = [r[0], r[2], z, r[1], r[2], z, r[1], r[3], z, r[0], r[3], z];
     let pos = b.floats(&positions, 3);
+    let uv = b.floats(&[0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0], 2);
     let idx = b.u32s(&[0, 1, 2, 0, 2, 3]);
-    json!({"primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": material}]})
+    json!({"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": idx, "material": material}]})
 }
 
 /// Two roots, "Set" and "Prop", each with a child named "Card": the
@@ -370,4 +371,55 @@ fn blenders_compositor_extracts_the_same_matte() {
         );
         assert!(ours.iter().sum::<f32>() > 100.0);
     }
+}
+
+/// `--aov position,uv,object_id`: at every pixel that sees only one card,
+/// the card's point under the pixel's centre, its uv there (the cards'
+/// uvs run 0 to 1 across them) and the card's node index + 1; 0 where
+/// nothing was hit.
+#[test]
+#[allow(clippy::needless_range_loop)] // a pixel indexes several channels
+fn position_uv_and_object_id_are_those_of_the_first_hit() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = render(dir.path(), &["--aov", "position,uv,object_id"]);
+    let c = common::exr_channels(&exr);
+    let (mut front, mut back) = (0, 0);
+    for i in 0..(SIZE * SIZE) as usize {
+        let (col, row) = ((i % SIZE as usize) as f64, (i / SIZE as usize) as f64);
+        let (x, y) = ((col + 0.5) / SCALE - 1.0, 1.0 - (row + 0.5) / SCALE);
+        // 2 px (past the filter's radius) inside a card.
+        let inside = |r: [f32; 4]| {
+            let m = 2.0 / SCALE;
+            x > r[0] as f64 + m && x < r[1] as f64 - m && y > r[2] as f64 + m && y < r[3] as f64 - m
+        };
+        let (card, z, id) = if inside(FRONT) {
+            front += 1;
+            (FRONT, 0.0, 2.0)
+        } else if inside(BACK) {
+            back += 1;
+            (BACK, -0.5, 4.0)
+        } else {
+            if c["A"][i] == 0.0 {
+                assert_eq!(c["object_id"][i], 0.0);
+                assert_eq!(c["Position.X"][i], 0.0);
+            }
+            continue;
+        };
+        let want_u = (x - card[0] as f64) / (card[1] - card[0]) as f64;
+        let want_v = (y - card[2] as f64) / (card[3] - card[2]) as f64;
+        for (name, got, want) in [
+            ("Position.X", c["Position.X"][i], x),
+            ("Position.Y", c["Position.Y"][i], y),
+            ("Position.Z", c["Position.Z"][i], z),
+            ("UV.U", c["UV.U"][i], want_u),
+            ("UV.V", c["UV.V"][i], want_v),
+        ] {
+            assert!(
+                (got as f64 - want).abs() < 1e-3,
+                "pixel {i}: {name} {got}, the card's {want}"
+            );
+        }
+        assert_eq!(c["object_id"][i], id, "pixel {i}");
+    }
+    assert!(front > 400 && back > 300, "{front} front, {back} back");
 }

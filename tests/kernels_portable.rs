@@ -278,7 +278,8 @@ fn variants() -> Vec<Variant> {
         }
     }
     // Depth of field with a transparent film, Cryptomatte, motion vectors
-    // and shadow catchers, alone and with motion blur.
+    // shadow catchers and the position and uv AOVs, alone and with motion
+    // blur.
     let lens = Lens {
         f_stop: 2.8,
         focus_distance: 1.0,
@@ -301,6 +302,7 @@ fn variants() -> Vec<Variant> {
             matte_slots: Some(6),
             vectors: true,
             catcher: true,
+            geometry: true,
         },
     );
     v.push(Variant {

@@ -178,6 +178,13 @@ typedef struct {
 #define CATCHER_DECL
 #define CATCHER_CLEAR_DECL
 #endif
+#ifdef FILM_GEOMETRY
+// `--aov position` and `uv`: per pixel two sums over the samples that hit,
+// the first hit's position (xyz) and TEXCOORD_0 (xy).
+#define GEOMETRY_DECL , __global float4* accum_geometry
+#else
+#define GEOMETRY_DECL
+#endif
 #ifdef FILM_VECTORS
 // Motion vectors (`--aov motion`): the soup and the camera a frame before,
 // at and a frame after the frame's centre, and per pixel the sum of the
@@ -1067,6 +1074,10 @@ typedef struct {
 #ifdef FILM_VECTORS
     float4 motion; // the first hit's motion vectors (pt_motion_vector)
 #endif
+#ifdef FILM_GEOMETRY
+    float3 position; // the first hit's world-space point
+    float2 uv;       // and TEXCOORD_0 there
+#endif
 #ifdef FILM_CATCHER
     // The camera ray met a shadow catcher first: the light there with the
     // scene's shadows and without them (pt_catcher_light).
@@ -1089,6 +1100,10 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
 #ifdef FILM_VECTORS
     out.motion = (float4)(0.0f);
+#endif
+#ifdef FILM_GEOMETRY
+    out.position = (float3)(0.0f);
+    out.uv = (float2)(0.0f);
 #endif
 #ifdef FILM_CATCHER
     out.catcher = false;
@@ -1266,6 +1281,10 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
 #ifdef FILM_VECTORS
             out.motion = pt_motion_vector(s, h.prim, h.u, h.v);
+#endif
+#ifdef FILM_GEOMETRY
+            out.position = sf.p;
+            out.uv = sf.at.uv.xy;
 #endif
         }
         // A single-sided emitter emits from its front only (the light
@@ -1475,7 +1494,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
-                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL CATCHER_DECL) {
+                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL CATCHER_DECL GEOMETRY_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -1544,6 +1563,10 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_VECTORS
     float4 motion = accum_motion[i];
 #endif
+#ifdef FILM_GEOMETRY
+    float4 geometry_p = accum_geometry[2u * i];
+    float4 geometry_uv = accum_geometry[2u * i + 1u];
+#endif
 #ifdef FILM_CATCHER
     float4 catcher_lit = accum_catcher[3u * i];
     float4 catcher_unshadowed = accum_catcher[3u * i + 1u];
@@ -1580,6 +1603,13 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_MATTES
         if (r.matte != 0u) matte_count(mattes, r.matte);
 #endif
+#ifdef FILM_GEOMETRY
+        // Summed over the samples that hit, as depth is (film::resolve).
+        if (r.alpha > 0.0f) {
+            geometry_p += (float4)(r.position, 0.0f);
+            geometry_uv += (float4)(r.uv, 0.0f, 0.0f);
+        }
+#endif
 #ifdef FILM_CATCHER
         if (r.catcher && isfinite(r.catcher_lit.x) && isfinite(r.catcher_lit.y) &&
             isfinite(r.catcher_lit.z) && isfinite(r.catcher_unshadowed.x) &&
@@ -1611,6 +1641,10 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_VECTORS
     accum_motion[i] = motion;
 #endif
+#ifdef FILM_GEOMETRY
+    accum_geometry[2u * i] = geometry_p;
+    accum_geometry[2u * i + 1u] = geometry_uv;
+#endif
 #ifdef FILM_CATCHER
     accum_catcher[3u * i] = catcher_lit;
     accum_catcher[3u * i + 1u] = catcher_unshadowed;
@@ -1622,7 +1656,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 __kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
                        __global float4* accum_albedo, __global float4* accum_aux,
                        __global uint* ray_counts, __global float4* accum_snapshots,
-                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL CATCHER_CLEAR_DECL) {
+                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL CATCHER_CLEAR_DECL GEOMETRY_DECL) {
     uint i = get_global_id(0);
     if (i >= n) return;
 #ifdef FILM_MATTES
@@ -1630,6 +1664,10 @@ __kernel void pt_clear(__global float4* accum_color, __global float4* accum_norm
 #endif
 #ifdef FILM_VECTORS
     accum_motion[i] = (float4)(0.0f);
+#endif
+#ifdef FILM_GEOMETRY
+    accum_geometry[2u * i] = (float4)(0.0f);
+    accum_geometry[2u * i + 1u] = (float4)(0.0f);
 #endif
 #ifdef FILM_CATCHER
     accum_catcher[3u * i] = (float4)(0.0f);

@@ -116,7 +116,9 @@ pub struct RenderArgs {
     /// took), noise (each pixel's estimated relative error), rays (rays each
     /// pixel traced: where the frame's time went), motion (Vector.X .. W:
     /// each pixel's motion in pixels to the frame before and to the next,
-    /// as Blender's Vector pass).
+    /// as Blender's Vector pass), position (Position.X .. Z, world space),
+    /// uv (UV.U, UV.V: TEXCOORD_0), object_id (the glTF node index + 1 of
+    /// the object covering most of the pixel; 0 for none).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
     /// Make NODE's meshes (and its children's) a shadow catcher: invisible

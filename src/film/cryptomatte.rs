@@ -287,6 +287,33 @@ pub fn resolve_mattes(
         .collect()
 }
 
+/// Each pixel's object id (`--aov object_id`): the glTF node index + 1 of
+/// the object most of its samples hit first (ties to the lower index), 0
+/// where none hit. `slots` holds `per_pixel` entries per pixel.
+pub fn resolve_object_ids(
+    slots: &[[u32; 2]],
+    per_pixel: usize,
+    table: &MatteTable,
+    ids: &mut [f32],
+) {
+    let mut counts: HashMap<usize, u32> = HashMap::new();
+    for (pixel, id) in ids.iter_mut().enumerate() {
+        counts.clear();
+        for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
+            if let Some(pair) = s[0]
+                .checked_sub(1)
+                .and_then(|p| table.pairs.get(p as usize))
+            {
+                *counts.entry(pair.node).or_insert(0) += s[1];
+            }
+        }
+        *id = counts
+            .iter()
+            .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
+            .map_or(0.0, |(&node, _)| (node + 1) as f32);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -319,6 +346,7 @@ mod tests {
     #[test]
     fn ranks_sum_pairs_into_names_and_sort_by_coverage() {
         let pair = |o: &str, m: &str| MattePair {
+            node: o.len(),
             object: o.into(),
             material: m.into(),
             asset: "root".into(),

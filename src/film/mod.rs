@@ -201,6 +201,12 @@ pub struct Aovs {
     /// Screen-space motion of the first hit, to the frame before and to
     /// the frame after (`motion`; EXR `Vector.X` .. `Vector.W`).
     pub motion: bool,
+    /// World-space position of the first hit (`position`).
+    pub position: bool,
+    /// TEXCOORD_0 at the first hit (`uv`).
+    pub uv: bool,
+    /// The glTF node covering most of the pixel (`object_id`).
+    pub object_id: bool,
 }
 
 impl Aovs {
@@ -212,6 +218,9 @@ impl Aovs {
         noise: false,
         rays: false,
         motion: false,
+        position: false,
+        uv: false,
+        object_id: false,
     };
     /// The first-hit AOVs: depth, normal and albedo.
     pub const ALL: Aovs = Aovs {
@@ -222,9 +231,13 @@ impl Aovs {
         noise: false,
         rays: false,
         motion: false,
+        position: false,
+        uv: false,
+        object_id: false,
     };
 
-    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays,motion` (any subset,
+    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays,motion,
+    /// position,uv,object_id` (any subset,
     /// any order).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
@@ -237,10 +250,13 @@ impl Aovs {
                 "noise" => aovs.noise = true,
                 "rays" => aovs.rays = true,
                 "motion" | "vector" => aovs.motion = true,
+                "position" | "p" => aovs.position = true,
+                "uv" => aovs.uv = true,
+                "object_id" | "object-id" => aovs.object_id = true,
                 _ => {
                     return Err(UsageError(format!(
                         "--aov: unknown AOV {item:?}; choose from depth, normal, albedo, \
-                         sample_count, noise, rays, motion (e.g. --aov depth,normal,albedo)"
+                         sample_count, noise, rays, motion, position, uv, object_id (e.g. --aov depth,normal,albedo)"
                     )))
                 }
             }
@@ -272,6 +288,15 @@ impl Aovs {
         if self.motion {
             v.push("motion");
         }
+        if self.position {
+            v.push("position");
+        }
+        if self.uv {
+            v.push("uv");
+        }
+        if self.object_id {
+            v.push("object_id");
+        }
         v
     }
 }
@@ -291,6 +316,13 @@ pub struct Image {
     /// Per pixel, the motion in pixels (x right, y up) from the frame
     /// before to this one (0, 1) and from this one to the next (2, 3).
     pub motion: Option<Vec<[f32; 4]>>,
+    /// Per pixel, the world-space position and TEXCOORD_0 of the first hit,
+    /// averaged over the samples that hit (0 where none did).
+    pub position: Option<Vec<[f32; 3]>>,
+    pub uv: Option<Vec<[f32; 2]>>,
+    /// Per pixel, the glTF node index + 1 of the object most of its
+    /// samples hit first (0: none).
+    pub object_id: Option<Vec<f32>>,
     /// The Cryptomatte layers (`--cryptomatte`), or none.
     pub mattes: Vec<MatteLayer>,
     /// With shadow catchers: per pixel, the share of the light that
@@ -352,6 +384,9 @@ impl Image {
             noise: aovs.noise.then(|| vec![0.0; n]),
             rays: aovs.rays.then(|| vec![0.0; n]),
             motion: aovs.motion.then(|| vec![[0.0; 4]; n]),
+            position: aovs.position.then(|| vec![[0.0; 3]; n]),
+            uv: aovs.uv.then(|| vec![[0.0; 2]; n]),
+            object_id: aovs.object_id.then(|| vec![0.0; n]),
             mattes: Vec::new(),
             shadow: None,
         }
@@ -367,6 +402,9 @@ impl Image {
             noise: self.noise.is_some(),
             rays: self.rays.is_some(),
             motion: self.motion.is_some(),
+            position: self.position.is_some(),
+            uv: self.uv.is_some(),
+            object_id: self.object_id.is_some(),
         }
     }
 }
@@ -423,6 +461,9 @@ pub struct Accumulated {
     /// With `--aov motion`: per pixel, the sum of the motion vectors of
     /// the samples that hit (empty otherwise).
     pub motion: Vec<[f32; 4]>,
+    /// With `--aov position` or `uv`: per pixel two sums over the samples
+    /// that hit, the position (xyz) and TEXCOORD_0 (xy); empty otherwise.
+    pub geometry: Vec<[f32; 4]>,
     /// With shadow catchers: per pixel three sums over the samples whose
     /// camera ray met one: the light it received (RGB) and their count,
     /// the light it would have received unshadowed, and the radiance and
@@ -491,6 +532,17 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
         if let Some(a) = &mut image.albedo {
             let s = acc.albedo[i];
             a[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
+        }
+        if aux[1] > 0.0 {
+            let inv_hits = 1.0 / aux[1];
+            if let Some(p) = &mut image.position {
+                let s = acc.geometry[2 * i];
+                p[i] = [s[0] * inv_hits, s[1] * inv_hits, s[2] * inv_hits];
+            }
+            if let Some(t) = &mut image.uv {
+                let s = acc.geometry[2 * i + 1];
+                t[i] = [s[0] * inv_hits, s[1] * inv_hits];
+            }
         }
         if let Some(m) = &mut image.motion {
             // Averaged over the samples that hit, as depth is.
@@ -799,6 +851,7 @@ mod tests {
             aux: vec![[6.0, 2.0, 1.0, 4.0], [0.0, 0.0, 2.0, 2.0]],
             rays: vec![9, 4],
             motion: Vec::new(),
+            geometry: Vec::new(),
             matte_slots: Vec::new(),
             catcher: Vec::new(),
         };
@@ -826,9 +879,11 @@ mod tests {
         assert_eq!(a.names(), vec!["albedo"]);
         let a = Aovs::parse("rays,noise,sample_count").unwrap();
         assert_eq!(a.names(), vec!["sample_count", "noise", "rays"]);
-        let e = Aovs::parse("depth,uv").unwrap_err().0;
+        let a = Aovs::parse("object_id,uv,motion,position").unwrap();
+        assert_eq!(a.names(), vec!["motion", "position", "uv", "object_id"]);
+        let e = Aovs::parse("depth,uvw").unwrap_err().0;
         assert!(
-            e.contains("\"uv\"") && e.contains("depth, normal, albedo"),
+            e.contains("\"uvw\"") && e.contains("depth, normal, albedo"),
             "{e}"
         );
     }

@@ -21,6 +21,8 @@ pub struct MatteTable {
 /// The names one first hit counts under, one per Cryptomatte layer.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct MattePair {
+    /// The glTF index of the node that places the mesh.
+    pub node: usize,
     /// The node that places the mesh: its glTF name, or its path of names
     /// from the scene root where names repeat.
     pub object: String,
@@ -47,6 +49,7 @@ impl MatteTable {
             for prim in &scene.meshes()[instance.mesh].primitives {
                 let material = prim.material.unwrap_or(default_material);
                 let pair = MattePair {
+                    node: instance.node,
                     object: node_names[instance.node].clone(),
                     material: material_names
                         .get(material)

@@ -224,6 +224,8 @@ pub struct PathTracer<'d> {
     /// device (and how many), and three sums per pixel.
     triangle_flags: Option<(Buffer<u32>, usize)>,
     accum_catcher: GrowBuffer<[f32; 4]>,
+    /// With `--aov position` or `uv`: two sums per pixel.
+    accum_geometry: GrowBuffer<[f32; 4]>,
 }
 
 struct HostSoupBuffers {
@@ -357,7 +359,7 @@ impl<'d> PathTracer<'d> {
         };
         let mut tracer =
             Self::with_animated_materials(device, scene.materials(), &animated, settings)?;
-        if settings.cryptomatte.is_some() {
+        if settings.cryptomatte.is_some() || settings.aovs.object_id {
             tracer.set_mattes(MatteTable::of(scene))?;
         }
         if let Some(flags) = triangle_flags(scene, &settings.roles) {
@@ -529,6 +531,7 @@ impl<'d> PathTracer<'d> {
             accum_motion: GrowBuffer::new(),
             triangle_flags: None,
             accum_catcher: GrowBuffer::new(),
+            accum_geometry: GrowBuffer::new(),
         })
     }
 
@@ -919,7 +922,7 @@ impl<'d> PathTracer<'d> {
             }
         }
         // The kernel reads a matte pair for every triangle it hits.
-        if self.settings.cryptomatte.is_some() {
+        if self.settings.cryptomatte.is_some() || self.settings.aovs.object_id {
             let pairs = self.mattes.as_ref().map(|(t, _)| t.triangle_pairs.len());
             if pairs != Some(soup.triangles) {
                 return Err(usage(format!(
@@ -966,6 +969,10 @@ impl<'d> PathTracer<'d> {
                 .collect();
             resolved.image.mattes =
                 film::cryptomatte::resolve_mattes(&accumulated.matte_slots, &kept, table, c);
+        }
+        if let (Some(ids), Some((table, _))) = (&mut resolved.image.object_id, &self.mattes) {
+            let slots = accumulated.matte_slots.len() / pixels.max(1);
+            film::cryptomatte::resolve_object_ids(&accumulated.matte_slots, slots, table, ids);
         }
         if resolved.dropped > 0 {
             warnings.push(format!(

@@ -91,6 +91,10 @@ impl PathTracer<'_> {
         if catcher {
             self.accum_catcher.ensure(d, 3 * pixels)?;
         }
+        let geometry = geometry_aovs(&self.settings);
+        if geometry {
+            self.accum_geometry.ensure(d, 2 * pixels)?;
+        }
         let first_event = d.pending_events().len();
         let mut args = vec![
             Arg::Buf(self.accum_color.get()),
@@ -110,6 +114,9 @@ impl PathTracer<'_> {
         }
         if catcher {
             args.push(Arg::Buf(self.accum_catcher.get()));
+        }
+        if geometry {
+            args.push(Arg::Buf(self.accum_geometry.get()));
         }
         d.launch(
             "pathtrace/clear",
@@ -261,6 +268,7 @@ impl PathTracer<'_> {
             normal: Vec::new(),
             albedo: Vec::new(),
             motion: Vec::new(),
+            geometry: Vec::new(),
             matte_slots: Vec::new(),
             catcher: Vec::new(),
         };
@@ -279,6 +287,10 @@ impl PathTracer<'_> {
         if !self.settings.roles.is_empty() {
             acc.catcher = vec![[0.0f32; 4]; 3 * pixels];
             d.read(self.accum_catcher.get(), &mut acc.catcher)?;
+        }
+        if geometry_aovs(&self.settings) {
+            acc.geometry = vec![[0.0f32; 4]; 2 * pixels];
+            d.read(self.accum_geometry.get(), &mut acc.geometry)?;
         }
         if self.settings.aovs.motion {
             acc.motion = vec![[0.0f32; 4]; pixels];
@@ -423,6 +435,9 @@ impl PathTracer<'_> {
                     args.push(Arg::Buf(flags.unwrap_or(&self.dummy_u32)));
                     args.push(Arg::Buf(self.accum_catcher.get()));
                 }
+                if geometry_aovs(&self.settings) {
+                    args.push(Arg::Buf(self.accum_geometry.get()));
+                }
                 d.launch(
                     "pathtrace/render",
                     kernel,
@@ -477,6 +492,12 @@ impl PathTracer<'_> {
         )?;
         Ok(())
     }
+}
+
+/// Whether the frame keeps the first hits' positions and uvs
+/// (`FILM_GEOMETRY`).
+fn geometry_aovs(settings: &crate::trace::settings::RenderSettings) -> bool {
+    settings.aovs.position || settings.aovs.uv
 }
 
 /// Waits for the event that ends a pass (the `count`-th pending event).

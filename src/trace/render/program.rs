@@ -202,6 +202,10 @@ impl FromIterator<usize> for Lobes {
     }
 }
 
+/// The (object, material) pairs kept per pixel for `--aov object_id`
+/// alone (without `--cryptomatte`).
+pub const OBJECT_ID_SLOTS: u32 = 4;
+
 /// The camera's and the film's options that change the program: each is
 /// compiled in only when asked for, so without them the program, and so
 /// the image, is that of a build without these features.
@@ -218,6 +222,8 @@ pub struct FilmFeatures<'a> {
     pub vectors: bool,
     /// `FILM_CATCHER`: some node is a shadow catcher or a holdout.
     pub catcher: bool,
+    /// `FILM_GEOMETRY`: `--aov position` or `uv`.
+    pub geometry: bool,
 }
 
 impl<'a> FilmFeatures<'a> {
@@ -226,9 +232,15 @@ impl<'a> FilmFeatures<'a> {
         FilmFeatures {
             lens: settings.lens.as_ref(),
             transparent: settings.transparent,
-            matte_slots: settings.cryptomatte.as_ref().map(|c| c.slots()),
+            // The object id is the pair most of a pixel's samples hit.
+            matte_slots: match (&settings.cryptomatte, settings.aovs.object_id) {
+                (Some(c), _) => Some(c.slots()),
+                (None, true) => Some(OBJECT_ID_SLOTS),
+                (None, false) => None,
+            },
             vectors: settings.aovs.motion,
             catcher: !settings.roles.is_empty(),
+            geometry: settings.aovs.position || settings.aovs.uv,
         }
     }
 }
@@ -253,6 +265,9 @@ pub fn film_defines(
     }
     if film.catcher {
         base.push(("FILM_CATCHER", "1".to_owned()));
+    }
+    if film.geometry {
+        base.push(("FILM_GEOMETRY", "1".to_owned()));
     }
     base
 }
