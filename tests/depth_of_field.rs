@@ -175,6 +175,7 @@ fn an_emitter_out_of_focus_spreads_over_the_circle_of_confusion() {
         focus_distance: focus,
         blades: 0,
         blade_rotation: 0.0,
+        focal_mm: None,
     };
     let half = (0.5 * YFOV_DEG.to_radians()).tan();
     let radius = lens.radius(half, half) as f64;
@@ -209,6 +210,7 @@ fn an_emitter_in_focus_stays_sharp() {
         focus_distance: DEPTH,
         blades: 0,
         blade_rotation: 0.0,
+        focal_mm: None,
     };
     let (focused, ..) = blur_radius(&render_emitter(Some(lens), 64));
     let (pinhole, ..) = blur_radius(&render_emitter(None, 64));
@@ -229,6 +231,7 @@ fn a_six_bladed_aperture_makes_hexagonal_bokeh() {
             focus_distance: focus,
             blades,
             blade_rotation: 0.0,
+            focal_mm: None,
         };
         let half = (0.5 * YFOV_DEG.to_radians()).tan();
         let r = lens.radius(half, half) as f64
@@ -358,4 +361,50 @@ fn focus_on_a_node_follows_it_frame_by_frame() {
         err.contains("--focus-on tail") && err.contains("hips"),
         "{err}"
     );
+}
+
+/// The draft EXT_camera_physical: a camera's `focalLength` is read (with
+/// one warning that the extension is a draft) and sets the lens radius
+/// `--aperture` opens, f / (2 N); without it the radius follows Blender's
+/// 36 mm sensor.
+#[test]
+fn ext_camera_physical_sets_the_focal_length_of_the_lens() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("physical.gltf");
+    let root = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["EXT_camera_physical"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"camera": 0}],
+        "cameras": [{
+            "type": "perspective",
+            "perspective": {"yfov": 0.5, "znear": 0.1},
+            "extensions": {"EXT_camera_physical": {"focalLength": 85.0, "sensorSize": [36.0, 24.0]}}
+        }],
+    });
+    std::fs::write(&path, serde_json::to_string(&root).unwrap()).unwrap();
+    let scene = soupray::scene::Scene::load(&path, &Default::default()).unwrap();
+    assert_eq!(scene.cameras()[0].focal_mm, Some(85.0));
+    let drafts: Vec<_> = scene
+        .warnings()
+        .iter()
+        .filter(|w| w.contains("EXT_camera_physical is a draft"))
+        .collect();
+    assert_eq!(drafts.len(), 1, "{:?}", scene.warnings());
+    let lens = Lens {
+        f_stop: 2.0,
+        focus_distance: 3.0,
+        blades: 0,
+        blade_rotation: 0.0,
+        focal_mm: Some(85.0),
+    };
+    // 85 mm at f/2: a 21.25 mm radius, whatever the field of view.
+    assert!((lens.radius(0.4, 0.3) - 0.02125).abs() < 1e-7);
+    // Blender's convention: 18 mm over the wider half extent.
+    let blender = Lens {
+        focal_mm: None,
+        ..lens
+    };
+    assert!((blender.radius(0.4, 0.3) - 0.01125).abs() < 1e-7);
 }

@@ -285,6 +285,7 @@ fn variants() -> Vec<Variant> {
         focus_distance: 1.0,
         blades: 0,
         blade_rotation: 0.0,
+        focal_mm: None,
     };
     let lens = film_defines(
         pathtrace_defines(

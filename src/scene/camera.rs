@@ -31,6 +31,10 @@ pub enum Projection {
 pub struct CameraDef {
     pub name: Option<String>,
     pub projection: Projection,
+    /// The physical focal length in millimetres, from the draft
+    /// `EXT_camera_physical` extension (its `focalLength`) when the file
+    /// has it: the lens `--aperture` opens (`trace::lens`).
+    pub focal_mm: Option<f32>,
 }
 
 /// The camera of one frame. Like every glTF camera it looks down its local
@@ -75,6 +79,7 @@ pub(crate) fn load_camera(camera: &gltf::Camera) -> CameraDef {
     CameraDef {
         name: camera.name().map(str::to_owned),
         projection,
+        focal_mm: None,
     }
 }
 

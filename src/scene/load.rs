@@ -10,7 +10,7 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::accessor::Reader;
 use super::animation::load_clip;
-use super::camera::load_camera;
+use super::camera::{load_camera, Projection};
 use super::error::{Result, SceneError};
 use super::light::load_light;
 use super::material::{Material, MaterialTable};
@@ -68,6 +68,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 
     // Cameras and lights placed in the scene.
     let mut cameras: Vec<_> = doc.cameras().map(|c| load_camera(&c)).collect();
+    physical_cameras(&src.json, &mut cameras, &mut warnings);
     for (i, c) in cameras.iter_mut().enumerate() {
         super::ranges::camera(i, c, &mut warnings);
     }
@@ -598,6 +599,56 @@ fn apply_variant(
         }
     }
     Ok(())
+}
+
+/// The draft `EXT_camera_physical` (KhronosGroup/glTF pull request 2608):
+/// a perspective camera's `focalLength` in millimetres, which the core
+/// camera's `yfov` cannot give back. A draft may still change, so reading
+/// it is said once; a value that is not a positive number is ignored with
+/// a warning.
+fn physical_cameras(
+    json: &serde_json::Value,
+    cameras: &mut [CameraDef],
+    warnings: &mut Vec<String>,
+) {
+    let Some(list) = json.get("cameras").and_then(|c| c.as_array()) else {
+        return;
+    };
+    let mut read = false;
+    for (i, camera) in list.iter().enumerate() {
+        let Some(ext) = camera
+            .get("extensions")
+            .and_then(|e| e.get("EXT_camera_physical"))
+        else {
+            continue;
+        };
+        let Some(def) = cameras.get_mut(i) else {
+            continue;
+        };
+        match ext.get("focalLength").and_then(|f| f.as_f64()) {
+            Some(f)
+                if f.is_finite()
+                    && f > 0.0
+                    && matches!(def.projection, Projection::Perspective { .. }) =>
+            {
+                def.focal_mm = Some(f as f32);
+                read = true;
+            }
+            _ => warnings.push(format!(
+                "camera {i}: EXT_camera_physical's focalLength is {}, not a positive number of \
+                 millimetres on a perspective camera: ignored",
+                ext.get("focalLength")
+                    .map_or("missing".to_owned(), |f| f.to_string())
+            )),
+        }
+    }
+    if read {
+        warnings.push(
+            "EXT_camera_physical is a draft extension (KhronosGroup/glTF pull request 2608): \
+             soupray reads its focalLength for the lens --aperture opens; the draft may change"
+                .to_owned(),
+        );
+    }
 }
 
 /// `{"soupray": {"environment": [r, g, b]}}` (constant linear radiance):

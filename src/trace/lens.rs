@@ -3,11 +3,12 @@
 //! opens the lens and `--focus-distance M` sets the plane in focus; the
 //! aperture is a disk, or a regular polygon with `--blades N` corners.
 //!
-//! The focal length follows Blender's convention, so a scene exported from
-//! Blender renders with the same blur at the same f-stop: a 36 mm sensor
-//! across the image's wider side, hence f = 18 mm / tan(half the wider
-//! field of view), and a lens radius of f / (2 N) in scene units (metres,
-//! as glTF's are).
+//! The focal length is the file's where it gives one (the draft
+//! `EXT_camera_physical` extension's `focalLength`); otherwise it follows
+//! Blender's convention, so a scene exported from Blender renders with the
+//! same blur at the same f-stop: a 36 mm sensor across the image's wider
+//! side, hence f = 18 mm / tan(half the wider field of view). The lens
+//! radius is f / (2 N) in scene units (metres, as glTF's are).
 //!
 //! A camera sample's ray leaves from a point on the lens and passes through
 //! the point the pinhole ray reaches on the focus plane: points on that
@@ -34,6 +35,9 @@ pub struct Lens {
     pub blades: u32,
     /// The first corner's angle from the image's right, in radians.
     pub blade_rotation: f32,
+    /// The camera's physical focal length in millimetres, where the file
+    /// gives one (`EXT_camera_physical`); else Blender's convention.
+    pub focal_mm: Option<f32>,
 }
 
 /// Blender's default sensor width, in millimetres, across the wider side of
@@ -43,8 +47,12 @@ pub const SENSOR_MM: f32 = 36.0;
 impl Lens {
     /// The lens radius in scene units for a perspective camera whose image
     /// plane at distance 1 has half extents `half_x`, `half_y`.
+    /// The file's physical focal length, where it has one, replaces
+    /// Blender's.
     pub fn radius(&self, half_x: f32, half_y: f32) -> f32 {
-        let focal_mm = 0.5 * SENSOR_MM / half_x.max(half_y);
+        let focal_mm = self
+            .focal_mm
+            .unwrap_or_else(|| 0.5 * SENSOR_MM / half_x.max(half_y));
         focal_mm * 1.0e-3 / (2.0 * self.f_stop)
     }
 

@@ -135,7 +135,7 @@ pub(super) fn resolve_job(
                 aovs,
                 energy_compensation: !args.no_energy_compensation,
                 backface_culling: args.backface_culling,
-                lens: lens(args)?,
+                lens: lens(args, scene)?,
                 transparent: args.transparent,
                 cryptomatte: args
                     .cryptomatte
@@ -301,7 +301,7 @@ fn node_named(option: &str, want: &str, scene: &Scene) -> Result<usize, UsageErr
 }
 
 /// `--aperture` with `--focus-distance`, `--blades` and `--blade-rotation`.
-fn lens(args: &RenderArgs) -> Result<Option<Lens>, UsageError> {
+fn lens(args: &RenderArgs, scene: &Scene) -> Result<Option<Lens>, UsageError> {
     let Some(f_stop) = args.aperture else {
         if args.focus_distance.is_some()
             || args.focus_on.is_some()
@@ -337,6 +337,10 @@ fn lens(args: &RenderArgs) -> Result<Option<Lens>, UsageError> {
         focus_distance,
         blades: args.blades,
         blade_rotation: args.blade_rotation.to_radians(),
+        focal_mm: scene
+            .camera_instance()
+            .and_then(|(_, camera)| scene.cameras().get(camera))
+            .and_then(|c| c.focal_mm),
     };
     lens.check().map_err(UsageError)?;
     Ok(Some(lens))
