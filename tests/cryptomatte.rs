@@ -423,3 +423,43 @@ fn position_uv_and_object_id_are_those_of_the_first_hit() {
     }
     assert!(front > 400 && back > 300, "{front} front, {back} back");
 }
+
+/// `--aov object_id` alone (its pair table without Cryptomatte's layers)
+/// gives the same ids as with them.
+#[test]
+fn object_ids_alone_match_those_beside_cryptomatte() {
+    let dir = tempfile::tempdir().unwrap();
+    let with = common::exr_channels(&render(dir.path(), &["--aov", "object_id"]));
+    let alone_dir = tempfile::tempdir().unwrap();
+    let file = scene(alone_dir.path());
+    let out = alone_dir.path().join("alone");
+    let size = SIZE.to_string();
+    let run = common::soupray(&[
+        "render",
+        file.to_str().unwrap(),
+        "--width",
+        &size,
+        "--height",
+        &size,
+        "--spp",
+        "64",
+        "--env-color",
+        "1,1,1",
+        "--aov",
+        "object_id",
+        "--out",
+        out.to_str().unwrap(),
+        "--name",
+        "alone.exr",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let alone = common::exr_channels(&out.join("alone.exr"));
+    assert!(!alone.keys().any(|k| k.starts_with("Crypto")));
+    assert_eq!(alone["object_id"], with["object_id"]);
+    assert!(alone["object_id"].iter().any(|&id| id == 2.0));
+    assert!(alone["object_id"].iter().any(|&id| id == 4.0));
+}

@@ -5,7 +5,7 @@
 
 use opencl3::memory::Buffer;
 
-use super::{or_dummy, PathTracer, SoupBuffers};
+use super::{or_dummy, FilmFeatures, PathTracer, SoupBuffers};
 use crate::device::{Arg, Device};
 use crate::film::{self, Accumulated, NoiseStats};
 use crate::trace::settings::{check_counts, Adaptive, Allocation};
@@ -76,11 +76,9 @@ impl PathTracer<'_> {
         self.active.ensure(d, pixels)?;
         self.unconverged.ensure(d, pixels)?;
         self.pixel_list.ensure(d, pixels)?;
-        let slots = self
-            .settings
-            .cryptomatte
-            .as_ref()
-            .map(|c| c.slots() as usize);
+        let slots = FilmFeatures::of(&self.settings)
+            .matte_slots
+            .map(|n| n as usize);
         if let Some(slots) = slots {
             self.matte_slots.ensure(d, slots * pixels)?;
         }
@@ -296,8 +294,8 @@ impl PathTracer<'_> {
             acc.motion = vec![[0.0f32; 4]; pixels];
             d.read(self.accum_motion.get(), &mut acc.motion)?;
         }
-        if let Some(c) = &self.settings.cryptomatte {
-            acc.matte_slots = vec![[0u32; 2]; c.slots() as usize * pixels];
+        if let Some(slots) = FilmFeatures::of(&self.settings).matte_slots {
+            acc.matte_slots = vec![[0u32; 2]; slots as usize * pixels];
             d.read(self.matte_slots.get(), &mut acc.matte_slots)?;
         }
         Ok(acc)
@@ -419,7 +417,7 @@ impl PathTracer<'_> {
                     args.push(Arg::U32(steps));
                     args.push(Arg::U32(soup.triangles as u32));
                 }
-                if self.settings.cryptomatte.is_some() {
+                if FilmFeatures::of(&self.settings).matte_slots.is_some() {
                     let pairs = self.mattes.as_ref().map(|(_, b)| b);
                     args.push(Arg::Buf(pairs.unwrap_or(&self.dummy_u32)));
                     args.push(Arg::Buf(self.matte_slots.get()));
