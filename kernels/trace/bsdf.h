@@ -32,6 +32,11 @@
 // E the white single-scattering albedo tabulated in ggx_energy.h
 // (src/trace/energy.rs), so a white rough metal loses no energy.
 //
+// With ENERGY_LAYERING (the default `--layering energy`), the dielectric's
+// base (diffuse, diffuse and thin-walled transmission) is scaled by what
+// the specular layer does not reflect, and the base under the sheen by what
+// the sheen does not (layering.h), instead of fresnel_mix's 1 - F(v.h).
+//
 // Effectively smooth lobes (alpha at or below SMOOTH_GGX_ALPHA, as pbrt-v4's
 // EffectivelySmooth) are delta lobes: bsdf_eval and bsdf_pdf leave them out
 // (light sampling cannot hit them; evaluated as GGX at alpha 1e-3 they gave
@@ -56,11 +61,11 @@
     !defined(HAS_TRANSMISSION)
 #define HAS_TRANSMISSION
 #endif
-#ifdef GGX_ENERGY_COMPENSATION
+#if defined(GGX_ENERGY_COMPENSATION) || defined(ENERGY_LAYERING)
 #include "ggx_energy.h"
-#ifdef HAS_ANISOTROPY
-#include "ggx_aniso_energy.h"
 #endif
+#if defined(GGX_ENERGY_COMPENSATION) && defined(HAS_ANISOTROPY)
+#include "ggx_aniso_energy.h"
 #endif
 #ifdef HAS_SHEEN
 #include "sheen_energy.h"
@@ -150,7 +155,7 @@ inline float schlick_weight(float c) {
     return (m2 * m2) * m;
 }
 
-#if defined(GGX_ENERGY_COMPENSATION) || defined(HAS_SHEEN)
+#if defined(GGX_ENERGY_COMPENSATION) || defined(HAS_SHEEN) || defined(ENERGY_LAYERING)
 // Bilinear lookup in a 32 x 32 table (row x, column y, both in 0..1);
 // mirrors trace::energy::lut_bilinear.
 inline float lut_bilinear(__constant const float* t, float x01, float y01) {
@@ -169,7 +174,7 @@ inline float lut_bilinear(__constant const float* t, float x01, float y01) {
 }
 #endif
 
-#ifdef GGX_ENERGY_COMPENSATION
+#if defined(GGX_ENERGY_COMPENSATION) || defined(ENERGY_LAYERING)
 // The white single-scattering albedo E(alpha, mu), bilinear in (roughness,
 // cosine); mirrors trace::energy::ggx_albedo.
 inline float ggx_albedo(float a, float mu) { return lut_bilinear(GGX_ALBEDO, sqrt(a), mu); }
@@ -416,6 +421,13 @@ inline float3 metal_fresnel(BsdfParams p, float c) {
 #endif
 }
 
+#endif
+
+// Included here, between the dielectric's Fresnel terms and its lobes, for
+// both (the sources are assembled with each header inlined once).
+#include "layering.h"
+
+#ifdef HAS_TRANSMISSION
 // The probabilities of the specular reflection (x), specular transmission
 // (y) and diffuse transmission (z, 0 without HAS_DIFFUSE_TRANSMISSION)
 // lobes; the diffuse reflection lobe has the rest.
@@ -456,6 +468,11 @@ inline float3 diffuse_transmission_eval(BsdfParams p, float3 wo, float3 wi) {
     float3 hv = wo + (float3)(wi.x, wi.y, -wi.z);
     float hl = length(hv);
     if (hl == 0.0f) return (float3)(0.0f);
+#ifdef ENERGY_LAYERING
+    if (energy_layered(p))
+        return p.diffuse_transmission_color *
+               lambert_scaling(p, wo, (float3)(wi.x, wi.y, -wi.z)) * (weight * PT_INV_PI);
+#endif
     float voh = fmax(dot(wo, hv / hl), 0.0f);
     float fd = max3(p.specular * layer_fresnel(p, voh));
     return p.diffuse_transmission_color * ((weight * (1.0f - fd)) * PT_INV_PI);
@@ -494,15 +511,18 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
         float s = spec_smooth(p) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
         float3 layer = p.specular * layer_fresnel(p, voh);
-        float fd = max3(layer);
         float3 fm = metal_fresnel(p, voh);
+        float3 diffuse = p.base * (diffuse_share(p, max3(layer)) * PT_INV_PI);
+#ifdef ENERGY_LAYERING
+        if (energy_layered(p))
+            diffuse = p.base * lambert_scaling(p, wo, wi) * (diffuse_share(p, 0.0f) * PT_INV_PI);
+#endif
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
-        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) +
-                            (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
+        float3 dielectric = diffuse + (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
 #else
-        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) + layer * s;
+        float3 dielectric = diffuse + layer * s;
         float3 metal = fm * s;
 #endif
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
@@ -520,6 +540,15 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float d = spec_d(p, h);
         float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, r));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
+#ifdef ENERGY_LAYERING
+        // The white lobe, compensated to albedo 1, under the layer.
+        if (energy_layered(p)) {
+#ifdef GGX_ENERGY_COMPENSATION
+            s = s / spec_albedo(p, wo);
+#endif
+            return p.base * layer_transmittance(p, wo) * (weight * s) + diffuse;
+        }
+#endif
         // Thin-walled: eta is 1.
         float fd = p.specular * max3(layer_fresnel(p, voh));
         return p.base * ((weight * (1.0f - fd)) * s) + diffuse;
@@ -556,11 +585,16 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+#ifdef ENERGY_LAYERING
+    float3 diffuse = p.base * PT_INV_PI * lambert_scaling(p, wo, wi);
+#else
+    float3 diffuse = p.base * ((1.0f - fd) * PT_INV_PI);
+#endif
 #ifdef GGX_ENERGY_COMPENSATION
-    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
+    float3 dielectric = diffuse + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
     float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / spec_albedo(p, wo) - 1.0f));
 #else
-    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s);
+    float3 dielectric = diffuse + (float3)(fd * s);
     float3 metal = fm * s;
 #endif
     return dielectric * (1.0f - p.metallic) + metal * p.metallic;
@@ -708,6 +742,9 @@ inline bool bsdf_transmits(BsdfParams p) {
 // carries, and what a shadow ray crossing such a surface keeps.
 inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
     float weight = (1.0f - p.metallic) * p.transmission;
+#ifdef ENERGY_LAYERING
+    if (energy_layered(p)) return p.base * layer_transmittance(p, (float3)(0.0f, 0.0f, c)) * weight;
+#endif
     float fd = p.specular * max3(layer_fresnel(p, c));
     return p.base * (weight * (1.0f - fd));
 }
@@ -922,9 +959,14 @@ inline float sheen_probability(BsdfParams p, float cos_o) {
     return clamp(sheen_max3(p.sheen_color) * sheen_albedo(p.sheen_roughness, cos_o), 0.0f, 1.0f);
 }
 
-// The extension's albedo scaling of the base under the sheen.
+// The extension's albedo scaling of the base under the sheen; with
+// ENERGY_LAYERING what the sheen leaves towards wo (Rust twin:
+// sheen_base_scaling).
 inline float sheen_scaling(BsdfParams p, float cos_o, float cos_i) {
     float m = sheen_max3(p.sheen_color);
+#ifdef ENERGY_LAYERING
+    return 1.0f - m * sheen_albedo(p.sheen_roughness, cos_o);
+#endif
     return fmin(1.0f - m * sheen_albedo(p.sheen_roughness, cos_o),
                 1.0f - m * sheen_albedo(p.sheen_roughness, cos_i));
 }

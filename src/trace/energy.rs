@@ -21,6 +21,17 @@
 //! the white Charlie sheen lobe (`sheen_albedo`, `kernels/generated/sheen_energy.h`,
 //! under `HAS_SHEEN`), by which the base under the sheen is scaled
 //! (the extension's albedo-scaling layering).
+//!
+//! The dielectric's layering (`--layering energy`, the kernels'
+//! `ENERGY_LAYERING`): the base under the specular layer is scaled by
+//! what the layer does not reflect, 1 - E_spec(mu), E_spec the layer's
+//! directional albedo. Schlick's Fresnel is linear in F0, so E_spec =
+//! F0 E + (1 - F0) E_w, E the white table above and E_w the albedo of the
+//! lobe weighted by (1 - v.h)^5 (`schlick_albedo`,
+//! `kernels/generated/ggx_schlick_energy.h`); the Lambertian lobes take
+//! Kulla and Conty's reciprocal form, which needs the cosine-weighted
+//! averages of E, E_w and E_w / E (`albedo_averages`,
+//! `kernels/generated/ggx_average_energy.h`).
 
 use std::sync::OnceLock;
 
@@ -164,6 +175,12 @@ pub fn ggx_albedo(alpha: f32, mu: f32) -> f32 {
 /// Computes the table: per entry, the albedo by stratified sampling of the
 /// visible normals (weight G2 / G1), in f64.
 pub fn generate() -> Vec<f32> {
+    generate_weighted(|_| 1.0)
+}
+
+/// The albedo of the GGX lobe weighted by `fresnel(v.h)` over the
+/// `ENERGY_SIZE` square of (roughness, cosine), in f64.
+fn generate_weighted(fresnel: impl Fn(f64) -> f64) -> Vec<f32> {
     let n = ENERGY_SIZE;
     let m = 96;
     let mut out = Vec::with_capacity(n * n);
@@ -178,17 +195,25 @@ pub fn generate() -> Vec<f32> {
                 let t2 = (1.0 - c2).max(0.0) / c2;
                 ((1.0 + a * a * t2).sqrt() - 1.0) * 0.5
             };
-            out.push(vndf_albedo(a, a, wo, m, lambda) as f32);
+            out.push(vndf_albedo(a, a, wo, m, lambda, &fresnel) as f32);
         }
     }
     out
 }
 
-/// The white single-scattering albedo at `wo` of the GGX lobe of alphas
-/// `ax` (along x) and `ay` (along y), `lambda` its Smith Lambda: `m` x `m`
-/// stratified samples of the visible normals, each weighted by G2 / G1 =
-/// (1 + Lambda(wo)) / (1 + Lambda(wo) + Lambda(wi)), in f64.
-fn vndf_albedo(ax: f64, ay: f64, wo: [f64; 3], m: usize, lambda: impl Fn([f64; 3]) -> f64) -> f64 {
+/// The single-scattering albedo at `wo` of the GGX lobe of alphas `ax`
+/// (along x) and `ay` (along y) times `fresnel(wo.h)`, `lambda` its Smith
+/// Lambda: `m` x `m` stratified samples of the visible normals, each
+/// weighted by G2 / G1 = (1 + Lambda(wo)) / (1 + Lambda(wo) + Lambda(wi)),
+/// in f64.
+fn vndf_albedo(
+    ax: f64,
+    ay: f64,
+    wo: [f64; 3],
+    m: usize,
+    lambda: impl Fn([f64; 3]) -> f64,
+    fresnel: &dyn Fn(f64) -> f64,
+) -> f64 {
     let lo = lambda(wo);
     let mut sum = 0.0;
     for k in 0..m {
@@ -203,7 +228,7 @@ fn vndf_albedo(ax: f64, ay: f64, wo: [f64; 3], m: usize, lambda: impl Fn([f64; 3
                 2.0 * oh * h[2] - wo[2],
             ];
             if wi[2] > 0.0 {
-                sum += (1.0 + lo) / (1.0 + lo + lambda(wi));
+                sum += fresnel(oh) * ((1.0 + lo) / (1.0 + lo + lambda(wi)));
             }
         }
     }
@@ -327,7 +352,7 @@ pub fn generate_anisotropic() -> Vec<f32> {
                         let (x, y) = (at * w[0], ab * w[1]);
                         ((1.0 + (x * x + y * y) / (w[2] * w[2])).sqrt() - 1.0) * 0.5
                     };
-                    let e = vndf_albedo(at, ab, wo, m, lambda);
+                    let e = vndf_albedo(at, ab, wo, m, lambda, &|_| 1.0);
                     let rms = ((at * at + ab * ab) * 0.5).sqrt();
                     out.push((e / ggx_albedo(rms as f32, mu as f32) as f64) as f32);
                 }
@@ -393,4 +418,112 @@ fn header(head: &str, table: &[f32]) -> String {
     }
     s.push_str("};\n\n#endif\n");
     s
+}
+
+/// The Schlick-weighted albedo header, as committed.
+const SCHLICK_HEADER: &str = include_str!("../../kernels/generated/ggx_schlick_energy.h");
+
+/// The averages header, as committed.
+const AVERAGE_HEADER: &str = include_str!("../../kernels/generated/ggx_average_energy.h");
+
+/// The Schlick-weighted albedo table parsed from its header (row =
+/// roughness, column = cosine).
+pub fn schlick_table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(SCHLICK_HEADER))
+}
+
+/// The averages table parsed from its header: three rows of
+/// `ENERGY_SIZE` roughness nodes (see `generate_averages`).
+pub fn average_table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(AVERAGE_HEADER))
+}
+
+/// The albedo of the single-scattering GGX lobe weighted by Schlick's
+/// (1 - v.h)^5 at GGX `alpha` and cosine `mu`. Mirrors `schlick_albedo`
+/// in `kernels/trace/layering.h`.
+pub fn schlick_albedo(alpha: f32, mu: f32) -> f32 {
+    lut_bilinear(schlick_table(), alpha.sqrt(), mu)
+}
+
+/// The cosine-weighted averages 2 \int f(mu) mu dmu of E, E_w and E_w / E
+/// at GGX `alpha`, linear between the roughness nodes. Mirrors
+/// `albedo_averages` in `kernels/trace/layering.h`.
+pub fn albedo_averages(alpha: f32) -> [f32; 3] {
+    let t = average_table();
+    let last = (ENERGY_SIZE - 1) as f32;
+    let x = alpha.sqrt().clamp(0.0, 1.0) * last;
+    let i = (x as usize).min(ENERGY_SIZE - 2);
+    let f = x - i as f32;
+    [0, 1, 2].map(|k| {
+        let row = &t[k * ENERGY_SIZE..(k + 1) * ENERGY_SIZE];
+        row[i] * (1.0 - f) + row[i + 1] * f
+    })
+}
+
+/// Computes the Schlick-weighted table as `generate` does the white one.
+pub fn generate_schlick() -> Vec<f32> {
+    generate_weighted(|c| (1.0 - c).clamp(0.0, 1.0).powi(5))
+}
+
+/// Computes the averages from the white table `white` and the Schlick
+/// table `schlick` (each `ENERGY_SIZE` square): per roughness node, the
+/// cosine-weighted averages of the tables as the lookups interpolate
+/// them (linear in the cosine), so that the reciprocal layering integrates
+/// to exactly 1 - E_spec: row 0 E, row 1 E_w, row 2 E_w / E. Midpoint rule
+/// over 64 steps per cell, in f64.
+pub fn generate_averages(white: &[f32], schlick: &[f32]) -> Vec<f32> {
+    let n = ENERGY_SIZE;
+    let steps = 64;
+    let mut rows = vec![vec![0.0f32; n]; 3];
+    for i in 0..n {
+        let (e, w) = (&white[i * n..(i + 1) * n], &schlick[i * n..(i + 1) * n]);
+        let mut sums = [0.0f64; 3];
+        for j in 0..n - 1 {
+            for k in 0..steps {
+                let f = (k as f64 + 0.5) / steps as f64;
+                let mu = (j as f64 + f) / (n - 1) as f64;
+                let ev = e[j] as f64 * (1.0 - f) + e[j + 1] as f64 * f;
+                let wv = w[j] as f64 * (1.0 - f) + w[j + 1] as f64 * f;
+                let dmu = 2.0 * mu / ((n - 1) * steps) as f64;
+                sums[0] += ev * dmu;
+                sums[1] += wv * dmu;
+                sums[2] += wv / ev * dmu;
+            }
+        }
+        for k in 0..3 {
+            rows[k][i] = sums[k] as f32;
+        }
+    }
+    rows.concat()
+}
+
+/// The header text for the Schlick-weighted table.
+pub fn schlick_header_text(table: &[f32]) -> String {
+    header(
+        "// Generated by soupray::trace::energy::generate_schlick (SOUPRAY_REGENERATE=1\n\
+         // cargo test --test render_materials layering_tables): the albedo of the\n\
+         // single-scattering GGX lobe weighted by Schlick's (1 - v.h)^5, row i =\n\
+         // roughness i / 31, column j = cosine j / 31. Do not edit.\n\
+         #ifndef SOUPRAY_GGX_SCHLICK_ENERGY_H\n#define SOUPRAY_GGX_SCHLICK_ENERGY_H\n\n\
+         #pragma OPENCL FP_CONTRACT OFF\n\n\
+         __constant float GGX_SCHLICK_ALBEDO[1024] = {\n",
+        table,
+    )
+}
+
+/// The header text for the averages table.
+pub fn average_header_text(table: &[f32]) -> String {
+    header(
+        "// Generated by soupray::trace::energy::generate_averages (SOUPRAY_REGENERATE=1\n\
+         // cargo test --test render_materials layering_tables): the cosine-weighted\n\
+         // averages 2 int f(mu) mu dmu of the white albedo E (row 0), the\n\
+         // Schlick-weighted albedo E_w (row 1) and E_w / E (row 2), column i =\n\
+         // roughness i / 31. Do not edit.\n\
+         #ifndef SOUPRAY_GGX_AVERAGE_ENERGY_H\n#define SOUPRAY_GGX_AVERAGE_ENERGY_H\n\n\
+         #pragma OPENCL FP_CONTRACT OFF\n\n\
+         __constant float GGX_ALBEDO_AVERAGE[96] = {\n",
+        table,
+    )
 }

@@ -12,6 +12,7 @@ use glam::Vec3;
 use super::super::sampling::{luminance, sample_cosine_hemisphere, INV_PI, PI};
 
 use super::bsdf::*;
+use super::layering::{energy_layered, lambert_scaling, layer_transmittance};
 
 /// The dielectric extensions at one point (`HAS_TRANSMISSION` only).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -316,6 +317,12 @@ pub(super) fn diffuse_transmission_eval(
     if hl == 0.0 {
         return Vec3::ZERO;
     }
+    if energy_layered(p, Some(d)) {
+        let mirror = Vec3::new(wi.x, wi.y, -wi.z);
+        return d.diffuse_transmission_color
+            * lambert_scaling(p, Some(d), wo, mirror)
+            * (weight * INV_PI);
+    }
     let voh = wo.dot(hv / hl).max(0.0);
     let fd = max3(p.specular * layer_fresnel(d, voh));
     d.diffuse_transmission_color * ((weight * (1.0 - fd)) * INV_PI)
@@ -362,16 +369,19 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
             (dd * g2) / ((4.0 * wo.z) * wi.z)
         };
         let layer = p.specular * layer_fresnel(d, voh);
-        let fd = max3(layer);
         let fm = metal_fresnel(p, d, voh);
+        let diffuse = if energy_layered(p, Some(d)) {
+            p.base * lambert_scaling(p, Some(d), wo, wi) * (diffuse_share(d, 0.0) * INV_PI)
+        } else {
+            p.base * (diffuse_share(d, max3(layer)) * INV_PI)
+        };
         if p.energy_compensation {
             let ms = 1.0 / spec_albedo(p, wo) - 1.0;
-            let dielectric = p.base * (diffuse_share(d, fd) * INV_PI)
-                + (layer * s) * (Vec3::ONE + d.f0_color * ms);
+            let dielectric = diffuse + (layer * s) * (Vec3::ONE + d.f0_color * ms);
             let metal = fm * s * (Vec3::ONE + p.base * ms);
             return dielectric * (1.0 - p.metallic) + metal * p.metallic;
         }
-        let dielectric = p.base * (diffuse_share(d, fd) * INV_PI) + layer * s;
+        let dielectric = diffuse + layer * s;
         let metal = fm * s;
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
@@ -393,6 +403,15 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
         let dd = spec_d(p, h);
         let g2 = 1.0 / ((1.0 + spec_lambda(p, wo)) + spec_lambda(p, r));
         let s = (dd * g2) / ((4.0 * wo.z) * r.z);
+        if energy_layered(p, Some(d)) {
+            // The white lobe, compensated to albedo 1, under the layer.
+            let s = if p.energy_compensation {
+                s / spec_albedo(p, wo)
+            } else {
+                s
+            };
+            return p.base * layer_transmittance(p, Some(d), wo) * (weight * s) + diffuse;
+        }
         // Thin-walled: eta is 1.
         let fd = p.specular * max3(layer_fresnel(d, voh));
         return p.base * ((weight * (1.0 - fd)) * s) + diffuse;
