@@ -41,6 +41,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "texture_probe.cl"),
     kernel!("trace" / "bsdf.h"),
     kernel!("trace" / "layering.h"),
+    kernel!("trace" / "bsdf_layers.h"),
     kernel!("trace" / "lights.h"),
     kernel!("trace" / "media.h"),
     kernel!("trace" / "lens.h"),
