@@ -447,3 +447,38 @@ fn energy_layered_coat_and_sheen_match_the_reference() {
         assert!(tally.sampled > n / 2, "{} of {n} sampled", tally.sampled);
     }
 }
+
+#[test]
+fn the_cli_renders_the_energy_layering_unless_asked_for_the_specification() {
+    use serde_json::json;
+    // A white rough plastic square seen head-on (orthographic) under a
+    // white sky: every pixel is the material's albedo at mu = 1.
+    let uri = png_uri([255; 4], [255; 4]);
+    let plastic = json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}
+    });
+    let mean = |img: &soupray::film::Image| {
+        mean_se(&img.rgba.iter().map(|p| p[0] as f64).collect::<Vec<_>>())
+    };
+    let sky = ["--env-color", "1,1,1"];
+    let energy = mean(&render_square(plastic.clone(), &uri, None, &sky));
+    let spec = mean(&render_square(
+        plastic,
+        &uri,
+        None,
+        &["--env-color", "1,1,1", "--layering", "spec"],
+    ));
+    let mut p = white(1.0);
+    p.energy_compensation = true;
+    let want_spec = albedo_rgb(&p, 1.0).x as f64;
+    eprintln!(
+        "white plastic, roughness 1, head-on: default {:.4} ± {:.4}, --layering spec {:.4} ± {:.4} (reference {want_spec:.4})",
+        energy.0, energy.1, spec.0, spec.1
+    );
+    assert!((energy.0 - 1.0).abs() < 0.005, "{energy:?}");
+    assert!(
+        (spec.0 - want_spec).abs() < 0.005,
+        "{spec:?} vs {want_spec}"
+    );
+    assert!((want_spec - 1.0).abs() > 0.01, "{want_spec}");
+}
