@@ -31,6 +31,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("generated" / "sheen_energy.h"),
     kernel!("generated" / "ggx_schlick_energy.h"),
     kernel!("generated" / "ggx_average_energy.h"),
+    kernel!("generated" / "ggx_refraction_energy.h"),
     kernel!("common" / "sampling.h"),
     kernel!("soup" / "soup_eval.cl"),
     kernel!("bvh" / "bvh_common.h"),

@@ -433,6 +433,13 @@ inline float3 metal_fresnel(BsdfParams p, float c) {
 // lobes; the diffuse reflection lobe has the rest.
 inline float3 lobe_probabilities(BsdfParams p, float cos_o) {
     float fo = p.specular * max3(layer_fresnel(p, cos_o));
+#ifdef ENERGY_LAYERING
+    // Inside a volume: the layer's albedo (Rust twin: lobe_probabilities).
+    if (p.eta < 1.0f) {
+        float3 wo = (float3)(sqrt(fmax(1.0f - cos_o * cos_o, 0.0f)), 0.0f, cos_o);
+        fo = fmin(max3(layer_albedo(p, wo)), 1.0f);
+    }
+#endif
     float ws = p.metallic + (1.0f - p.metallic) * fo;
     float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
     float wt = wb * p.transmission;
@@ -519,7 +526,12 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
 #endif
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
+#ifdef ENERGY_LAYERING
+        float3 dielectric =
+            diffuse + (layer * s) * ((float3)(1.0f) + reflection_compensation_f0(p, wo) * ms);
+#else
         float3 dielectric = diffuse + (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
+#endif
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
 #else
         float3 dielectric = diffuse + layer * s;
@@ -556,9 +568,17 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
     float3 h;
     float oh, ih;
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
-    float fd = p.specular * max3(layer_fresnel(p, oh));
     float denom = ih + oh / p.eta;
     float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
+#ifdef ENERGY_LAYERING
+    // The Fresnel-less lobe under the layer.
+    {
+        float ft = fabs((spec_d(p, h) * g2) * ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
+                   (p.eta * p.eta);
+        return p.base * refraction_scaling(p, wo) * (weight * ft) + diffuse;
+    }
+#endif
+    float fd = p.specular * max3(layer_fresnel(p, oh));
     float ft = fabs(((spec_d(p, h) * (1.0f - fd)) * g2) *
                     ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
                (p.eta * p.eta);
@@ -779,8 +799,12 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
                     if (s2t >= 1.0f) return false;
                     float ct = sqrt(1.0f - s2t);
                     wi = -wo / p.eta + (float3)(0.0f, 0.0f, 1.0f) * (c / p.eta - ct);
+#ifdef ENERGY_LAYERING
+                    value = p.base * layer_transmittance(p, wo) * (weight / (p.eta * p.eta));
+#else
                     float fd = p.specular * max3(layer_fresnel(p, c));
                     value = p.base * (weight * ((1.0f - fd) / (p.eta * p.eta)));
+#endif
                 }
                 if (wi.z >= 0.0f) return false;
                 *pdf_out = pt;

@@ -13,21 +13,29 @@
 //!   and Conty's reciprocal (1 - E_spec(mu_o)) (1 - E_spec(mu_i)) /
 //!   (1 - E_spec_avg), which integrates to exactly 1 - E_spec(mu_o);
 //! - the thin-walled transmission lobe by 1 - E_spec(mu_o), the lobe
-//!   itself compensated to albedo 1 with `GGX_ENERGY_COMPENSATION`.
+//!   itself compensated to albedo 1 with `GGX_ENERGY_COMPENSATION`;
+//! - a refracting volume's transmission lobe (Walter's microfacet
+//!   refraction without its Fresnel) by 1 - E_spec(mu_o), from either side,
+//!   compensated to energy albedo 1 (`energy::refraction_albedo`).
 //!
 //! E_spec is per channel (the layer's F0 is KHR_materials_specular's
 //! coloured one), with Turquin's compensation when the lobe has it, from
 //! the white table E and the Schlick-weighted table E_w
-//! (`energy::schlick_albedo`): Schlick's Fresnel is linear in F0. Refracting
-//! volumes seen from inside keep the specification's weighting (their
-//! Fresnel, on the thinner side, is not Schlick's of wo's cosine).
+//! (`energy::schlick_albedo`; from inside a volume, at the thinner side's
+//! cosine, `energy::inside_schlick_albedo`): Schlick's Fresnel is linear in
+//! F0. The Lambertian lobes of a volume seen from inside keep the
+//! specification's weighting (the reciprocal form's averages are tabulated
+//! for the outside only).
 
 // `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use glam::Vec3;
 
-use super::super::energy::{albedo_averages, anisotropic_albedo, ggx_albedo, schlick_albedo};
+use super::super::energy::{
+    albedo_averages, anisotropic_albedo, ggx_albedo, inside_schlick_albedo, refraction_albedo,
+    schlick_albedo,
+};
 use super::bsdf::{spec_isotropic, spec_smooth, BsdfParams};
 use super::dielectric::{layer_fresnel, schlick_weight, Dielectric};
 
@@ -53,12 +61,18 @@ fn rms_alpha(p: &BsdfParams) -> f32 {
 }
 
 /// The white (E) and Schlick-weighted (E_w) albedos of the base's lobe
-/// towards `w` (above the surface). Anisotropic: the isotropic pair at the
+/// towards `w` (above the surface); inside a volume (a relative index
+/// below one) E_w is taken at the thinner side's cosine, 1 under total
+/// internal reflection. Anisotropic: the isotropic pair at the
 /// root-mean-square alpha, with E the anisotropic table's when compensated
 /// (the one Turquin's factor uses) and E_w scaled as E is.
-fn lobe_albedos(p: &BsdfParams, w: Vec3) -> (f32, f32) {
+fn lobe_albedos(p: &BsdfParams, d: Option<&Dielectric>, w: Vec3) -> (f32, f32) {
     let a = rms_alpha(p);
-    let (e, ew) = (ggx_albedo(a, w.z), schlick_albedo(a, w.z));
+    let ew = match d {
+        Some(d) if d.eta < 1.0 => inside_schlick_albedo(a, w.z, d.eta),
+        _ => schlick_albedo(a, w.z),
+    };
+    let e = ggx_albedo(a, w.z);
     if spec_isotropic(p) || !p.energy_compensation {
         return (e, ew);
     }
@@ -83,13 +97,35 @@ pub(super) fn layer_albedo(p: &BsdfParams, d: Option<&Dielectric>, w: Vec3) -> V
         }
         return f;
     }
-    let (e, ew) = lobe_albedos(p, w);
+    let (e, ew) = lobe_albedos(p, d, w);
     let f = (f0 * e + (Vec3::ONE - f0) * ew) * p.specular;
     if p.energy_compensation {
-        f * (Vec3::ONE + f0 * (1.0 / e - 1.0))
+        f * (Vec3::ONE + compensation_f0(d, f0, e, ew) * (1.0 / e - 1.0))
     } else {
         f
     }
+}
+
+/// The F0 of Turquin's factor 1 + F0 (1 / E - 1) for the layer's rough
+/// reflection lobe: its F0, or inside a volume its mean Fresnel F0 + (1 -
+/// F0) E_w / E, which is 1 where total internal reflection makes the lobe
+/// a white mirror (F0 would leave its multiple scattering to the
+/// refraction, which cannot carry it there).
+fn compensation_f0(d: Option<&Dielectric>, f0: Vec3, e: f32, ew: f32) -> Vec3 {
+    match d {
+        Some(d) if d.eta < 1.0 => f0 + (Vec3::ONE - f0) * (ew / e),
+        _ => f0,
+    }
+}
+
+/// `compensation_f0` of the rough reflection lobe towards wo, with the
+/// energy layering: what `dielectric_eval` compensates it with.
+pub(super) fn reflection_compensation_f0(p: &BsdfParams, d: &Dielectric, wo: Vec3) -> Vec3 {
+    if !p.energy_layering || d.eta >= 1.0 || spec_smooth(p) {
+        return d.f0_color;
+    }
+    let (e, ew) = lobe_albedos(p, Some(d), wo);
+    compensation_f0(Some(d), d.f0_color, e, ew)
 }
 
 /// The cosine-weighted average of `layer_albedo` over the hemisphere.
@@ -129,6 +165,21 @@ pub(super) fn lambert_scaling(
         ratio(keep_o.y * keep_i.y, rest.y),
         ratio(keep_o.z * keep_i.z, rest.z),
     )
+}
+
+/// The scaling of a refracting volume's transmission lobe (the
+/// Fresnel-less microfacet refraction, on either side): what the layer
+/// leaves it towards wo, 1 - E_spec(wo), over the lobe's own energy albedo
+/// when compensated (at most 100-fold, where total internal reflection
+/// leaves the lobe almost nothing), so that reflection and refraction
+/// together return all they receive.
+pub(super) fn refraction_scaling(p: &BsdfParams, d: &Dielectric, wo: Vec3) -> Vec3 {
+    let keep = layer_transmittance(p, Some(d), wo);
+    if p.energy_compensation && !spec_smooth(p) {
+        keep / refraction_albedo(rms_alpha(p), wo.z, d.eta).max(0.01)
+    } else {
+        keep
+    }
 }
 
 /// What the layer leaves the base towards wo: 1 - E_spec(wo).
