@@ -36,7 +36,9 @@ use soupray::film::{Aovs, Image};
 use soupray::scene::{LoadOptions, Scene};
 use soupray::soup::device::DeviceSoup;
 use soupray::soup::Soup;
-use soupray::trace::render::{Environment, FrameInput, PathTracer, RenderSettings, Traversal};
+use soupray::trace::render::{
+    Environment, FrameInput, Layering, PathTracer, RenderSettings, Traversal,
+};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -255,6 +257,7 @@ fn settings(spp: u32, seed: u64) -> RenderSettings {
         environment: Environment::Color([0.2, 0.25, 0.3]),
         aovs: Aovs::NONE,
         energy_compensation: false,
+        layering: Layering::Spec,
         backface_culling: false,
         ..RenderSettings::default()
     }

@@ -37,7 +37,8 @@ use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
 use soupray::trace::lens::Lens;
 use soupray::trace::render::{
-    film_defines, motion_defines, pathtrace_defines, FilmFeatures, Lobes, Traversal, LOBES,
+    film_defines, layering_defines, motion_defines, pathtrace_defines, FilmFeatures, Layering,
+    Lobes, Traversal, LOBES,
 };
 use soupray::trace::sampling::Sampler;
 use std::path::{Path, PathBuf};
@@ -225,6 +226,14 @@ fn variants() -> Vec<Variant> {
                                 .map(|(i, _)| i)
                                 .collect::<Lobes>(),
                         );
+                        // The energy layering with compensation (the default),
+                        // the specification's without.
+                        let layering = if compensation {
+                            Layering::Energy
+                        } else {
+                            Layering::Spec
+                        };
+                        let defines = layering_defines(defines, layering);
                         v.push(Variant {
                             entry: "pathtrace.cl",
                             defines: defines.clone(),
@@ -379,6 +388,7 @@ fn variants() -> Vec<Variant> {
             .chain([
                 ("HAS_TRANSMISSION", "1".to_owned()),
                 ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
+                ("ENERGY_LAYERING", "1".to_owned()),
             ])
             .collect(),
         codegen: true,

@@ -32,6 +32,11 @@
 // E the white single-scattering albedo tabulated in ggx_energy.h
 // (src/trace/energy.rs), so a white rough metal loses no energy.
 //
+// With ENERGY_LAYERING (the default `--layering energy`), the dielectric's
+// base (diffuse, diffuse and thin-walled transmission) is scaled by what
+// the specular layer does not reflect, and the base under the sheen by what
+// the sheen does not (layering.h), instead of fresnel_mix's 1 - F(v.h).
+//
 // Effectively smooth lobes (alpha at or below SMOOTH_GGX_ALPHA, as pbrt-v4's
 // EffectivelySmooth) are delta lobes: bsdf_eval and bsdf_pdf leave them out
 // (light sampling cannot hit them; evaluated as GGX at alpha 1e-3 they gave
@@ -56,11 +61,11 @@
     !defined(HAS_TRANSMISSION)
 #define HAS_TRANSMISSION
 #endif
-#ifdef GGX_ENERGY_COMPENSATION
+#if defined(GGX_ENERGY_COMPENSATION) || defined(ENERGY_LAYERING)
 #include "ggx_energy.h"
-#ifdef HAS_ANISOTROPY
-#include "ggx_aniso_energy.h"
 #endif
+#if defined(GGX_ENERGY_COMPENSATION) && defined(HAS_ANISOTROPY)
+#include "ggx_aniso_energy.h"
 #endif
 #ifdef HAS_SHEEN
 #include "sheen_energy.h"
@@ -150,7 +155,7 @@ inline float schlick_weight(float c) {
     return (m2 * m2) * m;
 }
 
-#if defined(GGX_ENERGY_COMPENSATION) || defined(HAS_SHEEN)
+#if defined(GGX_ENERGY_COMPENSATION) || defined(HAS_SHEEN) || defined(ENERGY_LAYERING)
 // Bilinear lookup in a 32 x 32 table (row x, column y, both in 0..1);
 // mirrors trace::energy::lut_bilinear.
 inline float lut_bilinear(__constant const float* t, float x01, float y01) {
@@ -169,7 +174,7 @@ inline float lut_bilinear(__constant const float* t, float x01, float y01) {
 }
 #endif
 
-#ifdef GGX_ENERGY_COMPENSATION
+#if defined(GGX_ENERGY_COMPENSATION) || defined(ENERGY_LAYERING)
 // The white single-scattering albedo E(alpha, mu), bilinear in (roughness,
 // cosine); mirrors trace::energy::ggx_albedo.
 inline float ggx_albedo(float a, float mu) { return lut_bilinear(GGX_ALBEDO, sqrt(a), mu); }
@@ -416,11 +421,25 @@ inline float3 metal_fresnel(BsdfParams p, float c) {
 #endif
 }
 
+#endif
+
+// Included here, between the dielectric's Fresnel terms and its lobes, for
+// both (the sources are assembled with each header inlined once).
+#include "layering.h"
+
+#ifdef HAS_TRANSMISSION
 // The probabilities of the specular reflection (x), specular transmission
 // (y) and diffuse transmission (z, 0 without HAS_DIFFUSE_TRANSMISSION)
 // lobes; the diffuse reflection lobe has the rest.
 inline float3 lobe_probabilities(BsdfParams p, float cos_o) {
     float fo = p.specular * max3(layer_fresnel(p, cos_o));
+#ifdef ENERGY_LAYERING
+    // Inside a volume: the layer's albedo (Rust twin: lobe_probabilities).
+    if (p.eta < 1.0f) {
+        float3 wo = (float3)(sqrt(fmax(1.0f - cos_o * cos_o, 0.0f)), 0.0f, cos_o);
+        fo = fmin(max3(layer_albedo(p, wo)), 1.0f);
+    }
+#endif
     float ws = p.metallic + (1.0f - p.metallic) * fo;
     float wb = ((1.0f - p.metallic) * luminance(p.base)) * (1.0f - fo);
     float wt = wb * p.transmission;
@@ -456,6 +475,11 @@ inline float3 diffuse_transmission_eval(BsdfParams p, float3 wo, float3 wi) {
     float3 hv = wo + (float3)(wi.x, wi.y, -wi.z);
     float hl = length(hv);
     if (hl == 0.0f) return (float3)(0.0f);
+#ifdef ENERGY_LAYERING
+    if (energy_layered(p))
+        return p.diffuse_transmission_color *
+               lambert_scaling(p, wo, (float3)(wi.x, wi.y, -wi.z)) * (weight * PT_INV_PI);
+#endif
     float voh = fmax(dot(wo, hv / hl), 0.0f);
     float fd = max3(p.specular * layer_fresnel(p, voh));
     return p.diffuse_transmission_color * ((weight * (1.0f - fd)) * PT_INV_PI);
@@ -494,15 +518,23 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
         float s = spec_smooth(p) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
         float3 layer = p.specular * layer_fresnel(p, voh);
-        float fd = max3(layer);
         float3 fm = metal_fresnel(p, voh);
+        float3 diffuse = p.base * (diffuse_share(p, max3(layer)) * PT_INV_PI);
+#ifdef ENERGY_LAYERING
+        if (energy_layered(p))
+            diffuse = p.base * lambert_scaling(p, wo, wi) * (diffuse_share(p, 0.0f) * PT_INV_PI);
+#endif
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
-        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) +
-                            (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
+#ifdef ENERGY_LAYERING
+        float3 dielectric =
+            diffuse + (layer * s) * ((float3)(1.0f) + reflection_compensation_f0(p, wo) * ms);
+#else
+        float3 dielectric = diffuse + (layer * s) * ((float3)(1.0f) + p.f0_color * ms);
+#endif
         float3 metal = fm * s * ((float3)(1.0f) + p.base * ms);
 #else
-        float3 dielectric = p.base * (diffuse_share(p, fd) * PT_INV_PI) + layer * s;
+        float3 dielectric = diffuse + layer * s;
         float3 metal = fm * s;
 #endif
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
@@ -520,6 +552,15 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float d = spec_d(p, h);
         float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, r));
         float s = (d * g2) / ((4.0f * wo.z) * r.z);
+#ifdef ENERGY_LAYERING
+        // The white lobe, compensated to albedo 1, under the layer.
+        if (energy_layered(p)) {
+#ifdef GGX_ENERGY_COMPENSATION
+            s = s / spec_albedo(p, wo);
+#endif
+            return p.base * layer_transmittance(p, wo) * (weight * s) + diffuse;
+        }
+#endif
         // Thin-walled: eta is 1.
         float fd = p.specular * max3(layer_fresnel(p, voh));
         return p.base * ((weight * (1.0f - fd)) * s) + diffuse;
@@ -527,9 +568,17 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
     float3 h;
     float oh, ih;
     if (!refraction_half(p.eta, wo, wi, &h, &oh, &ih)) return diffuse;
-    float fd = p.specular * max3(layer_fresnel(p, oh));
     float denom = ih + oh / p.eta;
     float g2 = 1.0f / ((1.0f + spec_lambda(p, wo)) + spec_lambda(p, wi));
+#ifdef ENERGY_LAYERING
+    // The Fresnel-less lobe under the layer.
+    {
+        float ft = fabs((spec_d(p, h) * g2) * ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
+                   (p.eta * p.eta);
+        return p.base * refraction_scaling(p, wo) * (weight * ft) + diffuse;
+    }
+#endif
+    float fd = p.specular * max3(layer_fresnel(p, oh));
     float ft = fabs(((spec_d(p, h) * (1.0f - fd)) * g2) *
                     ((ih * oh) / (((denom * denom) * wi.z) * wo.z))) /
                (p.eta * p.eta);
@@ -556,11 +605,16 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
+#ifdef ENERGY_LAYERING
+    float3 diffuse = p.base * PT_INV_PI * lambert_scaling(p, wo, wi);
+#else
+    float3 diffuse = p.base * ((1.0f - fd) * PT_INV_PI);
+#endif
 #ifdef GGX_ENERGY_COMPENSATION
-    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
+    float3 dielectric = diffuse + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
     float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / spec_albedo(p, wo) - 1.0f));
 #else
-    float3 dielectric = p.base * ((1.0f - fd) * PT_INV_PI) + (float3)(fd * s);
+    float3 dielectric = diffuse + (float3)(fd * s);
     float3 metal = fm * s;
 #endif
     return dielectric * (1.0f - p.metallic) + metal * p.metallic;
@@ -708,6 +762,9 @@ inline bool bsdf_transmits(BsdfParams p) {
 // carries, and what a shadow ray crossing such a surface keeps.
 inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
     float weight = (1.0f - p.metallic) * p.transmission;
+#ifdef ENERGY_LAYERING
+    if (energy_layered(p)) return p.base * layer_transmittance(p, (float3)(0.0f, 0.0f, c)) * weight;
+#endif
     float fd = p.specular * max3(layer_fresnel(p, c));
     return p.base * (weight * (1.0f - fd));
 }
@@ -742,8 +799,12 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
                     if (s2t >= 1.0f) return false;
                     float ct = sqrt(1.0f - s2t);
                     wi = -wo / p.eta + (float3)(0.0f, 0.0f, 1.0f) * (c / p.eta - ct);
+#ifdef ENERGY_LAYERING
+                    value = p.base * layer_transmittance(p, wo) * (weight / (p.eta * p.eta));
+#else
                     float fd = p.specular * max3(layer_fresnel(p, c));
                     value = p.base * (weight * ((1.0f - fd) / (p.eta * p.eta)));
+#endif
                 }
                 if (wi.z >= 0.0f) return false;
                 *pdf_out = pt;
@@ -814,254 +875,8 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
     return true;
 }
 
-#ifdef HAS_LAYERS
-// The clear coat and sheen layers over the base (KHR_materials_clearcoat,
-// KHR_materials_sheen), mirroring trace::material's layered_eval, _pdf and
-// _sample: f = (1 - cc Fc(n.v)) (sheen + base * scaling) + cc Fc(n.v) coat.
-// A coat or sheen of weight 0 leaves the base's value unchanged.
-
-#ifdef HAS_CLEARCOAT
-// Schlick's Fresnel of the ior-1.5 coat at the view cosine (fresnel_coat).
-inline float coat_weight(BsdfParams p, float cos_o) {
-    return clamp(p.clearcoat * (0.04f + 0.96f * schlick_weight(cos_o)), 0.0f, 1.0f);
-}
-
-// The coat's frame (Rust twin: coat_frame, to_coat, from_coat): false
-// when the coat's normal is the base's, and vectors are used as they are.
-inline bool coat_frame(BsdfParams p, float3* t, float3* b) {
-    if (p.coat_n.x == 0.0f && p.coat_n.y == 0.0f) return false;
-    onb(p.coat_n, t, b);
-    return true;
-}
-
-inline float3 to_coat(BsdfParams p, bool tilted, float3 t, float3 b, float3 v) {
-    return tilted ? to_local(v, t, b, p.coat_n) : v;
-}
-
-inline float3 from_coat(BsdfParams p, bool tilted, float3 t, float3 b, float3 v) {
-    return tilted ? (t * v.x + b * v.y) + p.coat_n * v.z : v;
-}
-
-// The view's cosine with the coat's normal.
-inline float coat_cos(BsdfParams p, float3 wo) {
-    float3 t, b;
-    bool tilted = coat_frame(p, &t, &b);
-    return to_coat(p, tilted, t, b, wo).z;
-}
-
-// The coat's white GGX lobe about its own normal (0 when smooth: a delta
-// lobe), compensated to albedo 1 with GGX_ENERGY_COMPENSATION, and scaled
-// by (coat n.l) / (base n.l) when tilted (see coat_lobe in
-// trace::material).
-inline float coat_lobe(BsdfParams p, float3 wo, float3 wi) {
-    if (!(wi.z > 0.0f) || ggx_smooth(p.coat_alpha)) return 0.0f;
-    float3 t, b;
-    bool tilted = coat_frame(p, &t, &b);
-    float3 wi_c = to_coat(p, tilted, t, b, wi);
-    wo = to_coat(p, tilted, t, b, wo);
-    if (!(wo.z > 0.0f) || !(wi_c.z > 0.0f)) return 0.0f;
-    float3 hv = wo + wi_c;
-    float hl = length(hv);
-    if (hl == 0.0f) return 0.0f;
-    float3 h = hv / hl;
-    float a = p.coat_alpha;
-    float g2 = 1.0f / ((1.0f + ggx_lambda(a, wo.z)) + ggx_lambda(a, wi_c.z));
-    float s = (ggx_d(a, h.z) * g2) / ((4.0f * wo.z) * wi_c.z);
-#ifdef GGX_ENERGY_COMPENSATION
-    s = s / ggx_albedo(a, wo.z);
-#endif
-    return tilted ? s * (wi_c.z / wi.z) : s;
-}
-
-inline float coat_smooth_reflectance(BsdfParams p, float cos_o) {
-    float w = coat_weight(p, cos_o);
-#ifdef GGX_ENERGY_COMPENSATION
-    return w / ggx_albedo(p.coat_alpha, cos_o);
-#else
-    return w;
-#endif
-}
-#endif
-
-#ifdef HAS_SHEEN
-#define SHEEN_MIN_ROUGHNESS 0.07f
-
-inline float sheen_albedo(float r, float mu) { return lut_bilinear(SHEEN_ALBEDO, r, mu); }
-
-inline float sheen_l(float x, float a) {
-    float t = (1.0f - a) * (1.0f - a);
-    float ma = 21.5473f + (25.3245f - 21.5473f) * t;
-    float mb = 3.82987f + (3.32435f - 3.82987f) * t;
-    float mc = 0.19823f + (0.16801f - 0.19823f) * t;
-    float md = -1.9776f + (-1.27393f - -1.9776f) * t;
-    float me = -4.32054f + (-4.85967f - -4.32054f) * t;
-    return (ma / (1.0f + mb * pow(x, mc)) + md * x) + me;
-}
-
-inline float sheen_lambda(float c, float a) {
-    return c < 0.5f ? exp(sheen_l(c, a)) : exp(2.0f * sheen_l(0.5f, a) - sheen_l(1.0f - c, a));
-}
-
-// The white Charlie sheen lobe D V (Estevez and Kulla 2017, the
-// extension's fits), 0 below the surface.
-inline float sheen_lobe(float roughness, float3 wo, float3 wi) {
-    if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
-    float3 hv = wo + wi;
-    float hl = length(hv);
-    if (hl == 0.0f) return 0.0f;
-    float ch = hv.z / hl;
-    float a = fmax(roughness, SHEEN_MIN_ROUGHNESS);
-    float s2 = fmax(1.0f - ch * ch, 0.0f);
-    float d = ((2.0f + 1.0f / a) * pow(s2, 0.5f / a)) * (0.5f * PT_INV_PI);
-    return d / (((1.0f + sheen_lambda(wo.z, a)) + sheen_lambda(wi.z, a)) * ((4.0f * wo.z) * wi.z));
-}
-
-inline float sheen_max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
-
-inline float sheen_probability(BsdfParams p, float cos_o) {
-    return clamp(sheen_max3(p.sheen_color) * sheen_albedo(p.sheen_roughness, cos_o), 0.0f, 1.0f);
-}
-
-// The extension's albedo scaling of the base under the sheen.
-inline float sheen_scaling(BsdfParams p, float cos_o, float cos_i) {
-    float m = sheen_max3(p.sheen_color);
-    return fmin(1.0f - m * sheen_albedo(p.sheen_roughness, cos_o),
-                1.0f - m * sheen_albedo(p.sheen_roughness, cos_i));
-}
-#endif
-
-inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
-    if (!(wo.z > 0.0f)) return (float3)(0.0f);
-    float3 under = base_bsdf_eval(p, wo, wi);
-#ifdef HAS_SHEEN
-    under = under * sheen_scaling(p, wo.z, fabs(wi.z)) +
-            p.sheen_color * sheen_lobe(p.sheen_roughness, wo, wi);
-#endif
-#ifdef HAS_CLEARCOAT
-    float wc = coat_weight(p, coat_cos(p, wo));
-    return under * (1.0f - wc) + (float3)(wc * coat_lobe(p, wo, wi));
-#else
-    return under;
-#endif
-}
-
-inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
-    if (!(wo.z > 0.0f)) return 0.0f;
-    float pdf = base_bsdf_pdf(p, wo, wi);
-#ifdef HAS_SHEEN
-    float psh = sheen_probability(p, wo.z);
-    float sheen = wi.z > 0.0f ? 0.5f * PT_INV_PI : 0.0f;
-    pdf = psh * sheen + (1.0f - psh) * pdf;
-#endif
-#ifdef HAS_CLEARCOAT
-    float3 t, b;
-    bool tilted = coat_frame(p, &t, &b);
-    float3 wo_c = to_coat(p, tilted, t, b, wo);
-    float3 wi_c = to_coat(p, tilted, t, b, wi);
-    float pc = coat_weight(p, wo_c.z);
-    float coat = wi.z > 0.0f && wi_c.z > 0.0f && pc > 0.0f && !ggx_smooth(p.coat_alpha)
-                     ? ggx_vndf_pdf(p.coat_alpha, wo_c, wi_c) : 0.0f;
-    pdf = (1.0f - pc) * pdf + pc * coat;
-#endif
-    return pdf;
-}
-
-inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
-    *delta_out = false;
-    if (!(wo.z > 0.0f)) return false;
-    float3 wi;
-    float u = lobe_u;
-    float keep = 1.0f; // the probability of reaching the base's sampler
-    float under_weight = 1.0f; // what scales the base's delta lobes
-    bool chosen = false;
-#ifdef HAS_CLEARCOAT
-    float3 ct, cb;
-    bool tilted = coat_frame(p, &ct, &cb);
-    float3 wo_c = to_coat(p, tilted, ct, cb, wo);
-    float pc = coat_weight(p, wo_c.z);
-    if (u < pc) {
-        if (!(wo_c.z > 0.0f)) return false;
-        if (ggx_smooth(p.coat_alpha)) {
-            wi = from_coat(p, tilted, ct, cb, (float3)(-wo_c.x, -wo_c.y, wo_c.z));
-            if (!(wi.z > 0.0f)) return false;
-            *wi_out = wi;
-            *f_out = (float3)(coat_smooth_reflectance(p, wo_c.z) / wi.z);
-            *pdf_out = pc;
-            *delta_out = true;
-            return true;
-        }
-        float3 h = ggx_sample_vndf(p.coat_alpha, p.coat_alpha, wo_c, u1, u2);
-        float3 wi_c = h * (2.0f * dot(wo_c, h)) - wo_c;
-        // Below the coat (its pdf there is 0) or below the surface.
-        wi = from_coat(p, tilted, ct, cb, wi_c);
-        if (!(wi_c.z > 0.0f) || !(wi.z > 0.0f)) return false;
-        chosen = true;
-    } else {
-        u = (u - pc) / (1.0f - pc);
-        keep = 1.0f - pc;
-        under_weight = 1.0f - pc;
-    }
-#endif
-#ifdef HAS_SHEEN
-    float psh = sheen_probability(p, wo.z);
-    if (!chosen) {
-        if (u < psh) {
-            wi = sample_uniform_hemisphere(u1, u2);
-            chosen = true;
-        } else {
-            u = (u - psh) / (1.0f - psh);
-            keep = keep * (1.0f - psh);
-        }
-    }
-#endif
-    if (!chosen) {
-        float3 bf;
-        float bpdf;
-        bool bdelta;
-        if (!base_bsdf_sample(p, wo, u, u1, u2, &wi, &bf, &bpdf, &bdelta)) return false;
-        if (bdelta) {
-#ifdef HAS_SHEEN
-            float scale = sheen_scaling(p, wo.z, fabs(wi.z)) * under_weight;
-#else
-            float scale = under_weight;
-#endif
-            *wi_out = wi;
-            *f_out = bf * scale;
-            *pdf_out = bpdf * keep;
-            *delta_out = true;
-            return true;
-        }
-    }
-    if (wi.z == 0.0f) return false;
-    float pdf = bsdf_pdf(p, wo, wi);
-    if (!(pdf > 0.0f)) return false;
-    *wi_out = wi;
-    *f_out = bsdf_eval(p, wo, wi);
-    *pdf_out = pdf;
-    return true;
-}
-
-// True when every lobe is a delta lobe (see base_only_delta).
-inline bool bsdf_only_delta(BsdfParams p) {
-#ifdef HAS_CLEARCOAT
-    if (p.clearcoat > 0.0f && !ggx_smooth(p.coat_alpha)) return false;
-#endif
-#ifdef HAS_SHEEN
-    if (sheen_max3(p.sheen_color) > 0.0f) return false;
-#endif
-    return base_only_delta(p);
-}
-#else
-// Without layers the BSDF is the base.
-inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_eval(p, wo, wi); }
-inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_pdf(p, wo, wi); }
-inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
-    return base_bsdf_sample(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out);
-}
-inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
-#endif
+// The coat and sheen layers over the base, and the entry points.
+#include "bsdf_layers.h"
 
 #ifdef HAS_TRANSMISSION
 // What a shadow ray crossing a smooth thin-walled surface keeps: the

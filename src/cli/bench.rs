@@ -34,7 +34,7 @@ use crate::pipeline::{denoise_beauty, replace_beauty, set_frame_materials};
 use crate::scene::{LoadOptions, Scene};
 use crate::soup::device::DeviceSoup;
 use crate::trace::render::{
-    Adaptive, Environment, FrameInput, PathTracer, RenderSettings, Traversal,
+    Adaptive, Environment, FrameInput, Layering, PathTracer, RenderSettings, Traversal,
 };
 use crate::trace::sampling::Sampler;
 use crate::UsageError;
@@ -247,6 +247,7 @@ fn settings(args: &BenchArgs, spp: u32, c: &Config) -> RenderSettings {
             ..Aovs::default()
         },
         energy_compensation: true,
+        layering: Layering::Energy,
         backface_culling: false,
         ..RenderSettings::default()
     }

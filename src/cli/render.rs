@@ -255,6 +255,21 @@ pub struct RenderArgs {
     /// specification's Appendix B (darker rough metals).
     #[arg(long, help_heading = "Image")]
     pub no_energy_compensation: bool,
+    /// How a dielectric's base (its diffuse and transmission) lies under its
+    /// specular layer: `energy` (the default) scales it by what the layer
+    /// does not reflect, the layer's tabulated albedo, so a white
+    /// dielectric under a white sky returns all it receives at every
+    /// roughness (and a sheen leaves its base what it does not reflect);
+    /// `spec` is the glTF specification's `fresnel_mix` as written (1 - F
+    /// per microfacet, which loses up to 3% on rough white plastic), for
+    /// comparisons with other glTF renderers. docs/materials.md
+    #[arg(
+        long,
+        default_value = "energy",
+        value_name = "KIND",
+        help_heading = "Image"
+    )]
+    pub layering: String,
     /// Let rays pass through the back faces of single-sided materials
     /// (glTF's doubleSided false), as a rasterizer such as the Khronos
     /// Sample Viewer culls them. By default back faces are shaded as front

@@ -21,6 +21,17 @@
 //! the white Charlie sheen lobe (`sheen_albedo`, `kernels/generated/sheen_energy.h`,
 //! under `HAS_SHEEN`), by which the base under the sheen is scaled
 //! (the extension's albedo-scaling layering).
+//!
+//! The dielectric's layering (`--layering energy`, the kernels'
+//! `ENERGY_LAYERING`): the base under the specular layer is scaled by
+//! what the layer does not reflect, 1 - E_spec(mu), E_spec the layer's
+//! directional albedo. Schlick's Fresnel is linear in F0, so E_spec =
+//! F0 E + (1 - F0) E_w, E the white table above and E_w the albedo of the
+//! lobe weighted by (1 - v.h)^5 (`schlick_albedo`,
+//! `kernels/generated/ggx_schlick_energy.h`); the Lambertian lobes take
+//! Kulla and Conty's reciprocal form, which needs the cosine-weighted
+//! averages of E, E_w and E_w / E (`albedo_averages`,
+//! `kernels/generated/ggx_average_energy.h`).
 
 use std::sync::OnceLock;
 
@@ -164,6 +175,12 @@ pub fn ggx_albedo(alpha: f32, mu: f32) -> f32 {
 /// Computes the table: per entry, the albedo by stratified sampling of the
 /// visible normals (weight G2 / G1), in f64.
 pub fn generate() -> Vec<f32> {
+    generate_weighted(|_| 1.0)
+}
+
+/// The albedo of the GGX lobe weighted by `fresnel(v.h)` over the
+/// `ENERGY_SIZE` square of (roughness, cosine), in f64.
+fn generate_weighted(fresnel: impl Fn(f64) -> f64) -> Vec<f32> {
     let n = ENERGY_SIZE;
     let m = 96;
     let mut out = Vec::with_capacity(n * n);
@@ -178,17 +195,25 @@ pub fn generate() -> Vec<f32> {
                 let t2 = (1.0 - c2).max(0.0) / c2;
                 ((1.0 + a * a * t2).sqrt() - 1.0) * 0.5
             };
-            out.push(vndf_albedo(a, a, wo, m, lambda) as f32);
+            out.push(vndf_albedo(a, a, wo, m, lambda, &fresnel) as f32);
         }
     }
     out
 }
 
-/// The white single-scattering albedo at `wo` of the GGX lobe of alphas
-/// `ax` (along x) and `ay` (along y), `lambda` its Smith Lambda: `m` x `m`
-/// stratified samples of the visible normals, each weighted by G2 / G1 =
-/// (1 + Lambda(wo)) / (1 + Lambda(wo) + Lambda(wi)), in f64.
-fn vndf_albedo(ax: f64, ay: f64, wo: [f64; 3], m: usize, lambda: impl Fn([f64; 3]) -> f64) -> f64 {
+/// The single-scattering albedo at `wo` of the GGX lobe of alphas `ax`
+/// (along x) and `ay` (along y) times `fresnel(wo.h)`, `lambda` its Smith
+/// Lambda: `m` x `m` stratified samples of the visible normals, each
+/// weighted by G2 / G1 = (1 + Lambda(wo)) / (1 + Lambda(wo) + Lambda(wi)),
+/// in f64.
+fn vndf_albedo(
+    ax: f64,
+    ay: f64,
+    wo: [f64; 3],
+    m: usize,
+    lambda: impl Fn([f64; 3]) -> f64,
+    fresnel: &dyn Fn(f64) -> f64,
+) -> f64 {
     let lo = lambda(wo);
     let mut sum = 0.0;
     for k in 0..m {
@@ -203,7 +228,7 @@ fn vndf_albedo(ax: f64, ay: f64, wo: [f64; 3], m: usize, lambda: impl Fn([f64; 3
                 2.0 * oh * h[2] - wo[2],
             ];
             if wi[2] > 0.0 {
-                sum += (1.0 + lo) / (1.0 + lo + lambda(wi));
+                sum += fresnel(oh) * ((1.0 + lo) / (1.0 + lo + lambda(wi)));
             }
         }
     }
@@ -327,7 +352,7 @@ pub fn generate_anisotropic() -> Vec<f32> {
                         let (x, y) = (at * w[0], ab * w[1]);
                         ((1.0 + (x * x + y * y) / (w[2] * w[2])).sqrt() - 1.0) * 0.5
                     };
-                    let e = vndf_albedo(at, ab, wo, m, lambda);
+                    let e = vndf_albedo(at, ab, wo, m, lambda, &|_| 1.0);
                     let rms = ((at * at + ab * ab) * 0.5).sqrt();
                     out.push((e / ggx_albedo(rms as f32, mu as f32) as f64) as f32);
                 }
@@ -393,4 +418,278 @@ fn header(head: &str, table: &[f32]) -> String {
     }
     s.push_str("};\n\n#endif\n");
     s
+}
+
+/// The Schlick-weighted albedo header, as committed.
+const SCHLICK_HEADER: &str = include_str!("../../kernels/generated/ggx_schlick_energy.h");
+
+/// The averages header, as committed.
+const AVERAGE_HEADER: &str = include_str!("../../kernels/generated/ggx_average_energy.h");
+
+/// The Schlick-weighted albedo table parsed from its header (row =
+/// roughness, column = cosine).
+pub fn schlick_table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(SCHLICK_HEADER))
+}
+
+/// The averages table parsed from its header: three rows of
+/// `ENERGY_SIZE` roughness nodes (see `generate_averages`).
+pub fn average_table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(AVERAGE_HEADER))
+}
+
+/// The albedo of the single-scattering GGX lobe weighted by Schlick's
+/// (1 - v.h)^5 at GGX `alpha` and cosine `mu`. Mirrors `schlick_albedo`
+/// in `kernels/trace/layering.h`.
+pub fn schlick_albedo(alpha: f32, mu: f32) -> f32 {
+    lut_bilinear(schlick_table(), alpha.sqrt(), mu)
+}
+
+/// The cosine-weighted averages 2 \int f(mu) mu dmu of E, E_w and E_w / E
+/// at GGX `alpha`, linear between the roughness nodes. Mirrors
+/// `albedo_averages` in `kernels/trace/layering.h`.
+pub fn albedo_averages(alpha: f32) -> [f32; 3] {
+    let t = average_table();
+    let last = (ENERGY_SIZE - 1) as f32;
+    let x = alpha.sqrt().clamp(0.0, 1.0) * last;
+    let i = (x as usize).min(ENERGY_SIZE - 2);
+    let f = x - i as f32;
+    [0, 1, 2].map(|k| {
+        let row = &t[k * ENERGY_SIZE..(k + 1) * ENERGY_SIZE];
+        row[i] * (1.0 - f) + row[i + 1] * f
+    })
+}
+
+/// Computes the Schlick-weighted table as `generate` does the white one.
+pub fn generate_schlick() -> Vec<f32> {
+    generate_weighted(|c| (1.0 - c).clamp(0.0, 1.0).powi(5))
+}
+
+/// Computes the averages from the white table `white` and the Schlick
+/// table `schlick` (each `ENERGY_SIZE` square): per roughness node, the
+/// cosine-weighted averages of the tables as the lookups interpolate
+/// them (linear in the cosine), so that the reciprocal layering integrates
+/// to exactly 1 - E_spec: row 0 E, row 1 E_w, row 2 E_w / E. Midpoint rule
+/// over 64 steps per cell, in f64.
+pub fn generate_averages(white: &[f32], schlick: &[f32]) -> Vec<f32> {
+    let n = ENERGY_SIZE;
+    let steps = 64;
+    let mut rows = vec![vec![0.0f32; n]; 3];
+    for i in 0..n {
+        let (e, w) = (&white[i * n..(i + 1) * n], &schlick[i * n..(i + 1) * n]);
+        let mut sums = [0.0f64; 3];
+        for j in 0..n - 1 {
+            for k in 0..steps {
+                let f = (k as f64 + 0.5) / steps as f64;
+                let mu = (j as f64 + f) / (n - 1) as f64;
+                let ev = e[j] as f64 * (1.0 - f) + e[j + 1] as f64 * f;
+                let wv = w[j] as f64 * (1.0 - f) + w[j + 1] as f64 * f;
+                let dmu = 2.0 * mu / ((n - 1) * steps) as f64;
+                sums[0] += ev * dmu;
+                sums[1] += wv * dmu;
+                sums[2] += wv / ev * dmu;
+            }
+        }
+        for k in 0..3 {
+            rows[k][i] = sums[k] as f32;
+        }
+    }
+    rows.concat()
+}
+
+/// The header text for the Schlick-weighted table.
+pub fn schlick_header_text(table: &[f32]) -> String {
+    header(
+        "// Generated by soupray::trace::energy::generate_schlick (SOUPRAY_REGENERATE=1\n\
+         // cargo test --test render_materials layering_tables): the albedo of the\n\
+         // single-scattering GGX lobe weighted by Schlick's (1 - v.h)^5, row i =\n\
+         // roughness i / 31, column j = cosine j / 31. Do not edit.\n\
+         #ifndef SOUPRAY_GGX_SCHLICK_ENERGY_H\n#define SOUPRAY_GGX_SCHLICK_ENERGY_H\n\n\
+         #pragma OPENCL FP_CONTRACT OFF\n\n\
+         __constant float GGX_SCHLICK_ALBEDO[1024] = {\n",
+        table,
+    )
+}
+
+/// The header text for the averages table.
+pub fn average_header_text(table: &[f32]) -> String {
+    header(
+        "// Generated by soupray::trace::energy::generate_averages (SOUPRAY_REGENERATE=1\n\
+         // cargo test --test render_materials layering_tables): the cosine-weighted\n\
+         // averages 2 int f(mu) mu dmu of the white albedo E (row 0), the\n\
+         // Schlick-weighted albedo E_w (row 1) and E_w / E (row 2), column i =\n\
+         // roughness i / 31. Do not edit.\n\
+         #ifndef SOUPRAY_GGX_AVERAGE_ENERGY_H\n#define SOUPRAY_GGX_AVERAGE_ENERGY_H\n\n\
+         #pragma OPENCL FP_CONTRACT OFF\n\n\
+         __constant float GGX_ALBEDO_AVERAGE[96] = {\n",
+        table,
+    )
+}
+
+/// The sides of the refraction table: the index ratio (the larger of eta
+/// and 1 / eta, 1 to 3), roughness (0 to 1) and cosine (0 to 1).
+pub const REFRACTION_SIZES: [usize; 3] = [9, 16, 32];
+
+/// The refraction header, as committed.
+const REFRACTION_HEADER: &str = include_str!("../../kernels/generated/ggx_refraction_energy.h");
+
+/// The refraction table parsed from its header: three planes (see
+/// `generate_refraction`), each [index ratio][roughness][cosine].
+pub fn refraction_table() -> &'static [f32] {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    TABLE.get_or_init(|| parse_header(REFRACTION_HEADER))
+}
+
+/// Trilinear lookup in `plane` of the refraction table at index ratio
+/// `ratio` (1 to 3), GGX `alpha` and cosine `mu`. Mirrors
+/// `refraction_lookup` in `kernels/trace/layering.h`.
+fn refraction_lookup(plane: usize, ratio: f32, alpha: f32, mu: f32) -> f32 {
+    let t = refraction_table();
+    let x = [(ratio - 1.0) * 0.5, alpha.sqrt(), mu];
+    let mut base = [0usize; 3];
+    let mut frac = [0.0f32; 3];
+    for d in 0..3 {
+        let last = (REFRACTION_SIZES[d] - 1) as f32;
+        let v = x[d].clamp(0.0, 1.0) * last;
+        let i = (v as usize).min(REFRACTION_SIZES[d] - 2);
+        base[d] = i;
+        frac[d] = v - i as f32;
+    }
+    let [nk, nr, nm] = REFRACTION_SIZES;
+    let mut sum = 0.0f32;
+    for corner in 0..8usize {
+        let (u0, u1, u2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+        let index = ((plane * nk + base[0] + u0) * nr + base[1] + u1) * nm + base[2] + u2;
+        let w = (if u0 == 1 { frac[0] } else { 1.0 - frac[0] })
+            * (if u1 == 1 { frac[1] } else { 1.0 - frac[1] })
+            * (if u2 == 1 { frac[2] } else { 1.0 - frac[2] });
+        sum += t[index] * w;
+    }
+    sum
+}
+
+/// The energy albedo (times eta^2, the radiance scaling undone) of the
+/// Fresnel-less GGX refraction lobe at GGX `alpha`, cosine `mu` and
+/// relative index `eta` (the far side's over wo's).
+pub fn refraction_albedo(alpha: f32, mu: f32, eta: f32) -> f32 {
+    if eta >= 1.0 {
+        refraction_lookup(0, eta, alpha, mu)
+    } else {
+        refraction_lookup(1, 1.0 / eta, alpha, mu)
+    }
+}
+
+/// From inside (relative index `eta` below 1): the albedo of the GGX
+/// reflection lobe weighted by Schlick's (1 - c)^5 at the cosine on the
+/// thinner side, 1 under total internal reflection.
+pub fn inside_schlick_albedo(alpha: f32, mu: f32, eta: f32) -> f32 {
+    refraction_lookup(2, 1.0 / eta, alpha, mu)
+}
+
+/// Computes the refraction table by stratified sampling of the visible
+/// normals (96 x 96 per entry, in f64): plane 0 the refraction lobe's
+/// energy albedo entering (eta = ratio), plane 1 leaving (eta = 1 /
+/// ratio), each microfacet weighted by G2 / G1 where it refracts (none
+/// under total internal reflection); plane 2 leaving, the reflection lobe
+/// weighted by Schlick's weight at the thinner side's cosine (1 under
+/// total internal reflection).
+pub fn generate_refraction() -> Vec<f32> {
+    let [nk, nr, nm] = REFRACTION_SIZES;
+    let m = 96;
+    let mut out = Vec::with_capacity(3 * nk * nr * nm);
+    for plane in 0..3 {
+        for k in 0..nk {
+            let ratio = 1.0 + 2.0 * k as f64 / (nk - 1) as f64;
+            let eta = if plane == 0 { ratio } else { 1.0 / ratio };
+            for i in 0..nr {
+                let r = i as f64 / (nr - 1) as f64;
+                let a = (r * r).max(super::material::MIN_GGX_ALPHA as f64);
+                for j in 0..nm {
+                    let mu = (j as f64 / (nm - 1) as f64).max(1.0e-3);
+                    out.push(refraction_entry(plane, a, mu, eta, m) as f32);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// One entry of `generate_refraction`.
+fn refraction_entry(plane: usize, a: f64, mu: f64, eta: f64, m: usize) -> f64 {
+    let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+    let lambda = |w: [f64; 3]| {
+        let c2 = w[2] * w[2];
+        let t2 = (1.0 - c2).max(0.0) / c2;
+        ((1.0 + a * a * t2).sqrt() - 1.0) * 0.5
+    };
+    let lo = lambda(wo);
+    let mut sum = 0.0;
+    for k in 0..m {
+        for l in 0..m {
+            let u1 = (k as f64 + 0.5) / m as f64;
+            let u2 = (l as f64 + 0.5) / m as f64;
+            let h = sample_vndf(a, a, wo, u1, u2);
+            let c = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+            if c <= 0.0 {
+                continue;
+            }
+            let s2t = (1.0 - c * c).max(0.0) / (eta * eta);
+            let wi = if plane == 2 {
+                [
+                    2.0 * c * h[0] - wo[0],
+                    2.0 * c * h[1] - wo[1],
+                    2.0 * c * h[2] - wo[2],
+                ]
+            } else {
+                if s2t >= 1.0 {
+                    continue;
+                }
+                let q = c / eta - (1.0 - s2t).sqrt();
+                [
+                    -wo[0] / eta + h[0] * q,
+                    -wo[1] / eta + h[1] * q,
+                    -wo[2] / eta + h[2] * q,
+                ]
+            };
+            let side_ok = if plane == 2 { wi[2] > 0.0 } else { wi[2] < 0.0 };
+            if !side_ok {
+                continue;
+            }
+            let weight = if plane == 2 && s2t < 1.0 {
+                (1.0 - (1.0 - s2t).sqrt()).clamp(0.0, 1.0).powi(5)
+            } else {
+                1.0
+            };
+            sum += weight * ((1.0 + lo) / (1.0 + lo + lambda(wi)));
+        }
+    }
+    sum / (m * m) as f64
+}
+
+/// The header text for the refraction table.
+pub fn refraction_header_text(table: &[f32]) -> String {
+    let [nk, nr, nm] = REFRACTION_SIZES;
+    header(
+        &format!(
+            "// Generated by soupray::trace::energy::generate_refraction\n\
+             // (SOUPRAY_REGENERATE=1 cargo test --test render_materials layering_tables):\n\
+             // plane 0 the energy albedo of the Fresnel-less GGX refraction lobe\n\
+             // entering (eta = ratio), plane 1 leaving (eta = 1 / ratio), plane 2\n\
+             // leaving, the reflection lobe weighted by Schlick's weight on the thinner\n\
+             // side (1 under total internal reflection); each indexed [ratio 1 + 2 k /\n\
+             // {a}][roughness i / {b}][cosine j / {c}]. Do not edit.\n\
+             #ifndef SOUPRAY_GGX_REFRACTION_ENERGY_H\n#define SOUPRAY_GGX_REFRACTION_ENERGY_H\n\n\
+             #pragma OPENCL FP_CONTRACT OFF\n\n\
+             #define GGX_REFRACTION_ETA {nk}u\n#define GGX_REFRACTION_R {nr}u\n\
+             #define GGX_REFRACTION_MU {nm}u\n\n\
+             __constant float GGX_REFRACTION_ALBEDO[{n}] = {{\n",
+            a = nk - 1,
+            b = nr - 1,
+            c = nm - 1,
+            n = table.len()
+        ),
+        table,
+    )
 }

@@ -36,6 +36,43 @@ impl Traversal {
     }
 }
 
+/// How the dielectric's base (diffuse, diffuse and thin-walled
+/// transmission) lies under its specular layer, and the base under the
+/// sheen (`--layering`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Layering {
+    /// The default: the base is scaled by what the layer above it does not
+    /// reflect, its tabulated directional albedo (`trace::energy`,
+    /// `ENERGY_LAYERING`), so a white dielectric returns all it receives.
+    #[default]
+    Energy,
+    /// The glTF specification's `fresnel_mix` (1 - F(v.h) per pair of
+    /// directions) and the sheen extension's two-sided scaling, literally:
+    /// for comparisons with other glTF renderers.
+    Spec,
+}
+
+impl Layering {
+    /// The `--layering` value that selects it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Layering::Energy => "energy",
+            Layering::Spec => "spec",
+        }
+    }
+}
+
+impl std::str::FromStr for Layering {
+    type Err = ();
+    fn from_str(s: &str) -> Result<Layering, ()> {
+        match s {
+            "energy" => Ok(Layering::Energy),
+            "spec" => Ok(Layering::Spec),
+            _ => Err(()),
+        }
+    }
+}
+
 /// Where light comes from when rays leave the scene.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub enum Environment {
@@ -81,6 +118,10 @@ pub struct RenderSettings {
     /// `--no-energy-compensation`; never compiled for `--clay`, whose
     /// materials have no GGX lobe).
     pub energy_compensation: bool,
+    /// How the dielectric's base lies under its specular layer
+    /// (`--layering`; `ENERGY_LAYERING` by default, never compiled for
+    /// `--clay`).
+    pub layering: Layering,
     /// `--backface-culling`: rays pass through the back faces of
     /// single-sided materials, as the Khronos Sample Viewer's rasterizer
     /// culls them. Off by default: back faces are shaded, as Cycles does.
@@ -118,6 +159,7 @@ impl Default for RenderSettings {
             environment: Environment::Default,
             aovs: Aovs::NONE,
             energy_compensation: true,
+            layering: Layering::Energy,
             backface_culling: false,
             lens: None,
             transparent: false,

@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use soupray::film::Image;
 use soupray::scene::{FrameCamera, FrameLight, LightKind, Material, MaterialTable, Projection};
 use soupray::soup::Soup;
-use soupray::trace::render::{Environment, RenderSettings, Traversal};
+use soupray::trace::render::{Environment, Layering, RenderSettings, Traversal};
 
 // Re-exported so `use common::render::*` brings the geometry.
 #[allow(unused_imports)]
@@ -109,6 +109,9 @@ pub fn settings(size: u32, spp: u32) -> RenderSettings {
         environment: Environment::Default,
         aovs: soupray::film::Aovs::NONE,
         energy_compensation: false,
+        // The specification's layering, as the renders' expected values
+        // assume; the energy layering's tests ask for it.
+        layering: Layering::Spec,
         backface_culling: false,
         ..RenderSettings::default()
     }

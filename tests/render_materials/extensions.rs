@@ -10,7 +10,9 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
     // Only what the scene needs: CesiumMan uses none of the extensions, so
     // its program is built with exactly the defines it had before them.
     use soupray::scene::{LoadOptions, Scene};
-    use soupray::trace::render::{material_features, pathtrace_defines, Lobes, Traversal};
+    use soupray::trace::render::{
+        material_features, pathtrace_defines, Layering, Lobes, Traversal,
+    };
     use soupray::trace::sampling::Sampler;
     let Some(path) = common::shared::cesium_man() else {
         return;
@@ -20,7 +22,7 @@ fn the_shipped_animation_compiles_no_material_extension_code() {
     assert!(!table.materials.iter().any(|m| m.needs_transmission()));
     assert!(!scene.warnings().iter().any(|w| w.contains("KHR_materials")));
     assert_eq!(
-        material_features(table, true, false),
+        material_features(table, true, false, Layering::Spec),
         ["metallic_roughness", "textures"]
     );
     let names: Vec<&str> = pathtrace_defines(

@@ -156,7 +156,9 @@ fn iridescent_square_under_a_sun_matches_the_reference() {
         let mut p = BsdfParams::new(base, 0.0, roughness).with_dielectric(
             Dielectric::new(1.5, 0.0, false, true).with_iridescence(film, ior, thickness),
         );
+        // The renderer's defaults: compensation and the energy layering.
         p.energy_compensation = true;
+        p.energy_layering = true;
         let mut plain = p;
         plain.dielectric = Some(Dielectric::new(1.5, 0.0, false, true));
         let f = bsdf_eval(&p, Vec3::Z, sun);

@@ -15,6 +15,7 @@ mod dispersion;
 mod energy;
 mod extensions;
 mod iridescence;
+mod layering;
 
 use common::render::*;
 use common::{

@@ -10,7 +10,9 @@ use crate::scene::compositing::RoleOverrides;
 use crate::scene::{Projection, Scene};
 use crate::trace::lens::Lens;
 use crate::trace::motion::{Shutter, ShutterPosition};
-use crate::trace::render::{Adaptive, Allocation, Environment, RenderSettings, Traversal};
+use crate::trace::render::{
+    Adaptive, Allocation, Environment, Layering, RenderSettings, Traversal,
+};
 use crate::trace::sampling::{NoisePattern, Sampler};
 use crate::UsageError;
 use std::path::{Path, PathBuf};
@@ -85,6 +87,7 @@ pub(super) fn resolve_job(
         return Err(UsageError(format!("--fps {}: must be a positive number", args.fps)).into());
     }
     let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
+    let layering = layering(args)?;
     let environment = environment(args, scene)?;
     let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
     // The denoiser's auxiliary images come from the film's AOVs.
@@ -134,6 +137,7 @@ pub(super) fn resolve_job(
                 environment,
                 aovs,
                 energy_compensation: !args.no_energy_compensation,
+                layering,
                 backface_culling: args.backface_culling,
                 lens: lens(args, scene)?,
                 transparent: args.transparent,
@@ -220,6 +224,16 @@ fn tracer_kinds(args: &RenderArgs) -> Result<(Traversal, Sampler, NoisePattern),
         ))
     })?;
     Ok((traversal, sampler, noise_pattern))
+}
+
+/// `--layering`.
+fn layering(args: &RenderArgs) -> Result<Layering, UsageError> {
+    args.layering.parse().map_err(|_| {
+        UsageError(format!(
+            "--layering {:?}: use `energy` (the default) or `spec`",
+            args.layering
+        ))
+    })
 }
 
 /// `--env-color` or `--env`, else the scene's own sky or the default.

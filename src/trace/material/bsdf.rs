@@ -16,6 +16,7 @@ use super::super::sampling::{
 };
 
 use super::dielectric::*;
+use super::layering::{energy_layered, lambert_scaling};
 
 /// The BSDF's parameters at one point (`BsdfParams`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -37,6 +38,10 @@ pub struct BsdfParams {
     /// Turquin's multiple-scattering compensation of the GGX reflection
     /// lobes (kernels compiled with `GGX_ENERGY_COMPENSATION`).
     pub energy_compensation: bool,
+    /// The energy-conserving layering of the base under the specular layer
+    /// and the sheen (kernels compiled with `ENERGY_LAYERING`, the default
+    /// `--layering energy`); false: the specification's `fresnel_mix`.
+    pub energy_layering: bool,
     /// The clear coat and sheen layers over the base (kernels compiled
     /// with `HAS_CLEARCOAT` or `HAS_SHEEN`); `None`: the base alone.
     pub layers: Option<Layers>,
@@ -136,6 +141,7 @@ impl BsdfParams {
             specular: 1.0,
             dielectric: None,
             energy_compensation: false,
+            energy_layering: false,
             layers: None,
         }
     }
@@ -176,6 +182,7 @@ impl BsdfParams {
             specular: 0.0,
             dielectric: None,
             energy_compensation: false,
+            energy_layering: false,
             layers: None,
         }
     }
@@ -326,13 +333,18 @@ pub(super) fn base_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     let w = schlick_weight(voh);
     let fd = p.specular * (0.04 + 0.96 * w);
     let fm = p.base + (Vec3::ONE - p.base) * w;
+    let diffuse = if energy_layered(p, None) {
+        p.base * INV_PI * lambert_scaling(p, None, wo, wi)
+    } else {
+        p.base * ((1.0 - fd) * INV_PI)
+    };
     if p.energy_compensation {
-        let dielectric = p.base * ((1.0 - fd) * INV_PI)
-            + Vec3::splat(fd * s) * (1.0 + 0.04 * (1.0 / spec_albedo(p, wo) - 1.0));
+        let dielectric =
+            diffuse + Vec3::splat(fd * s) * (1.0 + 0.04 * (1.0 / spec_albedo(p, wo) - 1.0));
         let metal = fm * s * (Vec3::ONE + p.base * (1.0 / spec_albedo(p, wo) - 1.0));
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
-    let dielectric = p.base * ((1.0 - fd) * INV_PI) + Vec3::splat(fd * s);
+    let dielectric = diffuse + Vec3::splat(fd * s);
     let metal = fm * s;
     dielectric * (1.0 - p.metallic) + metal * p.metallic
 }
@@ -456,6 +468,10 @@ pub(super) fn base_only_delta(p: &BsdfParams) -> bool {
 /// layers' scaling of the base (`layered_straight_through`).
 pub fn thin_straight_through(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
     let weight = (1.0 - p.metallic) * d.transmission;
+    if energy_layered(p, Some(d)) {
+        let keep = super::layering::layer_transmittance(p, Some(d), Vec3::new(0.0, 0.0, c));
+        return p.base * keep * weight;
+    }
     let fd = p.specular * max3(layer_fresnel(d, c));
     p.base * (weight * (1.0 - fd))
 }
@@ -623,12 +639,24 @@ pub fn sheen_scaling(l: &Layers, cos_o: f32, cos_i: f32) -> f32 {
         .min(1.0 - m * sheen_albedo(l.sheen_roughness, cos_i))
 }
 
+/// The base's scaling under the sheen: the extension's `sheen_scaling`,
+/// or with the energy layering what the sheen leaves towards wo, 1 -
+/// max(colour) E(n.v) (OpenPBR's albedo scaling of its fuzz), so that a
+/// base that returns all it receives keeps the sum at 1 under it.
+pub(super) fn sheen_base_scaling(p: &BsdfParams, l: &Layers, cos_o: f32, cos_i: f32) -> f32 {
+    if p.energy_layering {
+        1.0 - max3(l.sheen_color) * sheen_albedo(l.sheen_roughness, cos_o)
+    } else {
+        sheen_scaling(l, cos_o, cos_i)
+    }
+}
+
 pub(super) fn layered_eval(p: &BsdfParams, l: &Layers, wo: Vec3, wi: Vec3) -> Vec3 {
     if !(wo.z > 0.0) {
         return Vec3::ZERO;
     }
     let base = base_eval(p, wo, wi);
-    let under = base * sheen_scaling(l, wo.z, wi.z.abs())
+    let under = base * sheen_base_scaling(p, l, wo.z, wi.z.abs())
         + l.sheen_color * sheen_lobe(l.sheen_roughness, wo, wi);
     let wc = coat_weight(l, coat_cos(l, wo));
     under * (1.0 - wc) + Vec3::splat(wc * coat_lobe(p, l, wo, wi))
@@ -698,7 +726,7 @@ pub(super) fn layered_sample(
         } else {
             let s = base_sample(p, wo, (u - psh) / (1.0 - psh), u1, u2)?;
             if s.delta {
-                let scale = sheen_scaling(l, wo.z, s.wi.z.abs()) * (1.0 - pc);
+                let scale = sheen_base_scaling(p, l, wo.z, s.wi.z.abs()) * (1.0 - pc);
                 return Some(BsdfSample {
                     wi: s.wi,
                     f: s.f * scale,
@@ -733,7 +761,7 @@ pub fn shadow_straight_through(p: &BsdfParams, d: &Dielectric, wo: Vec3) -> Vec3
     let c = wo.z;
     let t = thin_straight_through(p, d, c);
     match &p.layers {
-        Some(l) => t * ((1.0 - coat_weight(l, coat_cos(l, wo))) * sheen_scaling(l, c, c)),
+        Some(l) => t * ((1.0 - coat_weight(l, coat_cos(l, wo))) * sheen_base_scaling(p, l, c, c)),
         None => t,
     }
 }

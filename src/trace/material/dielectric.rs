@@ -12,6 +12,7 @@ use glam::Vec3;
 use super::super::sampling::{luminance, sample_cosine_hemisphere, INV_PI, PI};
 
 use super::bsdf::*;
+use super::layering::{energy_layered, lambert_scaling, layer_transmittance, refraction_scaling};
 
 /// The dielectric extensions at one point (`HAS_TRANSMISSION` only).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -281,7 +282,14 @@ pub(super) fn metal_fresnel(p: &BsdfParams, d: &Dielectric, c: f32) -> Vec3 {
 /// transmission and the diffuse transmission lobes (the diffuse reflection
 /// lobe has the rest), with the dielectric extensions.
 pub fn lobe_probabilities(p: &BsdfParams, d: &Dielectric, cos_o: f32) -> (f32, f32, f32) {
-    let fo = p.specular * max3(layer_fresnel(d, cos_o));
+    let mut fo = p.specular * max3(layer_fresnel(d, cos_o));
+    if p.energy_layering && d.eta < 1.0 {
+        // Inside a volume the Fresnel at the normal is 1 beyond the
+        // critical angle, where a rough lobe still refracts: the layer's
+        // albedo, which leaves the refraction its share.
+        let wo = Vec3::new((1.0 - cos_o * cos_o).max(0.0).sqrt(), 0.0, cos_o);
+        fo = max3(super::layering::layer_albedo(p, Some(d), wo)).min(1.0);
+    }
     let ws = p.metallic + (1.0 - p.metallic) * fo;
     let wb = ((1.0 - p.metallic) * luminance(p.base)) * (1.0 - fo);
     let wt = wb * d.transmission;
@@ -315,6 +323,12 @@ pub(super) fn diffuse_transmission_eval(
     let hl = hv.length();
     if hl == 0.0 {
         return Vec3::ZERO;
+    }
+    if energy_layered(p, Some(d)) {
+        let mirror = Vec3::new(wi.x, wi.y, -wi.z);
+        return d.diffuse_transmission_color
+            * lambert_scaling(p, Some(d), wo, mirror)
+            * (weight * INV_PI);
     }
     let voh = wo.dot(hv / hl).max(0.0);
     let fd = max3(p.specular * layer_fresnel(d, voh));
@@ -362,16 +376,20 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
             (dd * g2) / ((4.0 * wo.z) * wi.z)
         };
         let layer = p.specular * layer_fresnel(d, voh);
-        let fd = max3(layer);
         let fm = metal_fresnel(p, d, voh);
+        let diffuse = if energy_layered(p, Some(d)) {
+            p.base * lambert_scaling(p, Some(d), wo, wi) * (diffuse_share(d, 0.0) * INV_PI)
+        } else {
+            p.base * (diffuse_share(d, max3(layer)) * INV_PI)
+        };
         if p.energy_compensation {
             let ms = 1.0 / spec_albedo(p, wo) - 1.0;
-            let dielectric = p.base * (diffuse_share(d, fd) * INV_PI)
-                + (layer * s) * (Vec3::ONE + d.f0_color * ms);
+            let f0 = super::layering::reflection_compensation_f0(p, d, wo);
+            let dielectric = diffuse + (layer * s) * (Vec3::ONE + f0 * ms);
             let metal = fm * s * (Vec3::ONE + p.base * ms);
             return dielectric * (1.0 - p.metallic) + metal * p.metallic;
         }
-        let dielectric = p.base * (diffuse_share(d, fd) * INV_PI) + layer * s;
+        let dielectric = diffuse + layer * s;
         let metal = fm * s;
         return dielectric * (1.0 - p.metallic) + metal * p.metallic;
     }
@@ -393,6 +411,15 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
         let dd = spec_d(p, h);
         let g2 = 1.0 / ((1.0 + spec_lambda(p, wo)) + spec_lambda(p, r));
         let s = (dd * g2) / ((4.0 * wo.z) * r.z);
+        if energy_layered(p, Some(d)) {
+            // The white lobe, compensated to albedo 1, under the layer.
+            let s = if p.energy_compensation {
+                s / spec_albedo(p, wo)
+            } else {
+                s
+            };
+            return p.base * layer_transmittance(p, Some(d), wo) * (weight * s) + diffuse;
+        }
         // Thin-walled: eta is 1.
         let fd = p.specular * max3(layer_fresnel(d, voh));
         return p.base * ((weight * (1.0 - fd)) * s) + diffuse;
@@ -400,9 +427,15 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
     let Some((h, oh, ih)) = refraction_half(d.eta, wo, wi) else {
         return diffuse;
     };
-    let fd = p.specular * max3(layer_fresnel(d, oh));
     let denom = ih + oh / d.eta;
     let g2 = 1.0 / ((1.0 + spec_lambda(p, wo)) + spec_lambda(p, wi));
+    if p.energy_layering {
+        // The Fresnel-less lobe under the layer.
+        let ft = ((spec_d(p, h) * g2) * ((ih * oh) / (((denom * denom) * wi.z) * wo.z))).abs()
+            / (d.eta * d.eta);
+        return p.base * refraction_scaling(p, d, wo) * (weight * ft) + diffuse;
+    }
+    let fd = p.specular * max3(layer_fresnel(d, oh));
     let ft = (((spec_d(p, h) * (1.0 - fd)) * g2) * ((ih * oh) / (((denom * denom) * wi.z) * wo.z)))
         .abs()
         / (d.eta * d.eta);
@@ -475,8 +508,13 @@ pub(super) fn dielectric_sample(
                 }
                 let ct = (1.0 - s2t).sqrt();
                 let wi = -wo / d.eta + Vec3::Z * (c / d.eta - ct);
-                let fd = p.specular * max3(layer_fresnel(d, c));
-                (wi, p.base * (weight * ((1.0 - fd) / (d.eta * d.eta))))
+                if p.energy_layering {
+                    let keep = layer_transmittance(p, Some(d), wo);
+                    (wi, p.base * keep * (weight / (d.eta * d.eta)))
+                } else {
+                    let fd = p.specular * max3(layer_fresnel(d, c));
+                    (wi, p.base * (weight * ((1.0 - fd) / (d.eta * d.eta))))
+                }
             };
             if wi.z >= 0.0 {
                 return None;

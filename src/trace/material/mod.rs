@@ -31,6 +31,7 @@
 
 mod bsdf;
 mod dielectric;
+mod layering;
 
 pub use bsdf::{
     anisotropic_alpha, bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, ggx_alpha, ggx_smooth,

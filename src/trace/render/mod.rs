@@ -29,13 +29,13 @@ mod upload;
 
 pub use super::camera::{device_camera, with_lens, DeviceCamera};
 pub use super::settings::{
-    check_counts, Adaptive, Allocation, Environment, RenderSettings, Schedule, Traversal,
+    check_counts, Adaptive, Allocation, Environment, Layering, RenderSettings, Schedule, Traversal,
     ADAPTIVE_STEP,
 };
 use program::Kernels;
 pub use program::{
-    film_defines, material_features, motion_defines, pathtrace_defines, FilmFeatures, Lobe, Lobes,
-    LOBES,
+    film_defines, layering_defines, material_features, motion_defines, pathtrace_defines,
+    FilmFeatures, Lobe, Lobes, LOBES,
 };
 use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
 pub use upload::{frame_consts, DeviceFrame};
@@ -445,7 +445,12 @@ impl<'d> PathTracer<'d> {
 
         // Clay is a pure Lambertian: no GGX lobe to compensate.
         let compensation = settings.energy_compensation && !settings.clay;
-        let features = material_features(features_of, textures.is_some(), compensation);
+        let layering = if settings.clay {
+            Layering::Spec
+        } else {
+            settings.layering
+        };
+        let features = material_features(features_of, textures.is_some(), compensation, layering);
         let defines = pathtrace_defines(
             settings.traversal,
             textures.is_some(),
@@ -455,6 +460,7 @@ impl<'d> PathTracer<'d> {
             features_of.materials.iter().any(|m| m.unlit),
             lobes,
         );
+        let defines = layering_defines(defines, layering);
         let defines = film_defines(defines, &FilmFeatures::of(settings));
         let kernels = Kernels::build(device, &defines)?;
 

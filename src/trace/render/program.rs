@@ -11,7 +11,7 @@ use crate::device::Device;
 use crate::scene::{Material, MaterialTable};
 use crate::trace::lens::Lens;
 use crate::trace::sampling::Sampler;
-use crate::trace::settings::{RenderSettings, Traversal};
+use crate::trace::settings::{Layering, RenderSettings, Traversal};
 use crate::trace::texture::Slot;
 use crate::trace::TraceError;
 
@@ -75,6 +75,18 @@ pub fn pathtrace_defines(
     }
     defines.extend(lobes.iter().map(|lobe| (lobe.define, "1".to_owned())));
     defines
+}
+
+/// `base` (from `pathtrace_defines`) with the layering's define:
+/// `ENERGY_LAYERING` for `Layering::Energy`, none for the specification's.
+pub fn layering_defines(
+    mut base: Vec<(&'static str, String)>,
+    layering: Layering,
+) -> Vec<(&'static str, String)> {
+    if layering == Layering::Energy {
+        base.push(("ENERGY_LAYERING", "1".to_owned()));
+    }
+    base
 }
 
 /// A lobe of the BSDF compiled into the path tracer only where some
@@ -285,10 +297,14 @@ pub fn material_features(
     table: &MaterialTable,
     textures: bool,
     energy_compensation: bool,
+    layering: Layering,
 ) -> Vec<&'static str> {
     let mut v = vec!["metallic_roughness"];
     if energy_compensation {
         v.push("energy_compensation");
+    }
+    if layering == Layering::Energy {
+        v.push("energy_layering");
     }
     if textures {
         v.push("textures");
