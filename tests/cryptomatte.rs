@@ -53,37 +53,25 @@ fn scene(dir: &Path) -> PathBuf {
     b.write(root, dir, "cards", true)
 }
 
-/// Renders the cards with every Cryptomatte layer; the EXR's path.
+/// Renders the cards at 64 spp under a white sky with every Cryptomatte
+/// layer and `extra`; the EXR's path.
 fn render(dir: &Path, extra: &[&str]) -> PathBuf {
-    let file = scene(dir);
-    let out = dir.join("out");
-    let size = SIZE.to_string();
     let mut args = vec![
-        "render",
-        file.to_str().unwrap(),
-        "--width",
-        &size,
-        "--height",
-        &size,
         "--spp",
         "64",
         "--env-color",
         "1,1,1",
         "--cryptomatte",
         "object,material,asset",
-        "--out",
-        out.to_str().unwrap(),
-        "--name",
-        "cards.exr",
     ];
     args.extend_from_slice(extra);
-    let run = common::soupray(&args);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out.join("cards.exr")
+    common::render_exr(
+        &scene(dir),
+        (SIZE, SIZE),
+        &dir.join("out"),
+        "cards.exr",
+        &args,
+    )
 }
 
 /// A Cryptomatte layer as a compositor reads it: the manifest from the
@@ -252,26 +240,14 @@ fn mattes_leave_the_beauty_alone_and_are_absent_unless_asked_for() {
     let with = common::exr_channels(&render(dir.path(), &[]));
     let plain_dir = tempfile::tempdir().unwrap();
     let file = scene(plain_dir.path());
-    let out = plain_dir.path().join("plain");
-    let size = SIZE.to_string();
-    let run = common::soupray(&[
-        "render",
-        file.to_str().unwrap(),
-        "--width",
-        &size,
-        "--height",
-        &size,
-        "--spp",
-        "64",
-        "--env-color",
-        "1,1,1",
-        "--out",
-        out.to_str().unwrap(),
-        "--name",
+    let plain = common::render_exr(
+        &file,
+        (SIZE, SIZE),
+        plain_dir.path(),
         "plain.exr",
-    ]);
-    assert!(run.status.success());
-    let plain = common::exr_channels(&out.join("plain.exr"));
+        &["--spp", "64", "--env-color", "1,1,1"],
+    );
+    let plain = common::exr_channels(&plain);
     assert_eq!(plain.keys().collect::<Vec<_>>(), ["A", "B", "G", "R"]);
     for c in ["R", "G", "B", "A"] {
         let bits = |v: &Vec<f32>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -432,32 +408,14 @@ fn object_ids_alone_match_those_beside_cryptomatte() {
     let with = common::exr_channels(&render(dir.path(), &["--aov", "object_id"]));
     let alone_dir = tempfile::tempdir().unwrap();
     let file = scene(alone_dir.path());
-    let out = alone_dir.path().join("alone");
-    let size = SIZE.to_string();
-    let run = common::soupray(&[
-        "render",
-        file.to_str().unwrap(),
-        "--width",
-        &size,
-        "--height",
-        &size,
-        "--spp",
-        "64",
-        "--env-color",
-        "1,1,1",
-        "--aov",
-        "object_id",
-        "--out",
-        out.to_str().unwrap(),
-        "--name",
+    let alone = common::render_exr(
+        &file,
+        (SIZE, SIZE),
+        alone_dir.path(),
         "alone.exr",
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        &["--spp", "64", "--env-color", "1,1,1", "--aov", "object_id"],
     );
-    let alone = common::exr_channels(&out.join("alone.exr"));
+    let alone = common::exr_channels(&alone);
     assert!(!alone.keys().any(|k| k.starts_with("Crypto")));
     assert_eq!(alone["object_id"], with["object_id"]);
     assert!(alone["object_id"].contains(&2.0));

@@ -72,35 +72,19 @@ fn perspective() -> serde_json::Value {
 
 /// Frame 24's alpha and vectors (x, y, z, w per pixel, rows top first).
 fn render(file: &Path, extra: &[&str]) -> (Vec<f32>, Vec<[f32; 4]>) {
-    let out = file.with_extension("out");
-    let size = SIZE.to_string();
     let mut args = vec![
-        "render",
-        file.to_str().unwrap(),
         "--frame",
         "24",
-        "--width",
-        &size,
-        "--height",
-        &size,
         "--spp",
         "16",
         "--env-color",
         "1,1,1",
         "--aov",
         "motion",
-        "--out",
-        out.to_str().unwrap(),
-        "--name",
-        "f.####.exr",
     ];
     args.extend_from_slice(extra);
-    let run = common::soupray(&args);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let out = file.with_extension("out");
+    common::render_exr(file, (SIZE, SIZE), &out, "f.####.exr", &args);
     let c = common::exr_channels(&out.join("f.0024.exr"));
     let v = (0..c["A"].len())
         .map(|i| {

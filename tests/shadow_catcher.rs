@@ -122,29 +122,10 @@ fn scene(dir: &Path, sun: bool, card: bool, ground_extras: serde_json::Value) ->
 }
 
 fn render(file: &Path, extra: &[&str]) -> BTreeMap<String, Vec<f32>> {
-    let out = file.with_extension("out");
-    let (w, h) = (W.to_string(), H.to_string());
-    let mut args = vec![
-        "render",
-        file.to_str().unwrap(),
-        "--width",
-        &w,
-        "--height",
-        &h,
-        "--transparent",
-        "--out",
-        out.to_str().unwrap(),
-        "--name",
-        "c.exr",
-    ];
+    let mut args = vec!["--transparent"];
     args.extend_from_slice(extra);
-    let run = common::soupray(&args);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    common::exr_channels(&out.join("c.exr"))
+    let out = file.with_extension("out");
+    common::exr_channels(&common::render_exr(file, (W, H), &out, "c.exr", &args))
 }
 
 /// The camera ray through the centre of pixel `i`.

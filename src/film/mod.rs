@@ -209,95 +209,72 @@ pub struct Aovs {
     pub object_id: bool,
 }
 
-impl Aovs {
-    pub const NONE: Aovs = Aovs {
-        depth: false,
-        normal: false,
-        albedo: false,
-        sample_count: false,
-        noise: false,
-        rays: false,
-        motion: false,
-        position: false,
-        uv: false,
-        object_id: false,
+/// Each AOV's `--aov` name and other spellings, in the order `names` lists
+/// them: one table for parsing, listing and the usage message.
+macro_rules! aov_names {
+    ($($field:ident: $name:literal $(| $alias:literal)*;)*) => {
+        impl Aovs {
+            /// No AOV.
+            pub const NONE: Aovs = Aovs { $($field: false),* };
+
+            /// Turns on the AOV `--aov` spells `item`; false if none is.
+            fn set(&mut self, item: &str) -> bool {
+                match item {
+                    $($name $(| $alias)* => self.$field = true,)*
+                    _ => return false,
+                }
+                true
+            }
+
+            /// The AOVs' names as `--aov` spells them.
+            pub fn names(&self) -> Vec<&'static str> {
+                let mut v = Vec::new();
+                $(if self.$field {
+                    v.push($name);
+                })*
+                v
+            }
+
+            /// Every name, for the usage message.
+            const CHOICES: &'static str = concat!($($name, ", "),*);
+        }
     };
+}
+
+aov_names! {
+    depth: "depth" | "z";
+    normal: "normal" | "n";
+    albedo: "albedo";
+    sample_count: "sample_count" | "samples";
+    noise: "noise";
+    rays: "rays";
+    motion: "motion" | "vector";
+    position: "position" | "p";
+    uv: "uv";
+    object_id: "object_id" | "object-id";
+}
+
+impl Aovs {
     /// The first-hit AOVs: depth, normal and albedo.
     pub const ALL: Aovs = Aovs {
         depth: true,
         normal: true,
         albedo: true,
-        sample_count: false,
-        noise: false,
-        rays: false,
-        motion: false,
-        position: false,
-        uv: false,
-        object_id: false,
+        ..Aovs::NONE
     };
 
-    /// Parses `--aov depth,normal,albedo,sample_count,noise,rays,motion,
-    /// position,uv,object_id` (any subset,
-    /// any order).
+    /// Parses `--aov` (any subset of `names`, any order, comma-separated).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
         for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-            match item.to_ascii_lowercase().as_str() {
-                "depth" | "z" => aovs.depth = true,
-                "normal" | "n" => aovs.normal = true,
-                "albedo" => aovs.albedo = true,
-                "sample_count" | "samples" => aovs.sample_count = true,
-                "noise" => aovs.noise = true,
-                "rays" => aovs.rays = true,
-                "motion" | "vector" => aovs.motion = true,
-                "position" | "p" => aovs.position = true,
-                "uv" => aovs.uv = true,
-                "object_id" | "object-id" => aovs.object_id = true,
-                _ => {
-                    return Err(UsageError(format!(
-                        "--aov: unknown AOV {item:?}; choose from depth, normal, albedo, \
-                         sample_count, noise, rays, motion, position, uv, object_id (e.g. --aov depth,normal,albedo)"
-                    )))
-                }
+            if !aovs.set(&item.to_ascii_lowercase()) {
+                return Err(UsageError(format!(
+                    "--aov: unknown AOV {item:?}; choose from {} (e.g. --aov depth,normal,albedo)",
+                    Aovs::CHOICES.trim_end_matches(", ")
+                )));
             }
         }
         Ok(aovs)
-    }
-
-    /// The AOVs' names as `--aov` spells them.
-    pub fn names(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        if self.depth {
-            v.push("depth");
-        }
-        if self.normal {
-            v.push("normal");
-        }
-        if self.albedo {
-            v.push("albedo");
-        }
-        if self.sample_count {
-            v.push("sample_count");
-        }
-        if self.noise {
-            v.push("noise");
-        }
-        if self.rays {
-            v.push("rays");
-        }
-        if self.motion {
-            v.push("motion");
-        }
-        if self.position {
-            v.push("position");
-        }
-        if self.uv {
-            v.push("uv");
-        }
-        if self.object_id {
-            v.push("object_id");
-        }
-        v
     }
 }
 

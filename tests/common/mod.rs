@@ -373,3 +373,37 @@ pub fn bpy_python() -> Option<fn() -> Command> {
         .is_ok_and(|s| s.success());
     found.then_some(python as fn() -> Command)
 }
+
+/// Runs `soupray render FILE --width W --height H --out OUT --name NAME`
+/// with `args` after them; the EXR written (frame-numbered names are the
+/// caller's to resolve). Panics with soupray's message when it fails.
+pub fn render_exr(
+    file: &Path,
+    (width, height): (u32, u32),
+    out: &Path,
+    name: &str,
+    args: &[&str],
+) -> PathBuf {
+    let (w, h) = (width.to_string(), height.to_string());
+    let mut all = vec![
+        "render",
+        file.to_str().expect("a UTF-8 path"),
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--out",
+        out.to_str().expect("a UTF-8 path"),
+        "--name",
+        name,
+    ];
+    all.extend_from_slice(args);
+    let run = soupray(&all);
+    assert!(
+        run.status.success(),
+        "soupray {}: {}",
+        all.join(" "),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    out.join(name)
+}
