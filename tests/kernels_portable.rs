@@ -35,7 +35,6 @@ use soupray::kernels::{generated_headers, KERNEL_SOURCES};
 use soupray::soup::device::SoupFeatures;
 use soupray::soup::motion::motion_program_defines;
 use soupray::trace::device::trace_defines;
-use soupray::trace::lens::Lens;
 use soupray::trace::render::{
     film_defines, layering_defines, motion_defines, pathtrace_defines, FilmFeatures, Layering,
     Lobes, Traversal, LOBES,
@@ -289,13 +288,6 @@ fn variants() -> Vec<Variant> {
     // Depth of field with a transparent film, Cryptomatte, motion vectors
     // shadow catchers and the position and uv AOVs, alone and with motion
     // blur.
-    let lens = Lens {
-        f_stop: 2.8,
-        focus_distance: 1.0,
-        blades: 0,
-        blade_rotation: 0.0,
-        focal_mm: None,
-    };
     let lens = film_defines(
         pathtrace_defines(
             Traversal::Wide,
@@ -307,7 +299,7 @@ fn variants() -> Vec<Variant> {
             Lobes::NONE,
         ),
         &FilmFeatures {
-            lens: Some(&lens),
+            lens: true,
             transparent: true,
             matte_slots: Some(6),
             vectors: true,

@@ -128,14 +128,19 @@ impl FrameRenderer<'_> {
     /// Motion vectors' steps (`trace::vectors`): the soup and the camera a
     /// frame before the frame's centre (its instant, or the middle of its
     /// shutter), at it and a frame after, handed to the tracer. Evaluated
-    /// before the frame itself, which leaves the soup's buffers holding it.
+    /// before the frame itself, which leaves the soup's buffers holding it
+    /// (and, at the centre, reuses the last step's).
     fn evaluate_vector_steps(&mut self, time: f64, fps: f64) -> anyhow::Result<()> {
         let centre = self.settings.shutter.map_or(time, |shutter| {
             let (open, close) = shutter.interval(time, fps);
             0.5 * (open + close)
         });
-        for (step, t) in vector_times(centre, fps).into_iter().enumerate() {
-            let info = self.soup.evaluate(self.scene, t)?;
+        let times = vector_times(centre, fps);
+        // The centre last: where it is the frame's own instant (no motion
+        // blur, or a centred shutter) the frame's evaluation that follows
+        // finds the same pose on the device and runs no kernel.
+        for step in [0, 2, 1] {
+            let info = self.soup.evaluate(self.scene, times[step])?;
             self.tracer
                 .set_vector_step(step, &self.soup, &info.camera)?;
         }

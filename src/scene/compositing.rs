@@ -109,11 +109,9 @@ pub fn triangle_flags(scene: &Scene, overrides: &RoleOverrides) -> Option<Vec<u3
         return None;
     }
     let mut flags = Vec::with_capacity(scene.triangle_count());
-    for instance in scene.instances() {
+    for (instance, prim) in scene.instance_primitives() {
         let flag = roles[instance.node].map_or(0, Role::flag);
-        for prim in &scene.meshes()[instance.mesh].primitives {
-            flags.extend(std::iter::repeat_n(flag, prim.triangles.len()));
-        }
+        flags.extend(std::iter::repeat_n(flag, prim.triangles.len()));
     }
     Some(flags)
 }

@@ -44,28 +44,26 @@ impl MatteTable {
             triangle_pairs: Vec::with_capacity(scene.triangle_count()),
             pairs: Vec::new(),
         };
-        for instance in scene.instances() {
+        for (instance, prim) in scene.instance_primitives() {
             let root = root_of(scene, instance.node);
-            for prim in &scene.meshes()[instance.mesh].primitives {
-                let material = prim.material.unwrap_or(default_material);
-                let pair = MattePair {
-                    node: instance.node,
-                    object: node_names[instance.node].clone(),
-                    material: material_names
-                        .get(material)
-                        .cloned()
-                        .unwrap_or_else(|| "default".to_owned()),
-                    asset: node_names[root].clone(),
-                };
-                let next = table.pairs.len() as u32;
-                let id = *index.entry(pair.clone()).or_insert_with(|| {
-                    table.pairs.push(pair);
-                    next
-                });
-                table
-                    .triangle_pairs
-                    .extend(std::iter::repeat_n(id, prim.triangles.len()));
-            }
+            let material = prim.material.unwrap_or(default_material);
+            let pair = MattePair {
+                node: instance.node,
+                object: node_names[instance.node].clone(),
+                material: material_names
+                    .get(material)
+                    .cloned()
+                    .unwrap_or_else(|| "default".to_owned()),
+                asset: node_names[root].clone(),
+            };
+            let next = table.pairs.len() as u32;
+            let id = *index.entry(pair.clone()).or_insert_with(|| {
+                table.pairs.push(pair);
+                next
+            });
+            table
+                .triangle_pairs
+                .extend(std::iter::repeat_n(id, prim.triangles.len()));
         }
         table
     }

@@ -409,6 +409,15 @@ impl Scene {
             .count()
     }
 
+    /// Each instance with each primitive of its mesh, in the order the
+    /// soup lays their triangles out: what per-triangle tables (materials,
+    /// matte pairs, compositing flags) are expanded from.
+    pub fn instance_primitives(&self) -> impl Iterator<Item = (&MeshInstance, &Primitive)> {
+        self.instances
+            .iter()
+            .flat_map(|i| self.meshes[i.mesh].primitives.iter().map(move |p| (i, p)))
+    }
+
     /// "node 3 \"Arm\"" for messages.
     pub fn node_label(&self, node: usize) -> String {
         match &self.nodes[node].name {

@@ -157,6 +157,9 @@ type MotionSteps<'a> = (u32, &'a [FrameCamera], &'a [Vec<FrameLight>]);
 pub struct PathTracer<'d> {
     device: &'d Device,
     settings: RenderSettings,
+    /// The film's options compiled in, from `settings`: which of the
+    /// optional buffers below a frame clears, binds and reads.
+    film: FilmFeatures,
     schedule: Schedule,
     kernels: Kernels,
     materials: Buffer<DeviceMaterial>,
@@ -218,6 +221,9 @@ pub struct PathTracer<'d> {
     /// how many triangles, and the per-pixel sums.
     vector_positions: GrowBuffer<[f32; 4]>,
     vector_cameras: Buffer<DeviceCamera>,
+    /// The host copy of `vector_cameras`, so setting a step writes it
+    /// without reading the others back.
+    vector_cameras_host: [DeviceCamera; VECTOR_STEPS],
     vector_steps: (u8, usize),
     accum_motion: GrowBuffer<[f32; 4]>,
     /// With shadow catchers or holdouts: each triangle's flags on the
@@ -359,7 +365,7 @@ impl<'d> PathTracer<'d> {
         };
         let mut tracer =
             Self::with_animated_materials(device, scene.materials(), &animated, settings)?;
-        if settings.cryptomatte.is_some() || settings.aovs.object_id {
+        if tracer.film.matte_slots.is_some() {
             tracer.set_mattes(MatteTable::of(scene))?;
         }
         if let Some(flags) = triangle_flags(scene, &settings.roles) {
@@ -461,7 +467,8 @@ impl<'d> PathTracer<'d> {
             lobes,
         );
         let defines = layering_defines(defines, layering);
-        let defines = film_defines(defines, &FilmFeatures::of(settings));
+        let film = FilmFeatures::of(settings);
+        let defines = film_defines(defines, &film);
         let kernels = Kernels::build(device, &defines)?;
 
         let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
@@ -491,6 +498,7 @@ impl<'d> PathTracer<'d> {
         Ok(PathTracer {
             device,
             settings: settings.clone(),
+            film,
             schedule: Schedule::default(),
             kernels,
             materials,
@@ -533,6 +541,7 @@ impl<'d> PathTracer<'d> {
             matte_slots: GrowBuffer::new(),
             vector_positions: GrowBuffer::new(),
             vector_cameras: device.buffer(VECTOR_STEPS)?,
+            vector_cameras_host: [DeviceCamera::default(); VECTOR_STEPS],
             vector_steps: (0, 0),
             accum_motion: GrowBuffer::new(),
             triangle_flags: None,
@@ -576,10 +585,8 @@ impl<'d> PathTracer<'d> {
             d.copy(soup.positions(), positions, step * n3, n3)?;
         }
         let (w, h) = (self.settings.width, self.settings.height);
-        let mut cameras = vec![DeviceCamera::default(); VECTOR_STEPS];
-        d.read(&self.vector_cameras, &mut cameras)?;
-        cameras[step] = device_camera(camera, w, h);
-        d.write(&mut self.vector_cameras, &cameras)?;
+        self.vector_cameras_host[step] = device_camera(camera, w, h);
+        d.write(&mut self.vector_cameras, &self.vector_cameras_host)?;
         self.vector_steps.0 |= 1 << step;
         Ok(())
     }
@@ -907,7 +914,7 @@ impl<'d> PathTracer<'d> {
         progress: &mut dyn FnMut(u32),
     ) -> Result<RenderOutput, TraceError> {
         // The kernel reads every vector step of every triangle it hits.
-        if self.settings.aovs.motion {
+        if self.film.vectors {
             let all = (1u8 << VECTOR_STEPS) - 1;
             if self.vector_steps != (all, soup.triangles) {
                 return Err(usage(format!(
@@ -917,7 +924,7 @@ impl<'d> PathTracer<'d> {
             }
         }
         // The kernel reads the flags of every triangle a camera ray hits.
-        if !self.settings.roles.is_empty() {
+        if self.film.catcher {
             let flags = self.triangle_flags.as_ref().map(|(_, n)| *n);
             if flags != Some(soup.triangles) {
                 return Err(usage(format!(
@@ -928,7 +935,7 @@ impl<'d> PathTracer<'d> {
             }
         }
         // The kernel reads a matte pair for every triangle it hits.
-        if self.settings.cryptomatte.is_some() || self.settings.aovs.object_id {
+        if self.film.matte_slots.is_some() {
             let pairs = self.mattes.as_ref().map(|(t, _)| t.triangle_pairs.len());
             if pairs != Some(soup.triangles) {
                 return Err(usage(format!(

@@ -5,7 +5,7 @@
 
 use opencl3::memory::Buffer;
 
-use super::{or_dummy, FilmFeatures, PathTracer, SoupBuffers};
+use super::{or_dummy, PathTracer, SoupBuffers};
 use crate::device::{Arg, Device};
 use crate::film::{self, Accumulated, NoiseStats};
 use crate::trace::settings::{check_counts, Adaptive, Allocation};
@@ -76,21 +76,17 @@ impl PathTracer<'_> {
         self.active.ensure(d, pixels)?;
         self.unconverged.ensure(d, pixels)?;
         self.pixel_list.ensure(d, pixels)?;
-        let slots = FilmFeatures::of(&self.settings)
-            .matte_slots
-            .map(|n| n as usize);
-        if let Some(slots) = slots {
-            self.matte_slots.ensure(d, slots * pixels)?;
+        let film = self.film;
+        if let Some(slots) = film.matte_slots {
+            self.matte_slots.ensure(d, slots as usize * pixels)?;
         }
-        if self.settings.aovs.motion {
+        if film.vectors {
             self.accum_motion.ensure(d, pixels)?;
         }
-        let catcher = !self.settings.roles.is_empty();
-        if catcher {
+        if film.catcher {
             self.accum_catcher.ensure(d, 3 * pixels)?;
         }
-        let geometry = geometry_aovs(&self.settings);
-        if geometry {
+        if film.geometry {
             self.accum_geometry.ensure(d, 2 * pixels)?;
         }
         let first_event = d.pending_events().len();
@@ -104,16 +100,16 @@ impl PathTracer<'_> {
             Arg::Buf(self.active.get()),
             Arg::U32(pixels as u32),
         ];
-        if slots.is_some() {
+        if film.matte_slots.is_some() {
             args.push(Arg::Buf(self.matte_slots.get()));
         }
-        if self.settings.aovs.motion {
+        if film.vectors {
             args.push(Arg::Buf(self.accum_motion.get()));
         }
-        if catcher {
+        if film.catcher {
             args.push(Arg::Buf(self.accum_catcher.get()));
         }
-        if geometry {
+        if film.geometry {
             args.push(Arg::Buf(self.accum_geometry.get()));
         }
         d.launch(
@@ -282,19 +278,19 @@ impl PathTracer<'_> {
             acc.albedo = vec![[0.0f32; 4]; pixels];
             d.read(self.accum_albedo.get(), &mut acc.albedo)?;
         }
-        if !self.settings.roles.is_empty() {
+        if self.film.catcher {
             acc.catcher = vec![[0.0f32; 4]; 3 * pixels];
             d.read(self.accum_catcher.get(), &mut acc.catcher)?;
         }
-        if geometry_aovs(&self.settings) {
+        if self.film.geometry {
             acc.geometry = vec![[0.0f32; 4]; 2 * pixels];
             d.read(self.accum_geometry.get(), &mut acc.geometry)?;
         }
-        if self.settings.aovs.motion {
+        if self.film.vectors {
             acc.motion = vec![[0.0f32; 4]; pixels];
             d.read(self.accum_motion.get(), &mut acc.motion)?;
         }
-        if let Some(slots) = FilmFeatures::of(&self.settings).matte_slots {
+        if let Some(slots) = self.film.matte_slots {
             acc.matte_slots = vec![[0u32; 2]; slots as usize * pixels];
             d.read(self.matte_slots.get(), &mut acc.matte_slots)?;
         }
@@ -417,23 +413,23 @@ impl PathTracer<'_> {
                     args.push(Arg::U32(steps));
                     args.push(Arg::U32(soup.triangles as u32));
                 }
-                if FilmFeatures::of(&self.settings).matte_slots.is_some() {
+                if self.film.matte_slots.is_some() {
                     let pairs = self.mattes.as_ref().map(|(_, b)| b);
                     args.push(Arg::Buf(pairs.unwrap_or(&self.dummy_u32)));
                     args.push(Arg::Buf(self.matte_slots.get()));
                 }
-                if self.settings.aovs.motion {
+                if self.film.vectors {
                     args.push(Arg::Buf(self.vector_positions.get()));
                     args.push(Arg::Buf(&self.vector_cameras));
                     args.push(Arg::U32(soup.triangles as u32));
                     args.push(Arg::Buf(self.accum_motion.get()));
                 }
-                if !self.settings.roles.is_empty() {
+                if self.film.catcher {
                     let flags = self.triangle_flags.as_ref().map(|(b, _)| b);
                     args.push(Arg::Buf(flags.unwrap_or(&self.dummy_u32)));
                     args.push(Arg::Buf(self.accum_catcher.get()));
                 }
-                if geometry_aovs(&self.settings) {
+                if self.film.geometry {
                     args.push(Arg::Buf(self.accum_geometry.get()));
                 }
                 d.launch(
@@ -490,12 +486,6 @@ impl PathTracer<'_> {
         )?;
         Ok(())
     }
-}
-
-/// Whether the frame keeps the first hits' positions and uvs
-/// (`FILM_GEOMETRY`).
-fn geometry_aovs(settings: &crate::trace::settings::RenderSettings) -> bool {
-    settings.aovs.position || settings.aovs.uv
 }
 
 /// Waits for the event that ends a pass (the `count`-th pending event).

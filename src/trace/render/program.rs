@@ -9,7 +9,6 @@ use opencl3::program::Program;
 use crate::bvh::MAX_DEPTH;
 use crate::device::Device;
 use crate::scene::{Material, MaterialTable};
-use crate::trace::lens::Lens;
 use crate::trace::sampling::Sampler;
 use crate::trace::settings::{Layering, RenderSettings, Traversal};
 use crate::trace::texture::Slot;
@@ -220,12 +219,13 @@ pub const OBJECT_ID_SLOTS: u32 = 4;
 
 /// The camera's and the film's options that change the program: each is
 /// compiled in only when asked for, so without them the program, and so
-/// the image, is that of a build without these features.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct FilmFeatures<'a> {
+/// the image, is that of a build without these features. Decided once per
+/// tracer (`PathTracer::film`): which buffers a frame binds follows it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FilmFeatures {
     /// `HAS_DOF`: the camera has a lens (only then does a camera sample
     /// draw a lens point).
-    pub lens: Option<&'a Lens>,
+    pub lens: bool,
     /// `FILM_TRANSPARENT`: `--transparent`.
     pub transparent: bool,
     /// `FILM_MATTES` with `MATTE_SLOTS` slots per pixel: `--cryptomatte`.
@@ -238,11 +238,11 @@ pub struct FilmFeatures<'a> {
     pub geometry: bool,
 }
 
-impl<'a> FilmFeatures<'a> {
+impl FilmFeatures {
     /// The options `settings` asks for.
-    pub fn of(settings: &'a RenderSettings) -> FilmFeatures<'a> {
+    pub fn of(settings: &RenderSettings) -> FilmFeatures {
         FilmFeatures {
-            lens: settings.lens.as_ref(),
+            lens: settings.lens.is_some(),
             transparent: settings.transparent,
             // The object id is the pair most of a pixel's samples hit.
             matte_slots: match (&settings.cryptomatte, settings.aovs.object_id) {
@@ -262,7 +262,7 @@ pub fn film_defines(
     mut base: Vec<(&'static str, String)>,
     film: &FilmFeatures,
 ) -> Vec<(&'static str, String)> {
-    if film.lens.is_some() {
+    if film.lens {
         base.push(("HAS_DOF", "1".to_owned()));
     }
     if film.transparent {
