@@ -237,13 +237,6 @@ pub fn write_exr_denoised(
             message: format!("image buffer holds {} pixels, not {n}", image.rgba.len()),
         });
     }
-    let samples = |v: Vec<f32>, half: bool| {
-        if half {
-            FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
-        } else {
-            FlatSamples::F32(v)
-        }
-    };
     if denoised.is_some_and(|d| d.len() != n) {
         return Err(OutputError::Encode {
             path: path.to_path_buf(),
@@ -285,48 +278,30 @@ pub fn write_exr_denoised(
         (&image.albedo, ["albedo.R", "albedo.G", "albedo.B"]),
     ] {
         if let Some(buf) = buf {
-            for (c, name) in names.into_iter().enumerate() {
-                let v = buf.iter().map(|p| p[c]).collect();
-                channels.push(AnyChannel::new(name, samples(v, half)));
-            }
+            channels.extend(component_channels(names, buf, half));
         }
     }
 
-    // Motion vectors stay f32: Blender's Vector pass layout, in pixels.
+    // The data passes stay f32 whatever --half says: motion vectors in
+    // pixels (Blender's Vector pass layout), first-hit positions and uvs,
+    // object ids (exact integers) and the shadow catchers' factor.
     if let Some(m) = &image.motion {
-        for (c, name) in ["Vector.X", "Vector.Y", "Vector.Z", "Vector.W"]
-            .into_iter()
-            .enumerate()
-        {
-            let v = m.iter().map(|p| p[c]).collect();
-            channels.push(AnyChannel::new(name, samples(v, false)));
-        }
+        let names = ["Vector.X", "Vector.Y", "Vector.Z", "Vector.W"];
+        channels.extend(component_channels(names, m, false));
     }
-    // First-hit geometry, f32 like the other data passes.
     if let Some(p) = &image.position {
-        for (c, name) in ["Position.X", "Position.Y", "Position.Z"]
-            .into_iter()
-            .enumerate()
-        {
-            let v = p.iter().map(|q| q[c]).collect();
-            channels.push(AnyChannel::new(name, samples(v, false)));
-        }
+        let names = ["Position.X", "Position.Y", "Position.Z"];
+        channels.extend(component_channels(names, p, false));
     }
     if let Some(uv) = &image.uv {
-        for (c, name) in ["UV.U", "UV.V"].into_iter().enumerate() {
-            let v = uv.iter().map(|q| q[c]).collect();
-            channels.push(AnyChannel::new(name, samples(v, false)));
-        }
+        channels.extend(component_channels(["UV.U", "UV.V"], uv, false));
     }
     if let Some(ids) = &image.object_id {
         channels.push(AnyChannel::new("object_id", samples(ids.clone(), false)));
     }
-    // The shadow catchers' shadow factor, f32 like the other passes.
     if let Some(shadow) = &image.shadow {
-        for (c, name) in ["shadow.R", "shadow.G", "shadow.B"].into_iter().enumerate() {
-            let v = shadow.iter().map(|p| p[c]).collect();
-            channels.push(AnyChannel::new(name, samples(v, false)));
-        }
+        let names = ["shadow.R", "shadow.G", "shadow.B"];
+        channels.extend(component_channels(names, shadow, false));
     }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id
     // is a hash's 32 bits).
@@ -416,6 +391,27 @@ pub fn write_exr_denoised(
             action: "write",
             source,
         })
+    })
+}
+
+/// A channel's samples, f16 with `half`.
+fn samples(v: Vec<f32>, half: bool) -> FlatSamples {
+    if half {
+        FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
+    } else {
+        FlatSamples::F32(v)
+    }
+}
+
+/// One channel per component of `pixels`, named by `names`.
+fn component_channels<'p, const N: usize>(
+    names: [&'static str; N],
+    pixels: &'p [[f32; N]],
+    half: bool,
+) -> impl Iterator<Item = AnyChannel<FlatSamples>> + 'p {
+    names.into_iter().enumerate().map(move |(c, name)| {
+        let v = pixels.iter().map(|p| p[c]).collect();
+        AnyChannel::new(name, samples(v, half))
     })
 }
 
