@@ -109,6 +109,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 material::material_consts(),
                 lights::light_consts(),
                 crate::scene::compositing::compositing_consts(),
+                crate::film::light::light_pass_consts(),
             ]
             .concat(),
             structs: vec![

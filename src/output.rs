@@ -303,6 +303,14 @@ pub fn write_exr_denoised(
         let names = ["shadow.R", "shadow.G", "shadow.B"];
         channels.extend(component_channels(names, shadow, false));
     }
+    // Light-path passes are colours, as the beauty is: --half applies.
+    for pass in &image.light {
+        for (c, component) in ["R", "G", "B"].into_iter().enumerate() {
+            let v = pass.pixels.iter().map(|p| p[c]).collect();
+            let name = format!("{}.{component}", pass.name);
+            channels.push(AnyChannel::new(name.as_str(), samples(v, half)));
+        }
+    }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id
     // is a hash's 32 bits).
     for layer in &image.mattes {

@@ -285,9 +285,9 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
-    // Depth of field with a transparent film, Cryptomatte, motion vectors
-    // shadow catchers and the position and uv AOVs, alone and with motion
-    // blur.
+    // Depth of field with a transparent film, Cryptomatte, motion vectors,
+    // shadow catchers, the position and uv AOVs and the light-path passes,
+    // alone and with motion blur.
     let lens = film_defines(
         pathtrace_defines(
             Traversal::Wide,
@@ -305,11 +305,32 @@ fn variants() -> Vec<Variant> {
             vectors: true,
             catcher: true,
             geometry: true,
+            light: true,
         },
     );
     v.push(Variant {
         entry: "pathtrace.cl",
         defines: lens.clone(),
+        codegen: true,
+    });
+    // The light-path passes over every lobe.
+    v.push(Variant {
+        entry: "pathtrace.cl",
+        defines: film_defines(
+            pathtrace_defines(
+                Traversal::Wide,
+                true,
+                Sampler::default(),
+                true,
+                false,
+                false,
+                Lobes::ALL,
+            ),
+            &FilmFeatures {
+                light: true,
+                ..FilmFeatures::default()
+            },
+        ),
         codegen: true,
     });
     v.push(Variant {
@@ -381,6 +402,7 @@ fn variants() -> Vec<Variant> {
                 ("HAS_TRANSMISSION", "1".to_owned()),
                 ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
                 ("ENERGY_LAYERING", "1".to_owned()),
+                ("FILM_LIGHT", "1".to_owned()),
             ])
             .collect(),
         codegen: true,

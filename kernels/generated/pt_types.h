@@ -42,6 +42,19 @@
 #define TRIANGLE_SHADOW_CATCHER 1u
 // A holdout's.
 #define TRIANGLE_HOLDOUT 2u
+// The diffuse lobe's three sums in a pixel's light passes (direct,
+// indirect, colour); glossy's and transmission's follow.
+#define LIGHT_DIFFUSE 0u
+// The glossy lobe's three sums.
+#define LIGHT_GLOSSY 3u
+// The transmission lobe's three sums.
+#define LIGHT_TRANSMISSION 6u
+// Emission the camera saw.
+#define LIGHT_EMIT 9u
+// Environment the camera saw.
+#define LIGHT_ENV 10u
+// The rgb passes per pixel.
+#define LIGHT_PASSES 11u
 
 // The camera. For a perspective camera `right` and `up` are scaled by the
 // half extents of the image plane at distance 1; for an orthographic one by

@@ -506,6 +506,17 @@ inline bool refraction_half(float eta, float3 wo, float3 wi, float3* h_out, floa
     return true;
 }
 
+// The dielectric's diffuse reflection lobe for wi above the surface, under
+// the specular layer of Fresnel `layer` at the half vector (Rust twin: the
+// `diffuse` of dielectric_eval); before the (1 - metallic) mix.
+inline float3 dielectric_diffuse(BsdfParams p, float3 wo, float3 wi, float3 layer) {
+#ifdef ENERGY_LAYERING
+    if (energy_layered(p))
+        return p.base * lambert_scaling(p, wo, wi) * (diffuse_share(p, 0.0f) * PT_INV_PI);
+#endif
+    return p.base * (diffuse_share(p, max3(layer)) * PT_INV_PI);
+}
+
 inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
     if (wo.z <= 0.0f || wi.z == 0.0f) return (float3)(0.0f);
     if (wi.z > 0.0f) {
@@ -519,11 +530,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float s = spec_smooth(p) ? 0.0f : (d * g2) / ((4.0f * wo.z) * wi.z);
         float3 layer = p.specular * layer_fresnel(p, voh);
         float3 fm = metal_fresnel(p, voh);
-        float3 diffuse = p.base * (diffuse_share(p, max3(layer)) * PT_INV_PI);
-#ifdef ENERGY_LAYERING
-        if (energy_layered(p))
-            diffuse = p.base * lambert_scaling(p, wo, wi) * (diffuse_share(p, 0.0f) * PT_INV_PI);
-#endif
+        float3 diffuse = dielectric_diffuse(p, wo, wi, layer);
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
 #ifdef ENERGY_LAYERING
@@ -586,6 +593,17 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
 }
 #endif
 
+// The base's diffuse reflection lobe under a specular layer of Fresnel
+// `fd` at the half vector (Rust twin: the `diffuse` of base_eval); before
+// the (1 - metallic) mix.
+inline float3 base_diffuse(BsdfParams p, float3 wo, float3 wi, float fd) {
+#ifdef ENERGY_LAYERING
+    return p.base * PT_INV_PI * lambert_scaling(p, wo, wi);
+#else
+    return p.base * ((1.0f - fd) * PT_INV_PI);
+#endif
+}
+
 // The base BSDF's value (without the cosine) for wo, wi in the local frame.
 inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 #ifdef HAS_TRANSMISSION
@@ -605,11 +623,7 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float w = schlick_weight(voh);
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
-#ifdef ENERGY_LAYERING
-    float3 diffuse = p.base * PT_INV_PI * lambert_scaling(p, wo, wi);
-#else
-    float3 diffuse = p.base * ((1.0f - fd) * PT_INV_PI);
-#endif
+    float3 diffuse = base_diffuse(p, wo, wi, fd);
 #ifdef GGX_ENERGY_COMPENSATION
     float3 dielectric = diffuse + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
     float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / spec_albedo(p, wo) - 1.0f));
@@ -619,6 +633,45 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 #endif
     return dielectric * (1.0f - p.metallic) + metal * p.metallic;
 }
+
+#ifdef FILM_LIGHT
+// Two of the parts of base_bsdf_eval that the light-path passes name (Rust
+// twin: base_eval_lobes): `diffuse`, the Lambertian reflection and diffuse
+// transmission lobes, and `transmit`, the GGX transmission lobe
+// (thin-walled or refracting). The glossy part is the rest (specular
+// reflection, metal). Only refraction needs the whole value.
+inline void base_bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
+                                 float3* transmit) {
+    *diffuse = (float3)(0.0f);
+    *transmit = (float3)(0.0f);
+    if (!(wo.z > 0.0f) || wi.z == 0.0f) return;
+#ifdef HAS_TRANSMISSION
+    if (wi.z < 0.0f) {
+        float3 dt = diffuse_transmission_eval(p, wo, wi);
+        *diffuse = dt;
+        *transmit = fmax(base_bsdf_eval(p, wo, wi) - dt, (float3)(0.0f));
+        return;
+    }
+#else
+    if (wi.z < 0.0f) return;
+    // Pure Lambert (--clay) is all diffuse.
+    if (p.specular == 0.0f && p.metallic == 0.0f) {
+        *diffuse = p.base * PT_INV_PI;
+        return;
+    }
+#endif
+    float3 hv = wo + wi;
+    float hl = length(hv);
+    if (hl == 0.0f) return;
+    float voh = fmax(dot(wo, hv / hl), 0.0f);
+#ifdef HAS_TRANSMISSION
+    *diffuse = dielectric_diffuse(p, wo, wi, p.specular * layer_fresnel(p, voh)) * (1.0f - p.metallic);
+#else
+    float fd = p.specular * (0.04f + 0.96f * schlick_weight(voh));
+    *diffuse = base_diffuse(p, wo, wi, fd) * (1.0f - p.metallic);
+#endif
+}
+#endif
 
 // The pdf of the visible-normal sampling of the specular lobe, per solid
 // angle of wi: G1(wo) D(h) / (4 wo.z).

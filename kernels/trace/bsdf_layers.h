@@ -143,6 +143,32 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 #endif
 }
 
+#ifdef FILM_LIGHT
+// bsdf_eval's diffuse and transmission parts (see base_bsdf_lobe_parts):
+// the sheen is diffuse, the coat glossy, and the layers above scale the
+// base's parts as they scale the base (Rust twin: bsdf_eval_lobes).
+inline void bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
+                            float3* transmit) {
+    *diffuse = (float3)(0.0f);
+    *transmit = (float3)(0.0f);
+    if (!(wo.z > 0.0f)) return;
+    float3 d, t;
+    base_bsdf_lobe_parts(p, wo, wi, &d, &t);
+#ifdef HAS_SHEEN
+    float scaling = sheen_scaling(p, wo.z, fabs(wi.z));
+    d = d * scaling + p.sheen_color * sheen_lobe(p.sheen_roughness, wo, wi);
+    t = t * scaling;
+#endif
+#ifdef HAS_CLEARCOAT
+    float keep = 1.0f - coat_weight(p, coat_cos(p, wo));
+    d = d * keep;
+    t = t * keep;
+#endif
+    *diffuse = d;
+    *transmit = t;
+}
+#endif
+
 inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     if (!(wo.z > 0.0f)) return 0.0f;
     float pdf = base_bsdf_pdf(p, wo, wi);
@@ -259,6 +285,12 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
     return base_bsdf_sample(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out);
 }
 inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
+#ifdef FILM_LIGHT
+inline void bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
+                            float3* transmit) {
+    base_bsdf_lobe_parts(p, wo, wi, diffuse, transmit);
+}
+#endif
 #endif
 
 #endif

@@ -127,6 +127,14 @@ typedef struct {
     const __global PtCamera* vector_cameras;
     uint vector_triangles;
 #endif
+#ifdef FILM_LIGHT
+    // Light-path passes: when `split_lobes` (at a path's first scattering
+    // vertex), pt_shade_light leaves here the shares of its contribution
+    // that the diffuse and the transmission lobes gave (lobe_share).
+    bool split_lobes;
+    float3 shade_diffuse;
+    float3 shade_transmit;
+#endif
 } PtScene;
 
 // The scene's geometry at the path's time (the soup itself without
@@ -184,6 +192,25 @@ typedef struct {
 #define GEOMETRY_DECL , __global float4* accum_geometry
 #else
 #define GEOMETRY_DECL
+#endif
+#ifdef FILM_LIGHT
+// Light-path passes (`--passes light`, film::light): per pixel the sums of
+// LIGHT_PASSES rgb passes, 3 * LIGHT_PASSES floats in the order of
+// film::light::LIGHT_PASS_NAMES.
+#define LIGHT_DECL , __global float* accum_light
+#define LIGHT_PATH_DECL , float3* light_sums
+#define LIGHT_PATH_PASS , light
+
+// The share `part` is of `f`, per channel, in [0, 1] (0 where f is 0).
+inline float3 lobe_share(float3 part, float3 f) {
+    return (float3)(f.x > 0.0f ? clamp(part.x / f.x, 0.0f, 1.0f) : 0.0f,
+                    f.y > 0.0f ? clamp(part.y / f.y, 0.0f, 1.0f) : 0.0f,
+                    f.z > 0.0f ? clamp(part.z / f.z, 0.0f, 1.0f) : 0.0f);
+}
+#else
+#define LIGHT_DECL
+#define LIGHT_PATH_DECL
+#define LIGHT_PATH_PASS
 #endif
 #ifdef FILM_VECTORS
 // Motion vectors (`--aov motion`): the soup and the camera a frame before,
@@ -909,6 +936,14 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
 #endif
     float3 f = bsdf_eval(bp, wo, wi);
     if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) return (float3)(0.0f);
+#ifdef FILM_LIGHT
+    if (s->split_lobes) {
+        float3 fd, ft;
+        bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
+        s->shade_diffuse = lobe_share(fd, f);
+        s->shade_transmit = lobe_share(ft, f);
+    }
+#endif
     float w = 1.0f;
     if (light_pdf > 0.0f) w = power_heuristic(light_pdf, bsdf_pdf(bp, wo, wi));
     float3 c = beta * f * (cos_i * w) * contrib;
@@ -1085,10 +1120,91 @@ typedef struct {
     float3 catcher_lit;
     float3 catcher_unshadowed;
 #endif
+#ifdef FILM_LIGHT
+    // The pixel's light-path pass sums (film::light), which the sample adds
+    // to as it goes: the light each lobe of the first scattering vertex
+    // passed on, directly and indirectly, the lobe's weight there (its
+    // colour), and the emission and environment the camera saw. Added in
+    // place rather than summed per sample and then added, which on PoCL
+    // cost 1.3x the trace time (twice the state to keep per work-item).
+    float3* light;
+#endif
 } PtSample;
 
+#ifdef FILM_LIGHT
+// Adds `c`, light that reached the camera through the path's first
+// scattering vertex, to the light-path passes: the shares `diffuse` and
+// `transmit` of it to those lobes' passes and the rest to glossy's, to the
+// direct passes when that vertex was the last before the light.
+inline void light_pass_add(PtSample* out, float3 c, float3 diffuse, float3 transmit, bool direct) {
+    // Nothing non-finite reaches the sums (the beauty drops such a sample).
+    if (!(isfinite(c.x) && isfinite(c.y) && isfinite(c.z))) return;
+    float3 d = c * diffuse;
+    float3 t = c * transmit;
+    float3 g = fmax((c - d) - t, (float3)(0.0f));
+    // Constant indices only: a private array indexed at run time is kept
+    // in memory, which stops PoCL vectorising the kernel across pixels.
+    float3 zero = (float3)(0.0f);
+    out->light[LIGHT_DIFFUSE] += direct ? d : zero;
+    out->light[LIGHT_DIFFUSE + 1u] += direct ? zero : d;
+    out->light[LIGHT_GLOSSY] += direct ? g : zero;
+    out->light[LIGHT_GLOSSY + 1u] += direct ? zero : g;
+    out->light[LIGHT_TRANSMISSION] += direct ? t : zero;
+    out->light[LIGHT_TRANSMISSION + 1u] += direct ? zero : t;
+}
+
+// At the path's first scattering vertex, the sampled direction wi (BSDF
+// value f, pdf, from a delta lobe or not): the shares of the throughput
+// the diffuse and transmission lobes gave, which split all the light the
+// path finds after it, and the lobes' weights f |cos| / pdf, whose mean is
+// each lobe's albedo (the colour passes). A delta lobe is glossy above
+// the surface and transmission below.
+inline void pt_first_lobes(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
+                           float pdf, bool delta, float3* diffuse, float3* transmit) {
+    if (delta) {
+        *diffuse = (float3)(0.0f);
+        *transmit = (float3)(wi.z < 0.0f ? 1.0f : 0.0f);
+    } else {
+        // f is bsdf_eval's value at wi (bsdf_sample's own).
+        float3 fd, ft;
+        bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
+        *diffuse = lobe_share(fd, f);
+        *transmit = lobe_share(ft, f);
+    }
+    float3 w = f * (fabs(wi.z) / pdf);
+    if (!(isfinite(w.x) && isfinite(w.y) && isfinite(w.z))) return;
+    float3 d = w * *diffuse;
+    float3 t = w * *transmit;
+    out->light[LIGHT_DIFFUSE + 2u] += d;
+    out->light[LIGHT_GLOSSY + 2u] += fmax((w - d) - t, (float3)(0.0f));
+    out->light[LIGHT_TRANSMISSION + 2u] += t;
+}
+
+// Adds `c`, a light sample's contribution at a vertex after `depth`
+// scattering ones, to the light-path passes: at the first vertex split by
+// the lobes there (pt_shade_light's shares), later by the first vertex's.
+inline void light_pass_direct(PtSample* out, const PtScene* s, float3 c, uint depth,
+                              float3 diffuse, float3 transmit) {
+    if (depth == 0u)
+        light_pass_add(out, c, s->shade_diffuse, s->shade_transmit, true);
+    else
+        light_pass_add(out, c, diffuse, transmit, false);
+}
+
+// Adds `c`, emission or environment found after `depth` scattering
+// vertices, to the light-path passes: to `seen` (LIGHT_EMIT or LIGHT_ENV)
+// when the camera saw it, else through the first vertex's lobes.
+inline void light_pass_found(PtSample* out, float3 c, uint depth, uint seen, float3 diffuse,
+                             float3 transmit) {
+    if (depth == 0u) {
+        if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z)) out->light[seen] += c;
+    } else
+        light_pass_add(out, c, diffuse, transmit, depth == 1u);
+}
+#endif
+
 inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const float* filter,
-                        uint px, uint py, uint sample TEX_DECL) {
+                        uint px, uint py, uint sample LIGHT_PATH_DECL TEX_DECL) {
     PtSample out;
     out.radiance = (float3)(0.0f);
     out.alpha = 0.0f;
@@ -1109,6 +1225,15 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     out.catcher = false;
     out.catcher_lit = (float3)(0.0f);
     out.catcher_unshadowed = (float3)(0.0f);
+#endif
+#ifdef FILM_LIGHT
+    out.light = light_sums;
+    s->split_lobes = false;
+    s->shade_diffuse = (float3)(0.0f);
+    s->shade_transmit = (float3)(0.0f);
+    // The first scattering vertex's lobe shares of the path's throughput.
+    float3 path_diffuse = (float3)(0.0f);
+    float3 path_transmit = (float3)(0.0f);
 #endif
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
@@ -1245,6 +1370,10 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
                     w = power_heuristic(prev_pdf, pl);
                 }
                 out.radiance += beta * le * w;
+#ifdef FILM_LIGHT
+                light_pass_found(&out, beta * le * w, depth, LIGHT_ENV, path_diffuse,
+                                 path_transmit);
+#endif
             }
             break;
         }
@@ -1297,10 +1426,16 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
                 w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, reach, cos_l));
             }
             out.radiance += beta * le * w;
+#ifdef FILM_LIGHT
+            light_pass_found(&out, beta * le * w, depth, LIGHT_EMIT, path_diffuse, path_transmit);
+#endif
         }
 #ifdef HAS_UNLIT
         if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
             out.radiance += beta * albedo;
+#ifdef FILM_LIGHT
+            light_pass_found(&out, beta * albedo, depth, LIGHT_EMIT, path_diffuse, path_transmit);
+#endif
             break;
         }
 #endif
@@ -1358,26 +1493,39 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // draws no sample, and the sampler's dimensions are fixed per set,
         // so the other sets are unchanged.
         bool only_delta = bsdf_only_delta(bp);
+#ifdef FILM_LIGHT
+        s->split_lobes = depth == 0u;
+#endif
         if (!only_delta && !last && s->frame.light_loop != 0u) {
-            for (uint i = 0u; i < s->frame.light_count; ++i)
-                out.radiance += pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
-                                                   bounce TEX_PASS);
+            for (uint i = 0u; i < s->frame.light_count; ++i) {
+                float3 c = pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
+                                              bounce TEX_PASS);
+                out.radiance += c;
+#ifdef FILM_LIGHT
+                light_pass_direct(&out, s, c, depth, path_diffuse, path_transmit);
+#endif
+            }
         }
         if (!only_delta && !last && s->frame.select_count > 0u) {
             float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
             uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
             uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
+            float3 c;
             if (pick < first) {
                 float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
-                out.radiance += pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta,
-                                                   rng, bounce TEX_PASS);
+                c = pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta, rng,
+                                       bounce TEX_PASS);
             } else if (pick == first && s->frame.emit_count > 0u) {
-                out.radiance += pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
-                                                   bounce TEX_PASS);
+                c = pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
+                                       bounce TEX_PASS);
             } else {
-                out.radiance += pt_env_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
-                                              bounce TEX_PASS);
+                c = pt_env_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
+                                  bounce TEX_PASS);
             }
+            out.radiance += c;
+#ifdef FILM_LIGHT
+            light_pass_direct(&out, s, c, depth, path_diffuse, path_transmit);
+#endif
         }
 
         // Continue the path by sampling the BSDF.
@@ -1419,6 +1567,10 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         bool scattered = true;
 #endif
         if (scattered) {
+#ifdef FILM_LIGHT
+            if (depth == 0u)
+                pt_first_lobes(&out, bp, wo, wi, f, pdf, delta, &path_diffuse, &path_transmit);
+#endif
             prev_pdf = pdf;
             prev_delta = delta;
             // Russian roulette from the sixth vertex on (after the fifth
@@ -1494,7 +1646,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                         __global const uint* active, uint adaptive,
                         __global const uint* pixel_list, uint listed, uint tile_x, uint tile_y,
                         uint tile_w, uint tile_h, uint sample_begin, uint sample_end TEX_DECL
-                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL CATCHER_DECL GEOMETRY_DECL) {
+                        MATX_DECL MOTION_DECL MATTE_DECL VECTOR_DECL CATCHER_DECL GEOMETRY_DECL LIGHT_DECL) {
     uint gid = get_global_id(0);
     uint px, py;
     if (listed > 0u) {
@@ -1576,6 +1728,11 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
     uint2 mattes[MATTE_SLOTS];
     for (uint j = 0u; j < MATTE_SLOTS; ++j) mattes[j] = matte_slots[i * MATTE_SLOTS + j];
 #endif
+#ifdef FILM_LIGHT
+    float3 light[LIGHT_PASSES];
+    __global float* light_at = accum_light + (size_t)i * (3u * LIGHT_PASSES);
+    for (uint j = 0u; j < LIGHT_PASSES; ++j) light[j] = vload3(j, light_at);
+#endif
     for (uint k = sample_begin; k < sample_end; ++k) {
         if (k != 0u && (k & (k - 1u)) == 0u) {
             if (((31u - clz(k)) & 1u) == 0u) {
@@ -1584,7 +1741,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                 snap1 = color;
             }
         }
-        PtSample r = pt_path(&s, camera, filter, px, py, k TEX_PASS);
+        PtSample r = pt_path(&s, camera, filter, px, py, k LIGHT_PATH_PASS TEX_PASS);
         bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
                       isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
                       isfinite(r.normal.y) && isfinite(r.normal.z);
@@ -1602,6 +1759,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
         }
 #ifdef FILM_MATTES
         if (r.matte != 0u) matte_count(mattes, r.matte);
+#endif
+#ifdef FILM_LIGHT
 #endif
 #ifdef FILM_GEOMETRY
         // Summed over the samples that hit, as depth is (film::resolve).
@@ -1638,6 +1797,9 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 #ifdef FILM_MATTES
     for (uint j = 0u; j < MATTE_SLOTS; ++j) matte_slots[i * MATTE_SLOTS + j] = mattes[j];
 #endif
+#ifdef FILM_LIGHT
+    for (uint j = 0u; j < LIGHT_PASSES; ++j) vstore3(light[j], j, light_at);
+#endif
 #ifdef FILM_VECTORS
     accum_motion[i] = motion;
 #endif
@@ -1656,7 +1818,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
 __kernel void pt_clear(__global float4* accum_color, __global float4* accum_normal,
                        __global float4* accum_albedo, __global float4* accum_aux,
                        __global uint* ray_counts, __global float4* accum_snapshots,
-                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL CATCHER_CLEAR_DECL GEOMETRY_DECL) {
+                       __global uint* active, uint n MATTE_CLEAR_DECL VECTOR_CLEAR_DECL CATCHER_CLEAR_DECL GEOMETRY_DECL LIGHT_DECL) {
     uint i = get_global_id(0);
     if (i >= n) return;
 #ifdef FILM_MATTES
@@ -1673,6 +1835,9 @@ __kernel void pt_clear(__global float4* accum_color, __global float4* accum_norm
     accum_catcher[3u * i] = (float4)(0.0f);
     accum_catcher[3u * i + 1u] = (float4)(0.0f);
     accum_catcher[3u * i + 2u] = (float4)(0.0f);
+#endif
+#ifdef FILM_LIGHT
+    for (uint k = 0u; k < 3u * LIGHT_PASSES; ++k) accum_light[3u * LIGHT_PASSES * i + k] = 0.0f;
 #endif
     accum_color[i] = (float4)(0.0f);
     accum_normal[i] = (float4)(0.0f);

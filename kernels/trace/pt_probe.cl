@@ -144,17 +144,13 @@ __kernel void media_channel_probe(__global const float* in, __global float* out,
 }
 #endif
 
-#ifdef HAS_LAYERS
-// As bsdf_ext_probe with the coat and sheen layers: per case params (base
-// rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
-// f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb, 0),
-// wo, wi, u, (coat normal, 0): 36 floats (the dielectric ones read only
-// with HAS_TRANSMISSION; with HAS_ANISOTROPY alpha_t is wo's fourth
-// float). Out as bsdf_probe: 12 floats, plus only-delta: 13.
-__kernel void bsdf_layer_probe(__global const float* in, __global float* out, uint n) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    const __global float* c = in + (size_t)i * 36u;
+// The BsdfParams of a layer probe's case `c` (bsdf_layer_probe): params
+// (base rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0
+// green, f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb,
+// 0), wo, wi, u, (coat normal, 0): 36 floats, each read only where its
+// define is on (the dielectric ones with HAS_TRANSMISSION; with
+// HAS_ANISOTROPY alpha_t is wo's fourth float).
+inline BsdfParams probe_layer_params(const __global float* c) {
     BsdfParams p;
     p.base = (float3)(c[0], c[1], c[2]);
     p.metallic = c[3];
@@ -186,11 +182,42 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
     p.sheen_roughness = c[14];
     p.sheen_color = (float3)(c[16], c[17], c[18]);
 #endif
+    return p;
+}
+
+#ifdef HAS_LAYERS
+// As bsdf_ext_probe with the coat and sheen layers: per case the 36 floats
+// of probe_layer_params. Out as bsdf_probe: 12 floats, plus only-delta: 13.
+__kernel void bsdf_layer_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 36u;
+    BsdfParams p = probe_layer_params(c);
     float3 wo = (float3)(c[20], c[21], c[22]);
     float3 wi = (float3)(c[24], c[25], c[26]);
     __global float* o = out + (size_t)i * 13u;
     probe_bsdf_out(p, wo, wi, (float3)(c[28], c[29], c[30]), o);
     o[12] = bsdf_only_delta(p) ? 1.0f : 0.0f;
+}
+#endif
+
+#ifdef FILM_LIGHT
+// bsdf_eval and bsdf_lobe_parts on the cases of probe_layer_params (36 floats). Out per
+// case: the value, its diffuse part and its transmission part (9 floats).
+__kernel void bsdf_lobes_probe(__global const float* in, __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 36u;
+    BsdfParams p = probe_layer_params(c);
+    float3 wo = (float3)(c[20], c[21], c[22]);
+    float3 wi = (float3)(c[24], c[25], c[26]);
+    float3 d, t;
+    float3 f = bsdf_eval(p, wo, wi);
+    bsdf_lobe_parts(p, wo, wi, &d, &t);
+    __global float* o = out + (size_t)i * 9u;
+    o[0] = f.x; o[1] = f.y; o[2] = f.z;
+    o[3] = d.x; o[4] = d.y; o[5] = d.z;
+    o[6] = t.x; o[7] = t.y; o[8] = t.z;
 }
 #endif
 

@@ -121,6 +121,18 @@ pub struct RenderArgs {
     /// the object covering most of the pixel; 0 for none).
     #[arg(long, value_name = "LIST", help_heading = "Output")]
     pub aov: Option<String>,
+    /// Light-path passes, named as Blender's: `light` for all, or any of
+    /// diffuse (DiffDir, DiffInd, DiffCol), glossy (GlossDir, GlossInd,
+    /// GlossCol), transmission (TransDir, TransInd, TransCol), emission
+    /// (Emit: what the camera sees emitted) and environment (Env: the
+    /// environment the camera sees). Dir is the light that reached the
+    /// first surface's lobe from a light, Ind all the rest, Col the lobe's
+    /// colour, so that (DiffDir + DiffInd) * DiffCol + (GlossDir +
+    /// GlossInd) * GlossCol + (TransDir + TransInd) * TransCol + Emit +
+    /// Env = the beauty (RGB; before --denoise and the shadow catcher's
+    /// shadow). See docs/output.md.
+    #[arg(long, value_name = "LIST", help_heading = "Output")]
+    pub passes: Option<String>,
     /// Make NODE's meshes (and its children's) a shadow catcher: invisible
     /// to the camera except for the shadows the rest of the scene casts on
     /// them, written to alpha and to the `shadow` channels, so a CG

@@ -25,8 +25,10 @@
 //! `BACKGROUND_DEPTH` where none did, as Blender does.
 
 pub mod cryptomatte;
+pub mod light;
 
 pub use cryptomatte::{Cryptomatte, MatteKind, MatteLayer};
+pub use light::LightPass;
 
 use crate::UsageError;
 
@@ -207,6 +209,15 @@ pub struct Aovs {
     pub uv: bool,
     /// The glTF node covering most of the pixel (`object_id`).
     pub object_id: bool,
+    /// The light-path passes (`film::light`), by lobe: `DiffDir`,
+    /// `DiffInd` and `DiffCol` (`diffuse`), `Gloss*` (`glossy`), `Trans*`
+    /// (`transmission`), `Emit` (`emission`) and `Env` (`environment`);
+    /// `light` names all five.
+    pub diffuse: bool,
+    pub glossy: bool,
+    pub transmission: bool,
+    pub emission: bool,
+    pub environment: bool,
 }
 
 /// Each AOV's `--aov` name and other spellings, in the order `names` lists
@@ -252,6 +263,11 @@ aov_names! {
     position: "position" | "p";
     uv: "uv";
     object_id: "object_id" | "object-id";
+    diffuse: "diffuse";
+    glossy: "glossy";
+    transmission: "transmission";
+    emission: "emission" | "emit";
+    environment: "environment" | "env";
 }
 
 impl Aovs {
@@ -263,13 +279,59 @@ impl Aovs {
         ..Aovs::NONE
     };
 
-    /// Parses `--aov` (any subset of `names`, any order, comma-separated).
+    /// These AOVs with the light-path passes `--passes` names (`light`,
+    /// or any of diffuse, glossy, transmission, emission, environment).
+    pub fn with_light_passes(self, list: &str) -> Result<Aovs, UsageError> {
+        let passes = Aovs::parse(list).map_err(|_| {
+            UsageError(format!(
+                "--passes {list:?}: choose light (every pass) or any of diffuse, glossy, \
+                 transmission, emission, environment (e.g. --passes light)"
+            ))
+        })?;
+        let other = Aovs {
+            diffuse: false,
+            glossy: false,
+            transmission: false,
+            emission: false,
+            environment: false,
+            ..passes
+        };
+        if other != Aovs::NONE {
+            return Err(UsageError(format!(
+                "--passes {list:?}: {} is an AOV, not a light pass; give it to --aov",
+                other.names().join(", ")
+            )));
+        }
+        Ok(Aovs {
+            diffuse: self.diffuse || passes.diffuse,
+            glossy: self.glossy || passes.glossy,
+            transmission: self.transmission || passes.transmission,
+            emission: self.emission || passes.emission,
+            environment: self.environment || passes.environment,
+            ..self
+        })
+    }
+
+    /// Whether any light-path pass is on (`film::light`).
+    pub fn light(&self) -> bool {
+        self.diffuse || self.glossy || self.transmission || self.emission || self.environment
+    }
+
+    /// Parses `--aov` (any subset of `names`, any order, comma-separated;
+    /// `light` is every light-path pass).
     pub fn parse(list: &str) -> Result<Aovs, UsageError> {
         let mut aovs = Aovs::NONE;
         for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-            if !aovs.set(&item.to_ascii_lowercase()) {
+            let item = item.to_ascii_lowercase();
+            if item == "light" {
+                aovs.diffuse = true;
+                aovs.glossy = true;
+                aovs.transmission = true;
+                aovs.emission = true;
+                aovs.environment = true;
+            } else if !aovs.set(&item) {
                 return Err(UsageError(format!(
-                    "--aov: unknown AOV {item:?}; choose from {} (e.g. --aov depth,normal,albedo)",
+                    "--aov: unknown AOV {item:?}; choose from {}, light (e.g. --aov depth,normal,albedo)",
                     Aovs::CHOICES.trim_end_matches(", ")
                 )));
             }
@@ -302,6 +364,9 @@ pub struct Image {
     pub object_id: Option<Vec<f32>>,
     /// The Cryptomatte layers (`--cryptomatte`), or none.
     pub mattes: Vec<MatteLayer>,
+    /// The light-path passes asked for (`film::light`), in
+    /// `LIGHT_PASS_NAMES` order, or none.
+    pub light: Vec<LightPass>,
     /// With shadow catchers: per pixel, the share of the light that
     /// reaches the catcher (1: no shadow, 0: all of it shadowed), the
     /// factor to multiply a plate by; 1 where no catcher is seen.
@@ -365,6 +430,7 @@ impl Image {
             uv: aovs.uv.then(|| vec![[0.0; 2]; n]),
             object_id: aovs.object_id.then(|| vec![0.0; n]),
             mattes: Vec::new(),
+            light: light::passes_of(aovs, n),
             shadow: None,
         }
     }
@@ -382,7 +448,16 @@ impl Image {
             position: self.position.is_some(),
             uv: self.uv.is_some(),
             object_id: self.object_id.is_some(),
+            diffuse: self.has_light_pass("DiffDir"),
+            glossy: self.has_light_pass("GlossDir"),
+            transmission: self.has_light_pass("TransDir"),
+            emission: self.has_light_pass("Emit"),
+            environment: self.has_light_pass("Env"),
         }
+    }
+
+    fn has_light_pass(&self, name: &str) -> bool {
+        self.light.iter().any(|p| p.name == name)
     }
 }
 
@@ -449,6 +524,9 @@ pub struct Accumulated {
     /// With `--cryptomatte`: per pixel, its slots of (matte pair + 1,
     /// samples that first hit it); empty otherwise.
     pub matte_slots: Vec<[u32; 2]>,
+    /// With light-path passes: per pixel 3 * LIGHT_PASSES sums
+    /// (`light::resolve_pixel`); empty otherwise.
+    pub light: Vec<f32>,
 }
 
 /// A resolved frame: the image with its AOVs, and per pixel the samples it
@@ -543,6 +621,13 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
                 for k in 0..4 {
                     image.rgba[i][k] += rgba[k];
                 }
+            }
+        }
+        if !acc.light.is_empty() && !image.light.is_empty() {
+            let per = 3 * light::LIGHT_PASSES as usize;
+            let passes = light::resolve_pixel(&acc.light[per * i..per * (i + 1)], kept);
+            for pass in &mut image.light {
+                pass.pixels[i] = passes[pass.index()];
             }
         }
         if let Some(z) = &mut image.depth {
@@ -827,10 +912,7 @@ mod tests {
             snapshots: vec![[0.0; 4]; 4],
             aux: vec![[6.0, 2.0, 1.0, 4.0], [0.0, 0.0, 2.0, 2.0]],
             rays: vec![9, 4],
-            motion: Vec::new(),
-            geometry: Vec::new(),
-            matte_slots: Vec::new(),
-            catcher: Vec::new(),
+            ..Accumulated::default()
         };
         let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
         let r = resolve(&acc, 2, 1, every);

@@ -89,7 +89,8 @@ pub(super) fn resolve_job(
     let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
     let layering = layering(args)?;
     let environment = environment(args, scene)?;
-    let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?;
+    let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?
+        .with_light_passes(args.passes.as_deref().unwrap_or(""))?;
     // The denoiser's auxiliary images come from the film's AOVs.
     let aovs = Aovs {
         normal: output_aovs.normal || args.denoise,

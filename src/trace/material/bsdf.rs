@@ -304,6 +304,16 @@ pub fn spec_probability(p: &BsdfParams, cos_o: f32) -> f32 {
     }
 }
 
+/// The base's diffuse reflection lobe under a specular layer of Fresnel
+/// `fd` at the half vector; before the (1 - metallic) mix.
+fn base_diffuse(p: &BsdfParams, wo: Vec3, wi: Vec3, fd: f32) -> Vec3 {
+    if energy_layered(p, None) {
+        p.base * INV_PI * lambert_scaling(p, None, wo, wi)
+    } else {
+        p.base * ((1.0 - fd) * INV_PI)
+    }
+}
+
 /// The base BSDF (without the coat and sheen layers).
 pub(super) fn base_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     if let Some(d) = &p.dielectric {
@@ -333,11 +343,7 @@ pub(super) fn base_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     let w = schlick_weight(voh);
     let fd = p.specular * (0.04 + 0.96 * w);
     let fm = p.base + (Vec3::ONE - p.base) * w;
-    let diffuse = if energy_layered(p, None) {
-        p.base * INV_PI * lambert_scaling(p, None, wo, wi)
-    } else {
-        p.base * ((1.0 - fd) * INV_PI)
-    };
+    let diffuse = base_diffuse(p, wo, wi, fd);
     if p.energy_compensation {
         let dielectric =
             diffuse + Vec3::splat(fd * s) * (1.0 + 0.04 * (1.0 / spec_albedo(p, wo) - 1.0));
@@ -773,6 +779,86 @@ pub fn bsdf_eval(p: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
     match &p.layers {
         Some(l) => layered_eval(p, l, wo, wi),
         None => base_eval(p, wo, wi),
+    }
+}
+
+/// The BSDF's value split into the lobes the light-path passes name:
+/// `diffuse` (Lambertian reflection, diffuse transmission, sheen) and
+/// `transmission` (GGX transmission, thin-walled or refracting); the
+/// glossy part (specular reflection, metal, coat) is `total` less both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LobeSplit {
+    /// `bsdf_eval`'s value, bit for bit.
+    pub total: Vec3,
+    pub diffuse: Vec3,
+    pub transmission: Vec3,
+}
+
+/// `base_eval` split into its lobes (kernel twin: base_bsdf_lobe_parts,
+/// which leaves out the total).
+fn base_eval_lobes(p: &BsdfParams, wo: Vec3, wi: Vec3) -> LobeSplit {
+    let total = base_eval(p, wo, wi);
+    let mut lobes = LobeSplit {
+        total,
+        diffuse: Vec3::ZERO,
+        transmission: Vec3::ZERO,
+    };
+    if !(wo.z > 0.0) || wi.z == 0.0 {
+        return lobes;
+    }
+    if let Some(d) = &p.dielectric {
+        if wi.z < 0.0 {
+            lobes.diffuse = diffuse_transmission_eval(p, d, wo, wi);
+            lobes.transmission = (total - lobes.diffuse).max(Vec3::ZERO);
+            return lobes;
+        }
+    } else if wi.z < 0.0 {
+        return lobes;
+    } else if p.specular == 0.0 && p.metallic == 0.0 {
+        // Pure Lambert (--clay) is all diffuse.
+        lobes.diffuse = total;
+        return lobes;
+    }
+    let hv = wo + wi;
+    let hl = hv.length();
+    if hl == 0.0 {
+        return lobes;
+    }
+    let voh = wo.dot(hv / hl).max(0.0);
+    let diffuse = match &p.dielectric {
+        Some(d) => dielectric_diffuse(p, d, wo, wi, p.specular * layer_fresnel(d, voh)),
+        None => base_diffuse(p, wo, wi, p.specular * (0.04 + 0.96 * schlick_weight(voh))),
+    };
+    lobes.diffuse = diffuse * (1.0 - p.metallic);
+    lobes
+}
+
+/// `bsdf_eval` split into its lobes (`LobeSplit`; kernel twins: bsdf_eval and
+/// bsdf_lobe_parts): the sheen is diffuse, the coat glossy, and the layers
+/// scale the base's parts as they scale the base.
+pub fn bsdf_eval_lobes(p: &BsdfParams, wo: Vec3, wi: Vec3) -> LobeSplit {
+    let total = bsdf_eval(p, wo, wi);
+    if !(wo.z > 0.0) {
+        return LobeSplit {
+            total,
+            diffuse: Vec3::ZERO,
+            transmission: Vec3::ZERO,
+        };
+    }
+    let base = base_eval_lobes(p, wo, wi);
+    let (mut diffuse, mut transmission) = (base.diffuse, base.transmission);
+    if let Some(l) = &p.layers {
+        let scaling = sheen_base_scaling(p, l, wo.z, wi.z.abs());
+        diffuse = diffuse * scaling + l.sheen_color * sheen_lobe(l.sheen_roughness, wo, wi);
+        transmission *= scaling;
+        let keep = 1.0 - coat_weight(l, coat_cos(l, wo));
+        diffuse *= keep;
+        transmission *= keep;
+    }
+    LobeSplit {
+        total,
+        diffuse,
+        transmission,
     }
 }
 

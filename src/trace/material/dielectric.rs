@@ -356,6 +356,23 @@ pub(super) fn refraction_half(eta: f32, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32
     Some((h, oh, ih))
 }
 
+/// The dielectric's diffuse reflection lobe for wi above the surface,
+/// under the specular layer of Fresnel `layer` at the half vector; before
+/// the (1 - metallic) mix.
+pub(super) fn dielectric_diffuse(
+    p: &BsdfParams,
+    d: &Dielectric,
+    wo: Vec3,
+    wi: Vec3,
+    layer: Vec3,
+) -> Vec3 {
+    if energy_layered(p, Some(d)) {
+        p.base * lambert_scaling(p, Some(d), wo, wi) * (diffuse_share(d, 0.0) * INV_PI)
+    } else {
+        p.base * (diffuse_share(d, max3(layer)) * INV_PI)
+    }
+}
+
 pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3) -> Vec3 {
     if wo.z <= 0.0 || wi.z == 0.0 {
         return Vec3::ZERO;
@@ -377,11 +394,7 @@ pub(super) fn dielectric_eval(p: &BsdfParams, d: &Dielectric, wo: Vec3, wi: Vec3
         };
         let layer = p.specular * layer_fresnel(d, voh);
         let fm = metal_fresnel(p, d, voh);
-        let diffuse = if energy_layered(p, Some(d)) {
-            p.base * lambert_scaling(p, Some(d), wo, wi) * (diffuse_share(d, 0.0) * INV_PI)
-        } else {
-            p.base * (diffuse_share(d, max3(layer)) * INV_PI)
-        };
+        let diffuse = dielectric_diffuse(p, d, wo, wi, layer);
         if p.energy_compensation {
             let ms = 1.0 / spec_albedo(p, wo) - 1.0;
             let f0 = super::layering::reflection_compensation_f0(p, d, wo);

@@ -34,10 +34,10 @@ mod dielectric;
 mod layering;
 
 pub use bsdf::{
-    anisotropic_alpha, bsdf_eval, bsdf_only_delta, bsdf_pdf, bsdf_sample, ggx_alpha, ggx_smooth,
-    shadow_straight_through, sheen_lobe, sheen_scaling, smooth_reflectance, spec_probability,
-    thin_straight_through, BsdfParams, BsdfSample, Layers, MIN_GGX_ALPHA, SHEEN_MIN_ROUGHNESS,
-    SMOOTH_GGX_ALPHA,
+    anisotropic_alpha, bsdf_eval, bsdf_eval_lobes, bsdf_only_delta, bsdf_pdf, bsdf_sample,
+    ggx_alpha, ggx_smooth, shadow_straight_through, sheen_lobe, sheen_scaling, smooth_reflectance,
+    spec_probability, thin_straight_through, BsdfParams, BsdfSample, Layers, LobeSplit,
+    MIN_GGX_ALPHA, SHEEN_MIN_ROUGHNESS, SMOOTH_GGX_ALPHA,
 };
 pub use dielectric::{
     f0_of_ior, fresnel_dielectric, fresnel_dielectric3, lobe_probabilities, thin_film_fresnel,

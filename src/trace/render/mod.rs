@@ -232,6 +232,7 @@ pub struct PathTracer<'d> {
     accum_catcher: GrowBuffer<[f32; 4]>,
     /// With `--aov position` or `uv`: two sums per pixel.
     accum_geometry: GrowBuffer<[f32; 4]>,
+    accum_light: GrowBuffer<f32>,
 }
 
 struct HostSoupBuffers {
@@ -547,6 +548,7 @@ impl<'d> PathTracer<'d> {
             triangle_flags: None,
             accum_catcher: GrowBuffer::new(),
             accum_geometry: GrowBuffer::new(),
+            accum_light: GrowBuffer::new(),
         })
     }
 

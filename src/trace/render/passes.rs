@@ -11,6 +11,9 @@ use crate::film::{self, Accumulated, NoiseStats};
 use crate::trace::settings::{check_counts, Adaptive, Allocation};
 use crate::trace::TraceError;
 
+/// Floats per pixel of the light-path passes' sums.
+const LIGHT_FLOATS: usize = 3 * film::light::LIGHT_PASSES as usize;
+
 /// Paths per launch the automatic pass size aims at: enough to fill a large
 /// GPU, few enough that progress is reported often.
 const PATHS_PER_LAUNCH: u64 = 1 << 21;
@@ -89,6 +92,9 @@ impl PathTracer<'_> {
         if film.geometry {
             self.accum_geometry.ensure(d, 2 * pixels)?;
         }
+        if film.light {
+            self.accum_light.ensure(d, LIGHT_FLOATS * pixels)?;
+        }
         let first_event = d.pending_events().len();
         let mut args = vec![
             Arg::Buf(self.accum_color.get()),
@@ -111,6 +117,9 @@ impl PathTracer<'_> {
         }
         if film.geometry {
             args.push(Arg::Buf(self.accum_geometry.get()));
+        }
+        if film.light {
+            args.push(Arg::Buf(self.accum_light.get()));
         }
         d.launch(
             "pathtrace/clear",
@@ -265,6 +274,7 @@ impl PathTracer<'_> {
             geometry: Vec::new(),
             matte_slots: Vec::new(),
             catcher: Vec::new(),
+            light: Vec::new(),
         };
         d.read(self.accum_color.get(), &mut acc.color)?;
         d.read(self.accum_aux.get(), &mut acc.aux)?;
@@ -293,6 +303,10 @@ impl PathTracer<'_> {
         if let Some(slots) = self.film.matte_slots {
             acc.matte_slots = vec![[0u32; 2]; slots as usize * pixels];
             d.read(self.matte_slots.get(), &mut acc.matte_slots)?;
+        }
+        if self.film.light {
+            acc.light = vec![0.0f32; LIGHT_FLOATS * pixels];
+            d.read(self.accum_light.get(), &mut acc.light)?;
         }
         Ok(acc)
     }
@@ -431,6 +445,9 @@ impl PathTracer<'_> {
                 }
                 if self.film.geometry {
                     args.push(Arg::Buf(self.accum_geometry.get()));
+                }
+                if self.film.light {
+                    args.push(Arg::Buf(self.accum_light.get()));
                 }
                 d.launch(
                     "pathtrace/render",

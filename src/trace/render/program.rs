@@ -236,6 +236,8 @@ pub struct FilmFeatures {
     pub catcher: bool,
     /// `FILM_GEOMETRY`: `--aov position` or `uv`.
     pub geometry: bool,
+    /// `FILM_LIGHT`: light-path passes (`--passes`).
+    pub light: bool,
 }
 
 impl FilmFeatures {
@@ -253,6 +255,7 @@ impl FilmFeatures {
             vectors: settings.aovs.motion,
             catcher: !settings.roles.is_empty(),
             geometry: settings.aovs.position || settings.aovs.uv,
+            light: settings.aovs.light(),
         }
     }
 }
@@ -280,6 +283,9 @@ pub fn film_defines(
     }
     if film.geometry {
         base.push(("FILM_GEOMETRY", "1".to_owned()));
+    }
+    if film.light {
+        base.push(("FILM_LIGHT", "1".to_owned()));
     }
     base
 }

@@ -1,0 +1,172 @@
+//! Light-path passes (`--passes light`), named as Blender's: the light
+//! each kind of lobe at the first scattering vertex passed on to the
+//! camera, directly (`DiffDir`: the vertex was the last before the light)
+//! and indirectly (`DiffInd`), the lobe's colour (`DiffCol`), the same for
+//! the glossy (`Gloss*`) and transmission (`Trans*`) lobes, and the
+//! emission (`Emit`) and environment (`Env`) the camera saw directly. As
+//! in Blender, light and colour are stored apart, so
+//!
+//! ```text
+//! (DiffDir + DiffInd) DiffCol + (GlossDir + GlossInd) GlossCol
+//!   + (TransDir + TransInd) TransCol + Emit + Env = beauty
+//! ```
+//!
+//! to float rounding (tests/light_passes.rs checks it to 1e-5).
+//!
+//! The kernel (kernels/trace/pathtrace.cl, `FILM_LIGHT`) splits each
+//! contribution by the shares of the first vertex's BSDF value the lobes
+//! give (`bsdf_lobe_parts`): at the light sample's direction for direct
+//! light, at the sampled direction for all that follows it. Diffuse is the
+//! Lambertian reflection, diffuse transmission and sheen; transmission the
+//! GGX transmission (thin or refracting); glossy the rest (specular,
+//! metal, clear coat), and a delta lobe is glossy above the surface and
+//! transmission below. A lobe's colour is the mean of its weight f |cos| /
+//! pdf at the sampled direction, whose expectation is the lobe's albedo
+//! towards the camera.
+
+use super::Aovs;
+use crate::device_struct::device_consts;
+
+device_consts! {
+    fn light_pass_consts;
+    /// The diffuse lobe's three sums in a pixel's light passes (direct,
+    /// indirect, colour); glossy's and transmission's follow.
+    pub const LIGHT_DIFFUSE: u32 = 0;
+    /// The glossy lobe's three sums.
+    pub const LIGHT_GLOSSY: u32 = 3;
+    /// The transmission lobe's three sums.
+    pub const LIGHT_TRANSMISSION: u32 = 6;
+    /// Emission the camera saw.
+    pub const LIGHT_EMIT: u32 = 9;
+    /// Environment the camera saw.
+    pub const LIGHT_ENV: u32 = 10;
+    /// The rgb passes per pixel.
+    pub const LIGHT_PASSES: u32 = 11;
+}
+
+/// The passes, in the order the kernel keeps them (`LIGHT_*`).
+pub const LIGHT_PASS_NAMES: [&str; LIGHT_PASSES as usize] = [
+    "DiffDir", "DiffInd", "DiffCol", "GlossDir", "GlossInd", "GlossCol", "TransDir", "TransInd",
+    "TransCol", "Emit", "Env",
+];
+
+/// One resolved light pass: its name (`LIGHT_PASS_NAMES`) and a value per
+/// pixel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightPass {
+    pub name: &'static str,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl LightPass {
+    /// Its place in `LIGHT_PASS_NAMES` and in a pixel's sums.
+    pub fn index(&self) -> usize {
+        LIGHT_PASS_NAMES
+            .iter()
+            .position(|n| *n == self.name)
+            .expect("a light pass is named from LIGHT_PASS_NAMES")
+    }
+}
+
+/// The black passes `aovs` asks for, of `pixels` pixels each.
+pub fn passes_of(aovs: Aovs, pixels: usize) -> Vec<LightPass> {
+    let on = [
+        aovs.diffuse,
+        aovs.diffuse,
+        aovs.diffuse,
+        aovs.glossy,
+        aovs.glossy,
+        aovs.glossy,
+        aovs.transmission,
+        aovs.transmission,
+        aovs.transmission,
+        aovs.emission,
+        aovs.environment,
+    ];
+    LIGHT_PASS_NAMES
+        .iter()
+        .zip(on)
+        .filter(|(_, on)| *on)
+        .map(|(name, _)| LightPass {
+            name,
+            pixels: vec![[0.0; 3]; pixels],
+        })
+        .collect()
+}
+
+/// A pixel's light passes from its sums (3 * LIGHT_PASSES floats, as the
+/// kernel leaves them) over its `kept` samples: each sum's mean, with the
+/// light of each lobe divided by its colour. Where a colour channel is 0
+/// and light still came through that lobe (a lobe the sampled directions
+/// never weighed), the colour is 1 and the light passes carry the light, so
+/// that the passes still add up to the beauty.
+pub fn resolve_pixel(sums: &[f32], kept: u32) -> [[f32; 3]; LIGHT_PASSES as usize] {
+    let mut out = [[0.0f32; 3]; LIGHT_PASSES as usize];
+    if kept == 0 {
+        return out;
+    }
+    let inv = 1.0 / kept as f32;
+    for (k, px) in out.iter_mut().enumerate() {
+        for c in 0..3 {
+            px[c] = sums[3 * k + c] * inv;
+        }
+    }
+    for lobe in [LIGHT_DIFFUSE, LIGHT_GLOSSY, LIGHT_TRANSMISSION] {
+        let (dir, ind, col) = (lobe as usize, lobe as usize + 1, lobe as usize + 2);
+        for c in 0..3 {
+            let colour = out[col][c];
+            if colour > 0.0 {
+                out[dir][c] /= colour;
+                out[ind][c] /= colour;
+            } else if out[dir][c] != 0.0 || out[ind][c] != 0.0 {
+                out[col][c] = 1.0;
+            }
+        }
+    }
+    out
+}
+
+/// The beauty the passes of one pixel add up to (the formula above).
+pub fn recombine(passes: &[[f32; 3]; LIGHT_PASSES as usize]) -> [f32; 3] {
+    let mut sum = [0.0f32; 3];
+    for c in 0..3 {
+        for lobe in [LIGHT_DIFFUSE, LIGHT_GLOSSY, LIGHT_TRANSMISSION] {
+            let l = lobe as usize;
+            sum[c] += (passes[l][c] + passes[l + 1][c]) * passes[l + 2][c];
+        }
+        sum[c] += passes[LIGHT_EMIT as usize][c] + passes[LIGHT_ENV as usize][c];
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolved_passes_add_up_to_the_mean_of_their_light() {
+        // Two samples: diffuse light 0.3 of colour 0.5, glossy 0.1 with
+        // colour 0 (light that the sampled directions never weighed), and
+        // emission 0.2 and environment 0.05 seen directly.
+        let mut sums = vec![0.0f32; 3 * LIGHT_PASSES as usize];
+        let set = |s: &mut Vec<f32>, pass: u32, v: f32| {
+            for c in 0..3 {
+                s[3 * pass as usize + c] = v;
+            }
+        };
+        set(&mut sums, LIGHT_DIFFUSE, 0.6);
+        set(&mut sums, LIGHT_DIFFUSE + 2, 1.0);
+        set(&mut sums, LIGHT_GLOSSY + 1, 0.2);
+        set(&mut sums, LIGHT_EMIT, 0.4);
+        set(&mut sums, LIGHT_ENV, 0.1);
+        let p = resolve_pixel(&sums, 2);
+        assert_eq!(p[LIGHT_DIFFUSE as usize], [0.6; 3]);
+        assert_eq!(p[LIGHT_DIFFUSE as usize + 2], [0.5; 3]);
+        assert_eq!(p[LIGHT_GLOSSY as usize + 1], [0.1; 3]);
+        assert_eq!(p[LIGHT_GLOSSY as usize + 2], [1.0; 3]);
+        let beauty = 0.3 + 0.1 + 0.2 + 0.05;
+        for v in recombine(&p) {
+            assert!((v - beauty).abs() < 1e-6, "{v} against {beauty}");
+        }
+    }
+}
