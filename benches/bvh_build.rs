@@ -195,20 +195,7 @@ fn main() {
     }
     let scenes = scene_list(quick);
     if let Some(i) = args.iter().position(|a| a == "--write-ply") {
-        // The soups as PLY files, for `soupray bvh` runs (A/B of two binaries).
-        let dir = Path::new(&args[i + 1]);
-        for (index, (name, make)) in scenes.iter().enumerate() {
-            let path = dir.join(format!("{index}-{}.ply", name.replace([' ', '(', ')'], "")));
-            let soup = match make() {
-                Ok(soup) => soup,
-                Err(e) => {
-                    eprintln!("bvh_build: {name}: {e}; skipped");
-                    continue;
-                }
-            };
-            soupray::ply::write_soup(&path, &soup).unwrap();
-            println!("{}", path.display());
-        }
+        write_plys(&scenes, Path::new(&args[i + 1]));
         return;
     }
     let device = Device::open(None).expect("an OpenCL device");
@@ -227,135 +214,223 @@ fn main() {
             }
         };
         let n = soup.triangle_count();
-        let label = format!("{name}, {:.0}K", n as f64 / 1e3);
-        let reps = if n > 500_000 { 3 } else { 5 };
-        eprintln!("{label}: sweep");
-        let t = Instant::now();
-        let sweep_tree = sweep::build(soup, params);
-        let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
-        let sweep_sah = sah_cost(&sweep_tree);
-        drop(sweep_tree);
-        rows.push(Row {
-            scene: label.clone(),
-            builder: "soupray cpu-sweep (1 thread)",
-            ms: sweep_ms,
-            mtris: n as f64 / sweep_ms / 1e3,
-            stages: String::new(),
-            sah: sweep_sah,
-            sah_vs_sweep: 1.0,
-            peak: peak_of("cpu-sweep", scene_index, quick),
-        });
-
-        eprintln!("{label}: device");
-        builder.build(soup).unwrap(); // warm-up: buffers and caches
-        let mut times = Vec::new();
-        let mut stats = Vec::new();
-        let mut tree = None;
-        for _ in 0..reps {
-            let (t, s) = builder.build(soup).unwrap();
-            times.push(s.build_ms);
-            stats.push(s);
-            tree = Some(t);
-        }
-        let tree = tree.unwrap();
-        validate(&tree, soup, params.leaf_size).expect("device tree valid");
-        let ms = median(times);
-        let st = |f: fn(&soupray::bvh::device_builder::BuildStats) -> f64| {
-            median(stats.iter().map(f).collect())
+        let case = Case {
+            soup,
+            label: format!("{name}, {:.0}K", n as f64 / 1e3),
+            index: scene_index,
+            reps: if n > 500_000 { 3 } else { 5 },
+            quick,
         };
-        let stages = format!(
-            "prep {:.1} / large {:.1} / medium {:.1} / small {:.1} / host {:.1}",
-            st(|s| s.stages_ms.prepare),
-            st(|s| s.stages_ms.large),
-            st(|s| s.stages_ms.medium),
-            st(|s| s.stages_ms.small),
-            st(|s| s.host_ms)
-        );
-        let sah = sah_cost(&tree);
-        drop(tree);
-        rows.push(Row {
-            scene: label.clone(),
-            builder: "soupray device, single-lane mapping (CPU default)",
+        let sweep = time_sweep(&case, params);
+        let sweep_sah = sweep.sah;
+        rows.push(sweep);
+        rows.push(time_device(&case, &mut builder, params, sweep_sah));
+        rows.push(time_paper(&case, &mut paper, sweep_sah));
+        rows.push(time_cpu_binned(&case, params, sweep_sah));
+        rows.push(time_bvh_crate(&case, sweep_sah));
+    }
+    print_table(&rows);
+}
+
+/// `--write-ply DIR`: the soups as PLY files, for `soupray bvh` runs (A/B
+/// of two binaries).
+fn write_plys(scenes: &[MakeScene], dir: &Path) {
+    for (index, (name, make)) in scenes.iter().enumerate() {
+        let path = dir.join(format!("{index}-{}.ply", name.replace([' ', '(', ')'], "")));
+        let soup = match make() {
+            Ok(soup) => soup,
+            Err(e) => {
+                eprintln!("bvh_build: {name}: {e}; skipped");
+                continue;
+            }
+        };
+        soupray::ply::write_soup(&path, &soup).unwrap();
+        println!("{}", path.display());
+    }
+}
+
+/// One scene of the run: its soup, its label in the table, its index in
+/// `scene_list` (for the memory child), and the timed builds per builder.
+struct Case<'a> {
+    soup: &'a Soup,
+    label: String,
+    index: usize,
+    reps: usize,
+    quick: bool,
+}
+
+impl Case<'_> {
+    /// The row of `builder` (its peak memory measured by the child
+    /// `peak_key`), against the sweep's SAH cost.
+    fn row(
+        &self,
+        builder: &'static str,
+        ms: f64,
+        stages: String,
+        sah: f64,
+        sweep_sah: f64,
+        peak_key: &str,
+    ) -> Row {
+        Row {
+            scene: self.label.clone(),
+            builder,
             ms,
-            mtris: n as f64 / ms / 1e3,
+            mtris: self.soup.triangle_count() as f64 / ms / 1e3,
             stages,
             sah,
             sah_vs_sweep: sah / sweep_sah,
-            peak: peak_of("device", scene_index, quick),
-        });
-
-        eprintln!("{label}: device, paper mapping");
-        paper.build(soup).unwrap();
-        let mut times = Vec::new();
-        let mut sah = 0.0;
-        for _ in 0..if n > 500_000 { 1 } else { 3 } {
-            let (tree, stats) = paper.build(soup).unwrap();
-            times.push(stats.build_ms);
-            sah = sah_cost(&tree);
+            peak: peak_of(peak_key, self.index, self.quick),
         }
-        let ms = median(times);
-        rows.push(Row {
-            scene: label.clone(),
-            builder: "soupray device, paper's 16-lane mapping",
-            ms,
-            mtris: n as f64 / ms / 1e3,
-            stages: String::new(),
-            sah,
-            sah_vs_sweep: sah / sweep_sah,
-            peak: peak_of("paper", scene_index, quick),
-        });
-
-        eprintln!("{label}: cpu-binned");
-        let mut times = Vec::new();
-        let mut sah = 0.0;
-        for _ in 0..reps.min(3) {
-            let t = Instant::now();
-            let tree = binned::build(soup, params).unwrap();
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            sah = sah_cost(&tree);
-        }
-        let ms = median(times);
-        rows.push(Row {
-            scene: label.clone(),
-            builder: "soupray cpu-binned (1 thread)",
-            ms,
-            mtris: n as f64 / ms / 1e3,
-            stages: String::new(),
-            sah,
-            sah_vs_sweep: sah / sweep_sah,
-            peak: peak_of("cpu-binned", scene_index, quick),
-        });
-
-        eprintln!("{label}: bvh crate");
-        let mut times = Vec::new();
-        let mut sah = 0.0;
-        for _ in 0..reps.min(3) {
-            let mut shapes: Vec<Tri> = (0..n)
-                .map(|t| Tri(std::array::from_fn(|k| soup.corner(t, k)), 0))
-                .collect();
-            let t = Instant::now();
-            let tree = <bvh::bvh::Bvh<f32, 3> as bvh::bounding_hierarchy::BoundingHierarchy<
-                f32,
-                3,
-            >>::build_par(&mut shapes);
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            sah = bvh_crate_sah(&tree);
-        }
-        let ms = median(times);
-        rows.push(Row {
-            scene: label.clone(),
-            builder: "bvh 0.13 build_par (rayon, leaf 1)",
-            ms,
-            mtris: n as f64 / ms / 1e3,
-            stages: String::new(),
-            sah,
-            sah_vs_sweep: sah / sweep_sah,
-            peak: peak_of("bvh", scene_index, quick),
-        });
     }
+}
+
+/// The CPU full sweep, once: the SAH cost the others are measured against.
+fn time_sweep(case: &Case, params: BuildParams) -> Row {
+    let (soup, n, label) = (case.soup, case.soup.triangle_count(), &case.label);
+    eprintln!("{label}: sweep");
+    let t = Instant::now();
+    let sweep_tree = sweep::build(soup, params);
+    let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
+    let sweep_sah = sah_cost(&sweep_tree);
+    drop(sweep_tree);
+    Row {
+        scene: label.clone(),
+        builder: "soupray cpu-sweep (1 thread)",
+        ms: sweep_ms,
+        mtris: n as f64 / sweep_ms / 1e3,
+        stages: String::new(),
+        sah: sweep_sah,
+        sah_vs_sweep: 1.0,
+        peak: peak_of("cpu-sweep", case.index, case.quick),
+    }
+}
+
+/// The device builder (single-lane mapping) after a warm-up build, with
+/// its per-stage split; its last tree is validated.
+fn time_device(
+    case: &Case,
+    builder: &mut DeviceBuilder,
+    params: BuildParams,
+    sweep_sah: f64,
+) -> Row {
+    let (soup, label) = (case.soup, &case.label);
+    eprintln!("{label}: device");
+    builder.build(soup).unwrap(); // warm-up: buffers and caches
+    let mut times = Vec::new();
+    let mut stats = Vec::new();
+    let mut tree = None;
+    for _ in 0..case.reps {
+        let (t, s) = builder.build(soup).unwrap();
+        times.push(s.build_ms);
+        stats.push(s);
+        tree = Some(t);
+    }
+    let tree = tree.unwrap();
+    validate(&tree, soup, params.leaf_size).expect("device tree valid");
+    let ms = median(times);
+    let st = |f: fn(&soupray::bvh::device_builder::BuildStats) -> f64| {
+        median(stats.iter().map(f).collect())
+    };
+    let stages = format!(
+        "prep {:.1} / large {:.1} / medium {:.1} / small {:.1} / host {:.1}",
+        st(|s| s.stages_ms.prepare),
+        st(|s| s.stages_ms.large),
+        st(|s| s.stages_ms.medium),
+        st(|s| s.stages_ms.small),
+        st(|s| s.host_ms)
+    );
+    let sah = sah_cost(&tree);
+    drop(tree);
+    case.row(
+        "soupray device, single-lane mapping (CPU default)",
+        ms,
+        stages,
+        sah,
+        sweep_sah,
+        "device",
+    )
+}
+
+/// The device builder with the paper's 16-lane mapping, after a warm-up.
+fn time_paper(case: &Case, paper: &mut DeviceBuilder, sweep_sah: f64) -> Row {
+    let (soup, n, label) = (case.soup, case.soup.triangle_count(), &case.label);
+    eprintln!("{label}: device, paper mapping");
+    paper.build(soup).unwrap();
+    let mut times = Vec::new();
+    let mut sah = 0.0;
+    for _ in 0..if n > 500_000 { 1 } else { 3 } {
+        let (tree, stats) = paper.build(soup).unwrap();
+        times.push(stats.build_ms);
+        sah = sah_cost(&tree);
+    }
+    let ms = median(times);
+    case.row(
+        "soupray device, paper's 16-lane mapping",
+        ms,
+        String::new(),
+        sah,
+        sweep_sah,
+        "paper",
+    )
+}
+
+/// soupray's binned CPU builder, on one thread.
+fn time_cpu_binned(case: &Case, params: BuildParams, sweep_sah: f64) -> Row {
+    let (soup, label) = (case.soup, &case.label);
+    eprintln!("{label}: cpu-binned");
+    let mut times = Vec::new();
+    let mut sah = 0.0;
+    for _ in 0..case.reps.min(3) {
+        let t = Instant::now();
+        let tree = binned::build(soup, params).unwrap();
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        sah = sah_cost(&tree);
+    }
+    let ms = median(times);
+    case.row(
+        "soupray cpu-binned (1 thread)",
+        ms,
+        String::new(),
+        sah,
+        sweep_sah,
+        "cpu-binned",
+    )
+}
+
+/// The `bvh` crate's parallel builder (rayon, leaves of one triangle).
+fn time_bvh_crate(case: &Case, sweep_sah: f64) -> Row {
+    let (soup, n, label) = (case.soup, case.soup.triangle_count(), &case.label);
+    eprintln!("{label}: bvh crate");
+    let mut times = Vec::new();
+    let mut sah = 0.0;
+    for _ in 0..case.reps.min(3) {
+        let mut shapes: Vec<Tri> = (0..n)
+            .map(|t| Tri(std::array::from_fn(|k| soup.corner(t, k)), 0))
+            .collect();
+        let t = Instant::now();
+        let tree = <bvh::bvh::Bvh<f32, 3> as bvh::bounding_hierarchy::BoundingHierarchy<
+            f32,
+            3,
+        >>::build_par(&mut shapes);
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        sah = bvh_crate_sah(&tree);
+    }
+    let ms = median(times);
+    case.row(
+        "bvh 0.13 build_par (rayon, leaf 1)",
+        ms,
+        String::new(),
+        sah,
+        sweep_sah,
+        "bvh",
+    )
+}
+
+/// The table for BENCHMARKS.md, in Markdown.
+fn print_table(rows: &[Row]) {
     println!("| scene | builder | build ms (median) | Mtris/s | device stages ms | SAH cost | SAH / sweep | peak host MiB |");
     println!("|---|---|---:|---:|---|---:|---:|---:|");
-    for r in &rows {
+    for r in rows {
         println!(
             "| {} | {} | {:.1} | {:.2} | {} | {:.2} | {:.3} | {:.0} |",
             r.scene, r.builder, r.ms, r.mtris, r.stages, r.sah, r.sah_vs_sweep, r.peak

@@ -116,11 +116,31 @@ fn agreement(a: &[Hit], b: &[Hit]) -> f64 {
     a.iter().zip(b).filter(|(x, y)| x.prim == y.prim).count() as f64 / a.len() as f64
 }
 
+/// The bench's settings, from the command line.
+struct Settings {
+    /// Timed runs per tracer (the median is reported).
+    runs: usize,
+    /// The image's side, in pixels (one primary ray each).
+    size: u32,
+    /// Threads of the CPU paths.
+    threads: usize,
+    /// The device kernels' work-group size.
+    local: usize,
+}
+
+/// One mesh's BVH and the host cost of its other layouts: name, triangles,
+/// nodes, the escape indices' median ms, the 4-wide nodes and the 4-wide
+/// collapse's median ms.
+type LayoutRow = (&'static str, usize, usize, f64, usize, f64);
+
 fn main() {
-    let runs = arg("--runs", 7).max(1);
-    let size = arg("--size", 512) as u32;
-    let threads = arg("--threads", 2);
-    let local = arg("--local", 64);
+    let s = Settings {
+        runs: arg("--runs", 7).max(1),
+        size: arg("--size", 512) as u32,
+        threads: arg("--threads", 2),
+        local: arg("--local", 64),
+    };
+    let (runs, size, threads, local) = (s.runs, s.size, s.threads, s.local);
     let device = Device::open(None).expect("an OpenCL device");
     println!(
         "device: {} ({}, {} compute units); {size}x{size} primary rays, median of {runs} runs; CPU paths on {threads} threads; work-groups of {local}",
@@ -136,143 +156,208 @@ fn main() {
                 continue;
             }
         };
-        let n = soup.triangle_count();
-        let mut builder = DeviceBuilder::new(&device, BuildParams::default()).unwrap();
-        let (bvh, _) = builder.build(&soup).unwrap();
-        let mut positions = device.buffer::<[f32; 4]>(soup.positions.len()).unwrap();
-        device.write(&mut positions, &soup.positions).unwrap();
-        let prim_ids = builder.device_prim_ids().unwrap();
-        let camera = filling_camera(&bvh, &soup, size);
-        let rays_host = camera.rays();
-        let count = rays_host.len();
+        bench_mesh(&device, &s, name, &soup, &mut rows, &mut escape_rows);
+    }
+    print_tables(&rows, escape_rows, size);
+}
 
-        let mut tracer = DeviceTracer::new(&device).unwrap();
-        tracer.local_size = local;
-        tracer.upload_bvh(&bvh).unwrap();
-        let mut layout_ms = Vec::new();
-        let mut wide_ms = Vec::new();
-        let mut wide_nodes = 0;
-        for _ in 0..runs {
-            layout_ms.push(tracer.upload_stackless(&bvh).unwrap().layout_ms);
-            let wide = tracer.upload_wide(&bvh).unwrap();
-            wide_ms.push(wide.layout_ms);
-            wide_nodes = wide.entries;
-        }
-        escape_rows.push((
-            name,
-            n,
-            bvh.nodes.len(),
-            median(layout_ms),
-            wide_nodes,
-            median(wide_ms),
-        ));
-        let rays = device.buffer::<Ray>(count).unwrap();
-        let hits = device.buffer::<Hit>(count).unwrap();
-        tracer.generate_primary(&camera, &rays).unwrap();
-        device.finish().unwrap();
-        let mut generated = vec![Ray::default(); count];
-        device.read(&rays, &mut generated).unwrap();
-        assert_eq!(generated, rays_host, "device and host primary rays differ");
+/// Every tracer on one mesh: the layouts' host cost, then the CPU
+/// reference, the device traversals and (with the feature) Embree, each
+/// on the same camera's rays.
+fn bench_mesh(
+    device: &Device,
+    s: &Settings,
+    name: &'static str,
+    soup: &Soup,
+    rows: &mut Vec<Row>,
+    escape_rows: &mut Vec<LayoutRow>,
+) {
+    let n = soup.triangle_count();
+    let mut builder = DeviceBuilder::new(device, BuildParams::default()).unwrap();
+    let (bvh, _) = builder.build(soup).unwrap();
+    let mut positions = device.buffer::<[f32; 4]>(soup.positions.len()).unwrap();
+    device.write(&mut positions, &soup.positions).unwrap();
+    let prim_ids = builder.device_prim_ids().unwrap();
+    let camera = filling_camera(&bvh, soup, s.size);
+    let rays_host = camera.rays();
+    let count = rays_host.len();
 
-        // The CPU reference: the yardstick for agreement, and a plain-Rust
-        // scalar throughput for scale.
-        let mut reference = vec![Hit::miss(0.0); count];
-        let mut wall = Vec::new();
-        for _ in 0..runs.min(3) {
+    let mut tracer = DeviceTracer::new(device).unwrap();
+    tracer.local_size = s.local;
+    tracer.upload_bvh(&bvh).unwrap();
+    escape_rows.push(layout_costs(&mut tracer, &bvh, name, n, s.runs));
+    let rays = device.buffer::<Ray>(count).unwrap();
+    let hits = device.buffer::<Hit>(count).unwrap();
+    tracer.generate_primary(&camera, &rays).unwrap();
+    device.finish().unwrap();
+    let mut generated = vec![Ray::default(); count];
+    device.read(&rays, &mut generated).unwrap();
+    assert_eq!(generated, rays_host, "device and host primary rays differ");
+
+    let (reference, row) = cpu_reference(&bvh, soup, &rays_host, s, name);
+    let hit_fraction = row.hit_fraction;
+    rows.push(row);
+
+    for (kind, label, stage) in [
+        (
+            TraceKind::Closest,
+            "soupray device, stack (binary tree)",
+            "trace/closest",
+        ),
+        (
+            TraceKind::ClosestStackless,
+            "soupray device, stackless",
+            "trace/stackless",
+        ),
+        (
+            TraceKind::ClosestWide,
+            "soupray device, wide (stack, 4-wide layout; the default)",
+            "trace/closest_wide",
+        ),
+    ] {
+        let mut out = vec![Hit::miss(0.0); count];
+        tracer
+            .trace(kind, &positions, prim_ids, &rays, &hits, count)
+            .unwrap();
+        device.take_timings().unwrap();
+        let (mut dev, mut wall) = (Vec::new(), Vec::new());
+        for _ in 0..s.runs {
             let t = Instant::now();
-            parallel(&rays_host, &mut reference, threads, &|r, h| {
-                for (ray, hit) in r.iter().zip(h.iter_mut()) {
-                    *hit = trace::trace_closest(&bvh, &soup.positions, ray);
-                }
-            });
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-        }
-        let hit_fraction = reference.iter().filter(|h| h.is_hit()).count() as f64 / count as f64;
-        rows.push(Row {
-            mesh: name.into(),
-            tris: n,
-            tracer: format!("CPU reference (Rust, stack, {threads} threads)"),
-            device_ms: None,
-            wall_ms: median(wall),
-            hit_fraction,
-            agree: 1.0,
-        });
-
-        for (kind, label, stage) in [
-            (
-                TraceKind::Closest,
-                "soupray device, stack (binary tree)",
-                "trace/closest",
-            ),
-            (
-                TraceKind::ClosestStackless,
-                "soupray device, stackless",
-                "trace/stackless",
-            ),
-            (
-                TraceKind::ClosestWide,
-                "soupray device, wide (stack, 4-wide layout; the default)",
-                "trace/closest_wide",
-            ),
-        ] {
-            let mut out = vec![Hit::miss(0.0); count];
             tracer
                 .trace(kind, &positions, prim_ids, &rays, &hits, count)
                 .unwrap();
-            device.take_timings().unwrap();
-            let (mut dev, mut wall) = (Vec::new(), Vec::new());
-            for _ in 0..runs {
-                let t = Instant::now();
-                tracer
-                    .trace(kind, &positions, prim_ids, &rays, &hits, count)
-                    .unwrap();
-                let timings = device.take_timings().unwrap();
-                wall.push(t.elapsed().as_secs_f64() * 1e3);
-                dev.push(timings.ms(stage));
-            }
-            device.read(&hits, &mut out).unwrap();
-            rows.push(Row {
-                mesh: name.into(),
-                tris: n,
-                tracer: label.into(),
-                device_ms: Some(median(dev)),
-                wall_ms: median(wall),
-                hit_fraction,
-                agree: agreement(&out, &reference),
-            });
+            let timings = device.take_timings().unwrap();
+            wall.push(t.elapsed().as_secs_f64() * 1e3);
+            dev.push(timings.ms(stage));
         }
-
-        #[cfg(feature = "embree")]
-        {
-            let scene = trace::embree::EmbreeScene::new(&soup.positions, threads);
-            let mut out = vec![Hit::miss(0.0); count];
-            let mut wall = Vec::new();
-            for run in 0..=runs {
-                let t = Instant::now();
-                parallel(&rays_host, &mut out, threads, &|r, h| {
-                    scene.intersect(r, h, trace::embree::CONTEXT_INCOHERENT)
-                });
-                if run > 0 {
-                    wall.push(t.elapsed().as_secs_f64() * 1e3);
-                }
-            }
-            rows.push(Row {
-                mesh: name.into(),
-                tris: n,
-                tracer: format!("Embree 3 rtcIntersect1 ({threads} threads)"),
-                device_ms: None,
-                wall_ms: median(wall),
-                hit_fraction,
-                agree: agreement(&out, &reference),
-            });
-        }
-        drop(builder);
+        device.read(&hits, &mut out).unwrap();
+        rows.push(Row {
+            mesh: name.into(),
+            tris: n,
+            tracer: label.into(),
+            device_ms: Some(median(dev)),
+            wall_ms: median(wall),
+            hit_fraction,
+            agree: agreement(&out, &reference),
+        });
     }
 
+    #[cfg(feature = "embree")]
+    rows.push(embree_row(
+        soup,
+        &rays_host,
+        &reference,
+        hit_fraction,
+        s,
+        name,
+    ));
+    drop(builder);
+}
+
+/// The host cost of the stackless layout's escape indices and of the
+/// 4-wide collapse of `bvh`, medians of `runs`.
+fn layout_costs(
+    tracer: &mut DeviceTracer,
+    bvh: &Bvh,
+    name: &'static str,
+    n: usize,
+    runs: usize,
+) -> LayoutRow {
+    let mut layout_ms = Vec::new();
+    let mut wide_ms = Vec::new();
+    let mut wide_nodes = 0;
+    for _ in 0..runs {
+        layout_ms.push(tracer.upload_stackless(bvh).unwrap().layout_ms);
+        let wide = tracer.upload_wide(bvh).unwrap();
+        wide_ms.push(wide.layout_ms);
+        wide_nodes = wide.entries;
+    }
+    (
+        name,
+        n,
+        bvh.nodes.len(),
+        median(layout_ms),
+        wide_nodes,
+        median(wide_ms),
+    )
+}
+
+/// The CPU reference: the yardstick for agreement, and a plain-Rust
+/// scalar throughput for scale. Returns its hits and its row.
+fn cpu_reference(
+    bvh: &Bvh,
+    soup: &Soup,
+    rays_host: &[Ray],
+    s: &Settings,
+    name: &str,
+) -> (Vec<Hit>, Row) {
+    let (runs, threads) = (s.runs, s.threads);
+    let count = rays_host.len();
+    let mut reference = vec![Hit::miss(0.0); count];
+    let mut wall = Vec::new();
+    for _ in 0..runs.min(3) {
+        let t = Instant::now();
+        parallel(rays_host, &mut reference, threads, &|r, h| {
+            for (ray, hit) in r.iter().zip(h.iter_mut()) {
+                *hit = trace::trace_closest(bvh, &soup.positions, ray);
+            }
+        });
+        wall.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let hit_fraction = reference.iter().filter(|h| h.is_hit()).count() as f64 / count as f64;
+    let row = Row {
+        mesh: name.into(),
+        tris: soup.triangle_count(),
+        tracer: format!("CPU reference (Rust, stack, {threads} threads)"),
+        device_ms: None,
+        wall_ms: median(wall),
+        hit_fraction,
+        agree: 1.0,
+    };
+    (reference, row)
+}
+
+/// Embree 3's `rtcIntersect1` on the same rays, after one untimed run.
+#[cfg(feature = "embree")]
+fn embree_row(
+    soup: &Soup,
+    rays_host: &[Ray],
+    reference: &[Hit],
+    hit_fraction: f64,
+    s: &Settings,
+    name: &str,
+) -> Row {
+    let (runs, threads) = (s.runs, s.threads);
+    let count = rays_host.len();
+    let scene = trace::embree::EmbreeScene::new(&soup.positions, threads);
+    let mut out = vec![Hit::miss(0.0); count];
+    let mut wall = Vec::new();
+    for run in 0..=runs {
+        let t = Instant::now();
+        parallel(rays_host, &mut out, threads, &|r, h| {
+            scene.intersect(r, h, trace::embree::CONTEXT_INCOHERENT)
+        });
+        if run > 0 {
+            wall.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    Row {
+        mesh: name.into(),
+        tris: soup.triangle_count(),
+        tracer: format!("Embree 3 rtcIntersect1 ({threads} threads)"),
+        device_ms: None,
+        wall_ms: median(wall),
+        hit_fraction,
+        agree: agreement(&out, reference),
+    }
+}
+
+/// The throughput table and the layouts' host-cost table, in Markdown.
+fn print_tables(rows: &[Row], escape_rows: Vec<LayoutRow>, size: u32) {
     println!();
     println!("| mesh | triangles | tracer | device ms | wall ms | Mrays/s (device) | Mrays/s (wall) | rays hitting | same triangle as CPU ref |");
     println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
-    for r in &rows {
+    for r in rows {
         let count = (size * size) as f64;
         let (dms, dm) = match r.device_ms {
             Some(ms) => (format!("{ms:.2}"), format!("{:.2}", count / ms / 1e3)),

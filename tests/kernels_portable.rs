@@ -167,6 +167,49 @@ fn accepted_leaf_sizes() -> Vec<u32> {
 }
 
 fn variants() -> Vec<Variant> {
+    let mut v = builder_variants();
+    v.push(Variant {
+        entry: "trace.cl",
+        defines: trace_defines(),
+        codegen: true,
+    });
+    v.extend(pathtrace_variants());
+    v.extend(soup_variants());
+    v.extend(film_variants());
+    v.push(Variant {
+        entry: "motion.cl",
+        defines: motion_program_defines(),
+        codegen: true,
+    });
+    v.extend(sampler_probe_variants());
+    v.extend(lobe_variants());
+    v.push(Variant {
+        entry: "pt_probe.cl",
+        defines: Lobes::ALL
+            .iter()
+            .map(|lobe| (lobe.define, "1".to_owned()))
+            .chain([
+                ("HAS_TRANSMISSION", "1".to_owned()),
+                ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
+                ("ENERGY_LAYERING", "1".to_owned()),
+                ("FILM_LIGHT", "1".to_owned()),
+            ])
+            .collect(),
+        codegen: true,
+    });
+    for entry in ["texture_probe.cl", STRUCT_PROBE] {
+        v.push(Variant {
+            entry,
+            defines: Vec::new(),
+            codegen: true,
+        });
+    }
+    v
+}
+
+/// `bvh_build.cl` at every accepted bin count and leaf size, mapping and
+/// atomics width.
+fn builder_variants() -> Vec<Variant> {
     let mut v = Vec::new();
     let leaves = accepted_leaf_sizes();
     let default_leaf = BuildParams::default().leaf_size;
@@ -193,11 +236,13 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
-    v.push(Variant {
-        entry: "trace.cl",
-        defines: trace_defines(),
-        codegen: true,
-    });
+    v
+}
+
+/// `pathtrace.cl` for every traversal, texturing, sampler, transmission
+/// and energy compensation, with its motion-blur variant.
+fn pathtrace_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
     for traversal in all_traversals() {
         for textures in [false, true] {
             for sampler in all_samplers() {
@@ -252,6 +297,12 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
+    v
+}
+
+/// `soup_eval.cl` for the soup's features.
+fn soup_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
     // The soup's counts come from the scene (joint sets per vertex, morph
     // targets per mesh) and are loop bounds; 0 (no code), 1, 2 and a large
     // count cover the code paths.
@@ -285,6 +336,12 @@ fn variants() -> Vec<Variant> {
             }
         }
     }
+    v
+}
+
+/// `pathtrace.cl` with every film option.
+fn film_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
     // Depth of field with a transparent film, Cryptomatte, motion vectors,
     // shadow catchers, the position and uv AOVs and the light-path passes,
     // alone and with motion blur.
@@ -338,11 +395,13 @@ fn variants() -> Vec<Variant> {
         defines: motion_defines(lens),
         codegen: true,
     });
-    v.push(Variant {
-        entry: "motion.cl",
-        defines: motion_program_defines(),
-        codegen: true,
-    });
+    v
+}
+
+/// The test-only probe `pt_probe.cl` for each sampler, and with the
+/// dielectric extensions.
+fn sampler_probe_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
     // Test-only probes, built by the tests on the device.
     for sampler in all_samplers() {
         v.push(Variant {
@@ -359,6 +418,12 @@ fn variants() -> Vec<Variant> {
         defines: vec![("HAS_TRANSMISSION", "1".to_owned())],
         codegen: true,
     });
+    v
+}
+
+/// `pathtrace.cl` and `pt_probe.cl` with each material lobe.
+fn lobe_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
     // Each lobe alone, with and without the dielectric extensions (the
     // kernels read only the fields their defines declare), those that build
     // on them with them only.
@@ -392,27 +457,6 @@ fn variants() -> Vec<Variant> {
                 codegen: true,
             });
         }
-    }
-    v.push(Variant {
-        entry: "pt_probe.cl",
-        defines: Lobes::ALL
-            .iter()
-            .map(|lobe| (lobe.define, "1".to_owned()))
-            .chain([
-                ("HAS_TRANSMISSION", "1".to_owned()),
-                ("GGX_ENERGY_COMPENSATION", "1".to_owned()),
-                ("ENERGY_LAYERING", "1".to_owned()),
-                ("FILM_LIGHT", "1".to_owned()),
-            ])
-            .collect(),
-        codegen: true,
-    });
-    for entry in ["texture_probe.cl", STRUCT_PROBE] {
-        v.push(Variant {
-            entry,
-            defines: Vec::new(),
-            codegen: true,
-        });
     }
     v
 }

@@ -7,7 +7,8 @@ mod common;
 use common::scene::{assert_soup_matches, asset, load, Builder, Raw};
 use glam::{Mat4, Vec3, Vec4};
 use serde_json::json;
-use soupray::scene::{AlphaMode, LightKind, LoadOptions, Projection, Scene};
+use soupray::scene::{AlphaMode, LightKind, LoadOptions, Material, Projection, Scene};
+use std::path::{Path, PathBuf};
 
 #[test]
 fn gltf_and_glb_of_the_same_asset_give_the_same_frames() {
@@ -509,53 +510,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
     let dir = tempfile::tempdir().unwrap();
     let mut b = Builder::default();
     let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
-    let path = b.write(
-        json!({
-            "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
-                               "KHR_materials_volume_scatter",
-                               "KHR_materials_iridescence", "KHR_materials_anisotropy",
-                               "KHR_materials_diffuse_transmission"],
-            "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
-            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-            "materials": [
-                {"name": "glass", "extensions": {
-                    "KHR_materials_transmission": {"transmissionFactor": 0.9},
-                    "KHR_materials_ior": {"ior": 1.33},
-                    "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationColor": [0.5, 0.8, 1.0], "attenuationDistance": 3.0},
-                    "KHR_materials_clearcoat": {"clearcoatFactor": 1.0}}},
-                {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5,
-                                                      "clearcoatRoughnessFactor": 0.25, "clearcoatTexture": {"index": 0}},
-                                                  "KHR_materials_sheen": {"sheenColorFactor": [1, 0.5, 2], "sheenRoughnessFactor": 0.4}}},
-                {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
-                                                "KHR_materials_ior": {"ior": 0.5},
-                                                "KHR_materials_iridescence": {"iridescenceFactor": 0.5,
-                                                    "iridescenceIor": 1e30, "iridescenceThicknessMaximum": -5}}},
-                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
-                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}},
-                {"name": "wax", "extensions": {
-                    "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.4,
-                        "diffuseTransmissionColorFactor": [1.0, 0.5, 0.2], "diffuseTransmissionColorTexture": {"index": 0}},
-                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
-                {"name": "bubble", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 0.8,
-                    "iridescenceIor": 1.33, "iridescenceThicknessMaximum": 600,
-                    "iridescenceThicknessTexture": {"index": 0}}}},
-                {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6,
-                    "anisotropyRotation": 1.25, "anisotropyTexture": {"index": 0}}}},
-                {"name": "too brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 3.0}}},
-                {"name": "prism", "extensions": {"KHR_materials_dispersion": {"dispersion": 0.33},
-                    "KHR_materials_transmission": {"transmissionFactor": 1.0},
-                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
-                {"name": "rutile squared", "extensions": {"KHR_materials_dispersion": {"dispersion": 50.0}}}
-            ],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
-            "textures": [{"source": 0}],
-            "images": [{"uri": "coat.png"}]
-        }),
-        dir.path(),
-        "dielectric",
-        true,
-    );
+    let path = write_dielectric_scene(&b, pos, dir.path());
     // Required transmission and volume are accepted.
     let scene = load(&path, None);
     let m = &scene.materials().materials;
@@ -600,6 +555,94 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
         w.iter().any(|w| w.contains("sheenColorFactor.b 2")),
         "{w:?}"
     );
+    assert_lobes_read(m, w);
+    for ext in [
+        "KHR_materials_clearcoat",
+        "KHR_materials_sheen",
+        "KHR_materials_diffuse_transmission",
+        "KHR_materials_iridescence",
+        "KHR_materials_anisotropy",
+        "KHR_materials_dispersion",
+    ] {
+        assert!(
+            !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
+            "{ext} is rendered: {w:?}"
+        );
+    }
+    {
+        let (ext, first) = ("KHR_materials_volume_scatter", "extensionsUsed");
+        let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
+        assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
+        assert!(
+            hits[0].contains(first) && hits[0].contains("ignores"),
+            "{}",
+            hits[0]
+        );
+    }
+    assert!(w
+        .iter()
+        .any(|w| w.contains("transmissionFactor 2") && w.contains("1 is used")));
+    assert!(!w.iter().any(|w| w.contains("KHR_materials_ior is used")));
+
+    assert_required_extensions(&b, pos, dir.path());
+}
+
+/// A triangle with a material per dielectric and lobe extension case,
+/// some out of range, and an extension soupray ignores.
+fn write_dielectric_scene(b: &Builder, pos: usize, dir: &Path) -> PathBuf {
+    b.write(
+        json!({
+            "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                               "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_dispersion",
+                               "KHR_materials_volume_scatter",
+                               "KHR_materials_iridescence", "KHR_materials_anisotropy",
+                               "KHR_materials_diffuse_transmission"],
+            "extensionsRequired": ["KHR_materials_transmission", "KHR_materials_volume"],
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "materials": [
+                {"name": "glass", "extensions": {
+                    "KHR_materials_transmission": {"transmissionFactor": 0.9},
+                    "KHR_materials_ior": {"ior": 1.33},
+                    "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationColor": [0.5, 0.8, 1.0], "attenuationDistance": 3.0},
+                    "KHR_materials_clearcoat": {"clearcoatFactor": 1.0}}},
+                {"name": "paint", "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5,
+                                                      "clearcoatRoughnessFactor": 0.25, "clearcoatTexture": {"index": 0}},
+                                                  "KHR_materials_sheen": {"sheenColorFactor": [1, 0.5, 2], "sheenRoughnessFactor": 0.4}}},
+                {"name": "bad", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
+                                                "KHR_materials_ior": {"ior": 0.5},
+                                                "KHR_materials_iridescence": {"iridescenceFactor": 0.5,
+                                                    "iridescenceIor": 1e30, "iridescenceThicknessMaximum": -5}}},
+                {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
+                {"name": "spec", "extensions": {"KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [2.0, 1.0, 0.5]}}},
+                {"name": "wax", "extensions": {
+                    "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.4,
+                        "diffuseTransmissionColorFactor": [1.0, 0.5, 0.2], "diffuseTransmissionColorTexture": {"index": 0}},
+                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
+                {"name": "bubble", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 0.8,
+                    "iridescenceIor": 1.33, "iridescenceThicknessMaximum": 600,
+                    "iridescenceThicknessTexture": {"index": 0}}}},
+                {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6,
+                    "anisotropyRotation": 1.25, "anisotropyTexture": {"index": 0}}}},
+                {"name": "too brushed", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 3.0}}},
+                {"name": "prism", "extensions": {"KHR_materials_dispersion": {"dispersion": 0.33},
+                    "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                    "KHR_materials_volume": {"thicknessFactor": 1.0}}},
+                {"name": "rutile squared", "extensions": {"KHR_materials_dispersion": {"dispersion": 50.0}}}
+            ],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
+            "textures": [{"source": 0}],
+            "images": [{"uri": "coat.png"}]
+        }),
+        dir,
+        "dielectric",
+        true,
+    )
+}
+
+/// The lobe extensions of `write_dielectric_scene`: diffuse transmission,
+/// iridescence, anisotropy and dispersion are read, and out-of-range
+/// values clamped with the warnings in `w`.
+fn assert_lobes_read(m: &[Material], w: &[String]) {
     // Diffuse transmission: factor, colour and colour texture; with
     // KHR_materials_volume the mesh bounds a volume.
     assert_eq!(
@@ -677,34 +720,11 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
             .any(|w| w.contains("iridescenceThicknessMaximum -5") && w.contains("0 is used")),
         "{w:?}"
     );
-    for ext in [
-        "KHR_materials_clearcoat",
-        "KHR_materials_sheen",
-        "KHR_materials_diffuse_transmission",
-        "KHR_materials_iridescence",
-        "KHR_materials_anisotropy",
-        "KHR_materials_dispersion",
-    ] {
-        assert!(
-            !w.iter().any(|w| w.contains(ext) && w.contains("ignores")),
-            "{ext} is rendered: {w:?}"
-        );
-    }
-    {
-        let (ext, first) = ("KHR_materials_volume_scatter", "extensionsUsed");
-        let hits: Vec<&String> = w.iter().filter(|w| w.contains(ext)).collect();
-        assert_eq!(hits.len(), 1, "one warning for {ext}: {w:?}");
-        assert!(
-            hits[0].contains(first) && hits[0].contains("ignores"),
-            "{}",
-            hits[0]
-        );
-    }
-    assert!(w
-        .iter()
-        .any(|w| w.contains("transmissionFactor 2") && w.contains("1 is used")));
-    assert!(!w.iter().any(|w| w.contains("KHR_materials_ior is used")));
+}
 
+/// The material extensions soupray reads load when required; a required
+/// one it does not read is refused.
+fn assert_required_extensions(b: &Builder, pos: usize, dir: &Path) {
     // The extensions soupray reads itself load when required.
     for ext in [
         "KHR_materials_anisotropy",
@@ -721,7 +741,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
                 "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
                 "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
             }),
-            dir.path(),
+            dir,
             "required",
             true,
         );
@@ -738,7 +758,7 @@ fn dielectric_extensions_are_read_and_ignored_ones_named_once() {
             "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}]
         }),
-        dir.path(),
+        dir,
         "coat",
         true,
     );

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes the regression corpus of hostile glTF files (tests/fuzz_corpus/)
-and its expectations (expect.json), read by tests/fuzz_scene.rs.
+and its expectations (expect.json), read by tests/fuzz_scene/corpus.rs.
 
 Every case is a small valid base file (a triangle, a rotation animation, a
 camera, a point light, an unused image) with one mutation of the kind a
@@ -416,7 +416,7 @@ def ktx2(zstd=False, width=8, height=8):
 
 
 # An 8x8 lossless WebP, made by the `image` crate's encoder (as in
-# tests/fuzz_scene.rs damaged_webp_is_refused).
+# tests/fuzz_scene/textures.rs damaged_webp_is_refused).
 WEBP_8x8 = bytes.fromhex(
     "524946469a000000574542505650384c8d0000002f07c00110cd552022021ec8260000000000"
     "000000000000000000000000000000000000000000000000000000000000808041c001c00391"

@@ -22,9 +22,15 @@
 //!
 //! `render_soup` renders a host `Soup` with a material table, camera and
 //! lights without a glTF file (tests, analytic scenes).
+//!
+//! Beside this file: `setup` checks and uploads what a tracer is made with,
+//! `program` chooses the kernels' defines, `upload` writes each frame's tables,
+//! `passes` queues the sample passes, and `host_soup` renders host soups.
 
+mod host_soup;
 mod passes;
 mod program;
+mod setup;
 mod upload;
 
 pub use super::camera::{device_camera, with_lens, DeviceCamera};
@@ -32,33 +38,34 @@ pub use super::settings::{
     check_counts, Adaptive, Allocation, Environment, Layering, RenderSettings, Schedule, Traversal,
     ADAPTIVE_STEP,
 };
+pub use host_soup::render_soup;
+use host_soup::HostSoupBuffers;
 use program::Kernels;
 pub use program::{
     film_defines, layering_defines, material_features, motion_defines, pathtrace_defines,
     FilmFeatures, Lobe, Lobes, LOBES,
 };
-use upload::{bind_textures, upload_env_map, EnvBuffers, FrameTables};
+use setup::{
+    check_settings, environment_map, host_materials, texture_slots, upload_materials,
+    upload_textures,
+};
+use upload::{bind_textures, EnvBuffers, FrameTables};
 pub use upload::{frame_consts, DeviceFrame};
 
 use opencl3::memory::Buffer;
 
 use super::device::TreeLayouts;
-use super::lights::{DeviceEnv, DeviceLight, EnvMap};
-use super::material::{
-    device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt, MAT_CULL_BACK,
-    MAT_DOUBLE_SIDED,
-};
-use super::texture::{Slot, TextureBinding, TextureSet};
+use super::lights::{DeviceEnv, DeviceLight};
+use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
+use super::texture::{TextureBinding, TextureSet};
 use super::vectors::VECTOR_STEPS;
 use super::TraceError;
-use crate::bvh::device_builder::DeviceBuilder;
-use crate::bvh::{BuildParams, Bvh};
+use crate::bvh::Bvh;
 use crate::device::{Arg, Device, GrowBuffer};
 use crate::film::{self, Image, NoiseStats};
 use crate::scene::compositing::triangle_flags;
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, MatteTable, Scene};
 use crate::soup::device::DeviceSoup;
-use crate::soup::Soup;
 
 /// One frame to render: its soup and tree on the device, camera and lights.
 pub struct FrameInput<'a> {
@@ -235,15 +242,6 @@ pub struct PathTracer<'d> {
     accum_light: GrowBuffer<f32>,
 }
 
-struct HostSoupBuffers {
-    positions: GrowBuffer<[f32; 4]>,
-    normals: GrowBuffer<[f32; 4]>,
-    uvs: GrowBuffer<[f32; 2]>,
-    uvs1: GrowBuffer<[f32; 2]>,
-    colors: GrowBuffer<[f32; 4]>,
-    material_ids: GrowBuffer<u32>,
-}
-
 /// The kernel argument for an optional buffer: the buffer, or `dummy`.
 fn or_dummy<'b, T>(buffer: Option<&'b Buffer<T>>, dummy: &'b Buffer<f32>) -> Arg<'b> {
     match buffer {
@@ -254,83 +252,6 @@ fn or_dummy<'b, T>(buffer: Option<&'b Buffer<T>>, dummy: &'b Buffer<f32>) -> Arg
 
 fn usage(msg: String) -> TraceError {
     TraceError::Unsupported(msg)
-}
-
-/// The render settings the tracer cannot work with are refused up front.
-fn check_settings(settings: &RenderSettings) -> Result<(), TraceError> {
-    if settings.width == 0
-        || settings.height == 0
-        || settings.width > 65536
-        || settings.height > 65536
-    {
-        return Err(usage(format!(
-            "render size {}x{}: both sides must be 1 to 65536 pixels (--width, --height)",
-            settings.width, settings.height
-        )));
-    }
-    if settings.spp == 0 {
-        return Err(usage(
-            "--spp 0: at least one sample per pixel is needed".into(),
-        ));
-    }
-    Ok(())
-}
-
-/// The textures the compiled `slots` sample, and their bindings: only
-/// when some material samples one (and not in clay mode, where only alpha
-/// cut-outs would need them: those are kept). A texture set that cannot
-/// be made leaves the materials to their factors, with a warning.
-fn upload_textures<'d>(
-    device: &'d Device,
-    table: &MaterialTable,
-    slots: &[Slot],
-    host_materials: &mut [DeviceMaterial],
-    host_exts: Option<&mut [DeviceMaterialExt]>,
-    warnings: &mut Vec<String>,
-) -> Result<Option<(TextureSet<'d>, Buffer<TextureBinding>)>, TraceError> {
-    let mut textures = None;
-    let textured = table
-        .materials
-        .iter()
-        .any(|m| slots.iter().any(|s| s.of(m).is_some()));
-    if textured {
-        match TextureSet::with_slots(device, table, slots) {
-            Ok(set) if !set.is_empty() => {
-                // Four bindings per material (`PtMaterial`), then
-                // `Slot::EXT.len()` per material for `PtMaterialExt` when compiled in
-                // (those of slots outside `slots` stay -1).
-                let bindings = bind_textures(&set, &table.materials, host_materials, host_exts);
-                let mut buf = device.buffer::<TextureBinding>(bindings.len())?;
-                device.write(&mut buf, &bindings)?;
-                textures = Some((set, buf));
-            }
-            Ok(_) => {}
-            Err(e) => warnings.push(format!(
-                "textures are not used ({e}); materials are rendered with their factors only"
-            )),
-        }
-    }
-    Ok(textures)
-}
-
-/// The environment map `settings` asks for, uploaded; a constant colour
-/// must be a radiance.
-fn environment_map(
-    device: &Device,
-    settings: &RenderSettings,
-) -> Result<Option<EnvBuffers>, TraceError> {
-    Ok(match &settings.environment {
-        Environment::Map(path) => Some(upload_env_map(device, &EnvMap::load(path)?)?),
-        Environment::Color(c) => {
-            if !c.iter().all(|v| v.is_finite() && *v >= 0.0) {
-                return Err(usage(format!(
-                    "--env-color {c:?}: the radiance must be three finite, non-negative numbers"
-                )));
-            }
-            None
-        }
-        Environment::Default => None,
-    })
 }
 
 impl<'d> PathTracer<'d> {
@@ -399,14 +320,7 @@ impl<'d> PathTracer<'d> {
     ) -> Result<Self, TraceError> {
         check_settings(settings)?;
         let mut warnings = Vec::new();
-        let mut host_materials = device_materials(table);
-        if settings.backface_culling {
-            for m in &mut host_materials {
-                if m.flags & MAT_DOUBLE_SIDED == 0 {
-                    m.flags |= MAT_CULL_BACK;
-                }
-            }
-        }
+        let mut host_materials = host_materials(table, settings);
 
         // What the kernels are compiled for: the table's materials and the
         // values animation gives them.
@@ -428,16 +342,7 @@ impl<'d> PathTracer<'d> {
         let lobes = Lobes::of(features_of);
         let mut host_exts =
             (transmission || !lobes.is_empty()).then(|| device_material_exts(table));
-        // The slots the kernels read: the extensions' only where their code
-        // is compiled in.
-        let mut slots: Vec<Slot> = Slot::BASE.to_vec();
-        if transmission {
-            slots.extend(Slot::DIELECTRIC);
-        }
-        for lobe in lobes.iter() {
-            slots.extend(lobe.slots);
-        }
-        let slots = &slots[..];
+        let slots = &texture_slots(transmission, &lobes)[..];
 
         // Textures: only when some material samples one (and not in clay
         // mode, where only alpha cut-outs would need them: those are kept).
@@ -472,16 +377,7 @@ impl<'d> PathTracer<'d> {
         let defines = film_defines(defines, &film);
         let kernels = Kernels::build(device, &defines)?;
 
-        let mut materials = device.buffer::<DeviceMaterial>(host_materials.len())?;
-        device.write(&mut materials, &host_materials)?;
-        let material_exts = match host_exts {
-            Some(exts) => {
-                let mut buf = device.buffer::<DeviceMaterialExt>(exts.len())?;
-                device.write(&mut buf, &exts)?;
-                Some(buf)
-            }
-            None => None,
-        };
+        let (materials, material_exts) = upload_materials(device, &host_materials, host_exts)?;
         let any_emissive = host_materials.iter().any(DeviceMaterial::emits);
 
         let env_map = environment_map(device, settings)?;
@@ -741,168 +637,6 @@ impl<'d> PathTracer<'d> {
         result.map(|_| ())
     }
 
-    /// Renders host soups at `steps.len()` >= 2 motion steps (same
-    /// triangles, uvs and materials in each; `cameras` one per step, and
-    /// `lights` the punctual lights at each step or none at all), their
-    /// tree built here on the device over the triangles' bounds at every
-    /// step (`motion::motion_bounds`). For tests and tools; the renderer
-    /// keeps everything on the device with `render_motion`.
-    pub fn render_motion_soup(
-        &mut self,
-        steps: &[Soup],
-        cameras: &[FrameCamera],
-        lights: &[Vec<FrameLight>],
-        frame: i64,
-    ) -> Result<RenderOutput, TraceError> {
-        let count = steps.len();
-        if count < 2 || cameras.len() != count || !(lights.is_empty() || lights.len() == count) {
-            return Err(usage(format!(
-                "render_motion_soup: {count} soups, {} cameras and {} light sets; give at least 2 steps, \
-                 one camera per step and one light set per step (or none)",
-                cameras.len(),
-                lights.len()
-            )));
-        }
-        let n = steps[0].triangle_count();
-        if steps.iter().any(|s| s.triangle_count() != n) {
-            return Err(usage(
-                "render_motion_soup: every step must have the same triangles".into(),
-            ));
-        }
-        let mut positions: Vec<[f32; 4]> = Vec::with_capacity(3 * n * count);
-        for s in steps {
-            positions.extend_from_slice(&s.positions);
-        }
-        let normals: Option<Vec<[f32; 4]>> =
-            (n > 0 && steps.iter().all(|s| s.normals.len() == 3 * n)).then(|| {
-                steps
-                    .iter()
-                    .flat_map(|s| s.normals.iter().copied())
-                    .collect()
-            });
-        let bounds = Soup {
-            positions: super::motion::motion_bounds(&positions, n, count as u32),
-            ..Soup::default()
-        };
-        self.prepare_motion()?;
-        self.render_host(
-            &bounds,
-            &positions,
-            normals.as_deref(),
-            &steps[0],
-            &cameras[count / 2],
-            lights.get(count / 2).map_or(&[], |l| l.as_slice()),
-            frame,
-            Some((count as u32, cameras, lights)),
-        )
-    }
-
-    /// Renders a host soup (uploaded into buffers kept for the next call)
-    /// whose tree is built here on the device. Missing material ids mean
-    /// material 0 of the table (or the default material when it is empty).
-    pub fn render_soup(
-        &mut self,
-        soup: &Soup,
-        camera: &FrameCamera,
-        lights: &[FrameLight],
-        frame: i64,
-    ) -> Result<RenderOutput, TraceError> {
-        let n = soup.triangle_count();
-        let normals = (soup.normals.len() == 3 * n && n > 0).then_some(soup.normals.as_slice());
-        self.render_host(
-            soup,
-            &soup.positions,
-            normals,
-            soup,
-            camera,
-            lights,
-            frame,
-            None,
-        )
-    }
-
-    /// The host-soup path of `render_soup` and `render_motion_soup`: builds
-    /// the tree over `tree`'s triangles, uploads `positions` and `normals`
-    /// (one soup's, or every motion step's side by side) with `first`'s
-    /// texture coordinates and material ids into the buffers kept for the
-    /// next call, and renders.
-    #[allow(clippy::too_many_arguments)]
-    fn render_host(
-        &mut self,
-        tree: &Soup,
-        positions: &[[f32; 4]],
-        normals: Option<&[[f32; 4]]>,
-        first: &Soup,
-        camera: &FrameCamera,
-        lights: &[FrameLight],
-        frame: i64,
-        motion: Option<MotionSteps>,
-    ) -> Result<RenderOutput, TraceError> {
-        let n = first.triangle_count();
-        let d = self.device;
-        let mut builder = DeviceBuilder::new(d, BuildParams::default())
-            .map_err(|e| usage(format!("BVH build: {e}")))?;
-        let (bvh, _) = builder
-            .build(tree)
-            .map_err(|e| usage(format!("BVH build: {e}")))?;
-        let mut hs = self.host_soup.take().unwrap_or(HostSoupBuffers {
-            positions: GrowBuffer::new(),
-            normals: GrowBuffer::new(),
-            uvs: GrowBuffer::new(),
-            uvs1: GrowBuffer::new(),
-            colors: GrowBuffer::new(),
-            material_ids: GrowBuffer::new(),
-        });
-        let result = (|| {
-            d.write(hs.positions.ensure(d, positions.len().max(1))?, positions)?;
-            if let Some(normals) = normals {
-                d.write(hs.normals.ensure(d, normals.len())?, normals)?;
-            }
-            let has_uvs = first.uvs.len() == 3 * n && n > 0;
-            if has_uvs {
-                d.write(hs.uvs.ensure(d, 3 * n)?, &first.uvs)?;
-            }
-            let has_uvs1 = first.uvs1.len() == 3 * n && n > 0;
-            if has_uvs1 {
-                d.write(hs.uvs1.ensure(d, 3 * n)?, &first.uvs1)?;
-            }
-            let has_colors = first.colors.len() == 3 * n && n > 0;
-            if has_colors {
-                d.write(hs.colors.ensure(d, 3 * n)?, &first.colors)?;
-            }
-            let ids = if first.material_ids.len() == n {
-                first.material_ids.clone()
-            } else {
-                vec![0; n]
-            };
-            d.write(hs.material_ids.ensure(d, n.max(1))?, &ids)?;
-            let buffers = SoupBuffers {
-                positions: hs.positions.get(),
-                normals: normals.is_some().then(|| hs.normals.get()),
-                uvs: has_uvs.then(|| hs.uvs.get()),
-                uvs1: has_uvs1.then(|| hs.uvs1.get()),
-                colors: has_colors.then(|| hs.colors.get()),
-                material_ids: hs.material_ids.get(),
-                triangles: n,
-            };
-            let prim_ids = builder
-                .device_prim_ids()
-                .ok_or_else(|| usage("BVH build left no primitive ids".into()))?;
-            self.render_buffers(
-                &buffers,
-                &bvh,
-                prim_ids,
-                camera,
-                lights,
-                frame,
-                motion,
-                &mut |_| {},
-            )
-        })();
-        self.host_soup = Some(hs);
-        result
-    }
-
     #[allow(clippy::too_many_arguments)]
     fn render_buffers(
         &mut self,
@@ -1011,19 +745,4 @@ impl<'d> PathTracer<'d> {
             warnings,
         })
     }
-}
-
-/// Renders a host soup with `table`'s materials (soup material ids index
-/// it), `camera` and `lights`: a tracer made for this one frame.
-pub fn render_soup(
-    device: &Device,
-    soup: &Soup,
-    table: &MaterialTable,
-    camera: &FrameCamera,
-    lights: &[FrameLight],
-    settings: &RenderSettings,
-    frame: i64,
-) -> Result<RenderOutput, TraceError> {
-    let mut pt = PathTracer::with_materials(device, table, settings)?;
-    pt.render_soup(soup, camera, lights, frame)
 }

@@ -1,0 +1,79 @@
+//! The report's rows and what it says about the machine and the run.
+
+use std::process::Command;
+
+pub struct Row {
+    pub mesh: String,
+    pub lighting: String,
+    pub spp: u32,
+    pub renderer: &'static str,
+    pub variant: String,
+    pub rel_mse: f64,
+    pub time: f64,
+    pub total: f64,
+    pub sampling: f64,
+}
+
+impl Row {
+    pub fn product(&self) -> f64 {
+        self.rel_mse * self.time
+    }
+    pub fn sampling_product(&self) -> f64 {
+        self.rel_mse * self.sampling
+    }
+}
+
+pub fn machine() -> String {
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("model name")
+                .map(|v| v.trim_start_matches([' ', '\t', ':']))
+        })
+        .unwrap_or("unknown CPU")
+        .trim()
+        .to_owned();
+    let logical = cpuinfo
+        .lines()
+        .filter(|l| l.starts_with("processor"))
+        .count();
+    // Physical cores: distinct (physical id, core id) pairs.
+    let mut cores = std::collections::BTreeSet::new();
+    let mut package = "";
+    for l in cpuinfo.lines() {
+        let value = l.split_once(':').map_or("", |(_, v)| v.trim());
+        if l.starts_with("physical id") {
+            package = value;
+        } else if l.starts_with("core id") {
+            cores.insert((package, value));
+        }
+    }
+    let avail = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!(
+        "{model}, {} cores, {logical} logical CPUs ({avail} available to this process)",
+        if cores.is_empty() {
+            logical
+        } else {
+            cores.len()
+        }
+    )
+}
+
+pub fn date() -> String {
+    Command::new("date")
+        .args(["-u", "+%Y-%m-%d %H:%M UTC"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+        .unwrap_or_else(|| "unknown date".into())
+}
+
+pub fn fmt_sci(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.3e}")
+    } else {
+        "–".into()
+    }
+}
