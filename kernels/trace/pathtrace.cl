@@ -129,11 +129,11 @@ typedef struct {
 #endif
 #ifdef FILM_LIGHT
     // Light-path passes: when `split_lobes` (at a path's first scattering
-    // vertex), pt_shade_light leaves here the shares of its contribution
-    // that the diffuse and the transmission lobes gave (lobe_share).
+    // vertex), pt_shade_light leaves here the direction of its last light
+    // sample and the BSDF's value there, for light_pass_direct to split.
     bool split_lobes;
-    float3 shade_diffuse;
-    float3 shade_transmit;
+    float3 shade_wi;
+    float3 shade_f;
 #endif
 } PtScene;
 
@@ -198,8 +198,6 @@ typedef struct {
 // LIGHT_PASSES rgb passes, 3 * LIGHT_PASSES floats in the order of
 // film::light::LIGHT_PASS_NAMES.
 #define LIGHT_DECL , __global float* accum_light
-#define LIGHT_PATH_DECL , float3* light_sums
-#define LIGHT_PATH_PASS , light
 
 // The share `part` is of `f`, per channel, in [0, 1] (0 where f is 0).
 inline float3 lobe_share(float3 part, float3 f) {
@@ -209,8 +207,6 @@ inline float3 lobe_share(float3 part, float3 f) {
 }
 #else
 #define LIGHT_DECL
-#define LIGHT_PATH_DECL
-#define LIGHT_PATH_PASS
 #endif
 #ifdef FILM_VECTORS
 // Motion vectors (`--aov motion`): the soup and the camera a frame before,
@@ -938,10 +934,8 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) return (float3)(0.0f);
 #ifdef FILM_LIGHT
     if (s->split_lobes) {
-        float3 fd, ft;
-        bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
-        s->shade_diffuse = lobe_share(fd, f);
-        s->shade_transmit = lobe_share(ft, f);
+        s->shade_wi = wi;
+        s->shade_f = f;
     }
 #endif
     float w = 1.0f;
@@ -1121,90 +1115,107 @@ typedef struct {
     float3 catcher_unshadowed;
 #endif
 #ifdef FILM_LIGHT
-    // The pixel's light-path pass sums (film::light), which the sample adds
-    // to as it goes: the light each lobe of the first scattering vertex
-    // passed on, directly and indirectly, the lobe's weight there (its
-    // colour), and the emission and environment the camera saw. Added in
-    // place rather than summed per sample and then added, which on PoCL
-    // cost 1.3x the trace time (twice the state to keep per work-item).
-    float3* light;
+    // This sample's light for the light-path passes (film::light), kept
+    // in as few sums as the passes allow and split by lobe once, when the
+    // pixel adds it (light_sums_add): the emission and environment the
+    // camera saw; the light sampled at the first scattering vertex, by
+    // lobe there; the light found after that vertex, straight from a light
+    // (`after_direct`) or beyond; and the first vertex's lobe weight f
+    // |cos| / pdf and the diffuse and transmission shares of it, which
+    // split all that comes after.
+    float3 seen_emit;
+    float3 seen_env;
+    float3 first_diffuse;
+    float3 first_glossy;
+    float3 first_transmit;
+    float3 after_direct;
+    float3 after_indirect;
+    float3 weight;
+    float3 share_diffuse;
+    float3 share_transmit;
 #endif
 } PtSample;
 
 #ifdef FILM_LIGHT
-// Adds `c`, light that reached the camera through the path's first
-// scattering vertex, to the light-path passes: the shares `diffuse` and
-// `transmit` of it to those lobes' passes and the rest to glossy's, to the
-// direct passes when that vertex was the last before the light.
-inline void light_pass_add(PtSample* out, float3 c, float3 diffuse, float3 transmit, bool direct) {
-    // Nothing non-finite reaches the sums (the beauty drops such a sample).
-    if (!(isfinite(c.x) && isfinite(c.y) && isfinite(c.z))) return;
-    float3 d = c * diffuse;
-    float3 t = c * transmit;
-    float3 g = fmax((c - d) - t, (float3)(0.0f));
-    // Constant indices only: a private array indexed at run time is kept
-    // in memory, which stops PoCL vectorising the kernel across pixels.
-    float3 zero = (float3)(0.0f);
-    out->light[LIGHT_DIFFUSE] += direct ? d : zero;
-    out->light[LIGHT_DIFFUSE + 1u] += direct ? zero : d;
-    out->light[LIGHT_GLOSSY] += direct ? g : zero;
-    out->light[LIGHT_GLOSSY + 1u] += direct ? zero : g;
-    out->light[LIGHT_TRANSMISSION] += direct ? t : zero;
-    out->light[LIGHT_TRANSMISSION + 1u] += direct ? zero : t;
-}
-
 // At the path's first scattering vertex, the sampled direction wi (BSDF
-// value f, pdf, from a delta lobe or not): the shares of the throughput
-// the diffuse and transmission lobes gave, which split all the light the
-// path finds after it, and the lobes' weights f |cos| / pdf, whose mean is
-// each lobe's albedo (the colour passes). A delta lobe is glossy above
+// value f, pdf, from a delta lobe or not): the lobe weight f |cos| / pdf,
+// whose mean is the lobes' albedo (the colour passes), and the shares of
+// it the diffuse and transmission lobes gave. A delta lobe is glossy above
 // the surface and transmission below.
 inline void pt_first_lobes(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
-                           float pdf, bool delta, float3* diffuse, float3* transmit) {
+                           float pdf, bool delta) {
     if (delta) {
-        *diffuse = (float3)(0.0f);
-        *transmit = (float3)(wi.z < 0.0f ? 1.0f : 0.0f);
+        out->share_transmit = (float3)(wi.z < 0.0f ? 1.0f : 0.0f);
     } else {
         // f is bsdf_eval's value at wi (bsdf_sample's own).
         float3 fd, ft;
         bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
-        *diffuse = lobe_share(fd, f);
-        *transmit = lobe_share(ft, f);
+        out->share_diffuse = lobe_share(fd, f);
+        out->share_transmit = lobe_share(ft, f);
     }
     float3 w = f * (fabs(wi.z) / pdf);
-    if (!(isfinite(w.x) && isfinite(w.y) && isfinite(w.z))) return;
-    float3 d = w * *diffuse;
-    float3 t = w * *transmit;
-    out->light[LIGHT_DIFFUSE + 2u] += d;
-    out->light[LIGHT_GLOSSY + 2u] += fmax((w - d) - t, (float3)(0.0f));
-    out->light[LIGHT_TRANSMISSION + 2u] += t;
+    if (isfinite(w.x) && isfinite(w.y) && isfinite(w.z)) out->weight = w;
 }
 
 // Adds `c`, a light sample's contribution at a vertex after `depth`
-// scattering ones, to the light-path passes: at the first vertex split by
-// the lobes there (pt_shade_light's shares), later by the first vertex's.
-inline void light_pass_direct(PtSample* out, const PtScene* s, float3 c, uint depth,
-                              float3 diffuse, float3 transmit) {
-    if (depth == 0u)
-        light_pass_add(out, c, s->shade_diffuse, s->shade_transmit, true);
-    else
-        light_pass_add(out, c, diffuse, transmit, false);
+// scattering ones (at `wi`, where the BSDF is `f`), to the light-path
+// passes: at the first vertex by its lobes there, later to the light
+// found after it.
+inline void light_pass_direct(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
+                              float3 c, uint depth) {
+    if (depth != 0u) {
+        out->after_indirect += c;
+        return;
+    }
+    if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return;
+    float3 fd, ft;
+    bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
+    float3 d = c * lobe_share(fd, f);
+    float3 t = c * lobe_share(ft, f);
+    out->first_diffuse += d;
+    out->first_glossy += fmax((c - d) - t, (float3)(0.0f));
+    out->first_transmit += t;
 }
 
-// Adds `c`, emission or environment found after `depth` scattering
-// vertices, to the light-path passes: to `seen` (LIGHT_EMIT or LIGHT_ENV)
-// when the camera saw it, else through the first vertex's lobes.
-inline void light_pass_found(PtSample* out, float3 c, uint depth, uint seen, float3 diffuse,
-                             float3 transmit) {
+// Adds `c`, emission or environment (`env`) found after `depth`
+// scattering vertices, to the light-path passes.
+inline void light_pass_found(PtSample* out, float3 c, uint depth, bool env) {
     if (depth == 0u) {
-        if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z)) out->light[seen] += c;
-    } else
-        light_pass_add(out, c, diffuse, transmit, depth == 1u);
+        if (env)
+            out->seen_env += c;
+        else
+            out->seen_emit += c;
+    } else if (depth == 1u) {
+        out->after_direct += c;
+    } else {
+        out->after_indirect += c;
+    }
+}
+
+// Adds a kept sample `r` to a pixel's light-path pass sums (film::light's
+// LIGHT_PASS_NAMES order): the light after the first vertex split by its
+// shares there, glossy taking what the other two do not.
+inline void light_sums_add(float3* light, PtSample r) {
+    float3 zero = (float3)(0.0f);
+    float3 dd = r.after_direct * r.share_diffuse, dt = r.after_direct * r.share_transmit;
+    float3 id = r.after_indirect * r.share_diffuse, it = r.after_indirect * r.share_transmit;
+    float3 wd = r.weight * r.share_diffuse, wt = r.weight * r.share_transmit;
+    light[LIGHT_DIFFUSE] += r.first_diffuse + dd;
+    light[LIGHT_DIFFUSE + 1u] += id;
+    light[LIGHT_DIFFUSE + 2u] += wd;
+    light[LIGHT_GLOSSY] += r.first_glossy + fmax((r.after_direct - dd) - dt, zero);
+    light[LIGHT_GLOSSY + 1u] += fmax((r.after_indirect - id) - it, zero);
+    light[LIGHT_GLOSSY + 2u] += fmax((r.weight - wd) - wt, zero);
+    light[LIGHT_TRANSMISSION] += r.first_transmit + dt;
+    light[LIGHT_TRANSMISSION + 1u] += it;
+    light[LIGHT_TRANSMISSION + 2u] += wt;
+    light[LIGHT_EMIT] += r.seen_emit;
+    light[LIGHT_ENV] += r.seen_env;
 }
 #endif
 
 inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const float* filter,
-                        uint px, uint py, uint sample LIGHT_PATH_DECL TEX_DECL) {
+                        uint px, uint py, uint sample TEX_DECL) {
     PtSample out;
     out.radiance = (float3)(0.0f);
     out.alpha = 0.0f;
@@ -1227,13 +1238,19 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     out.catcher_unshadowed = (float3)(0.0f);
 #endif
 #ifdef FILM_LIGHT
-    out.light = light_sums;
+    out.seen_emit = (float3)(0.0f);
+    out.seen_env = (float3)(0.0f);
+    out.first_diffuse = (float3)(0.0f);
+    out.first_glossy = (float3)(0.0f);
+    out.first_transmit = (float3)(0.0f);
+    out.after_direct = (float3)(0.0f);
+    out.after_indirect = (float3)(0.0f);
+    out.weight = (float3)(0.0f);
+    out.share_diffuse = (float3)(0.0f);
+    out.share_transmit = (float3)(0.0f);
     s->split_lobes = false;
-    s->shade_diffuse = (float3)(0.0f);
-    s->shade_transmit = (float3)(0.0f);
-    // The first scattering vertex's lobe shares of the path's throughput.
-    float3 path_diffuse = (float3)(0.0f);
-    float3 path_transmit = (float3)(0.0f);
+    s->shade_wi = (float3)(0.0f);
+    s->shade_f = (float3)(0.0f);
 #endif
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
@@ -1371,8 +1388,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
                 }
                 out.radiance += beta * le * w;
 #ifdef FILM_LIGHT
-                light_pass_found(&out, beta * le * w, depth, LIGHT_ENV, path_diffuse,
-                                 path_transmit);
+                light_pass_found(&out, beta * le * w, depth, true);
 #endif
             }
             break;
@@ -1427,14 +1443,14 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             }
             out.radiance += beta * le * w;
 #ifdef FILM_LIGHT
-            light_pass_found(&out, beta * le * w, depth, LIGHT_EMIT, path_diffuse, path_transmit);
+            light_pass_found(&out, beta * le * w, depth, false);
 #endif
         }
 #ifdef HAS_UNLIT
         if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
             out.radiance += beta * albedo;
 #ifdef FILM_LIGHT
-            light_pass_found(&out, beta * albedo, depth, LIGHT_EMIT, path_diffuse, path_transmit);
+            light_pass_found(&out, beta * albedo, depth, false);
 #endif
             break;
         }
@@ -1502,7 +1518,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
                                               bounce TEX_PASS);
                 out.radiance += c;
 #ifdef FILM_LIGHT
-                light_pass_direct(&out, s, c, depth, path_diffuse, path_transmit);
+                light_pass_direct(&out, bp, wo, s->shade_wi, s->shade_f, c, depth);
 #endif
             }
         }
@@ -1524,7 +1540,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             }
             out.radiance += c;
 #ifdef FILM_LIGHT
-            light_pass_direct(&out, s, c, depth, path_diffuse, path_transmit);
+            light_pass_direct(&out, bp, wo, s->shade_wi, s->shade_f, c, depth);
 #endif
         }
 
@@ -1569,7 +1585,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         if (scattered) {
 #ifdef FILM_LIGHT
             if (depth == 0u)
-                pt_first_lobes(&out, bp, wo, wi, f, pdf, delta, &path_diffuse, &path_transmit);
+                pt_first_lobes(&out, bp, wo, wi, f, pdf, delta);
 #endif
             prev_pdf = pdf;
             prev_delta = delta;
@@ -1741,7 +1757,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
                 snap1 = color;
             }
         }
-        PtSample r = pt_path(&s, camera, filter, px, py, k LIGHT_PATH_PASS TEX_PASS);
+        PtSample r = pt_path(&s, camera, filter, px, py, k TEX_PASS);
         bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
                       isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
                       isfinite(r.normal.y) && isfinite(r.normal.z);
@@ -1761,6 +1777,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* 
         if (r.matte != 0u) matte_count(mattes, r.matte);
 #endif
 #ifdef FILM_LIGHT
+        light_sums_add(light, r);
 #endif
 #ifdef FILM_GEOMETRY
         // Summed over the samples that hit, as depth is (film::resolve).
