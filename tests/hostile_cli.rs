@@ -323,6 +323,23 @@ fn render_env_that_cannot_be_read_is_an_input_error() {
     assert_eq!(frames, 0);
 }
 
+/// Sends SIGTERM to `child` and checks that it exits with 143 (128 +
+/// SIGTERM), as a shell reports a job the signal ended.
+fn terminate(child: std::process::Child) {
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(143),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 #[test]
 fn sigterm_during_set_up_ends_the_render() {
     let dir = tempfile::tempdir().unwrap();
@@ -340,18 +357,7 @@ fn sigterm_during_set_up_ends_the_render() {
         .unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let started = Instant::now();
-    let status = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(143),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    terminate(child);
     assert!(started.elapsed() < Duration::from_secs(60));
     let temporaries = std::fs::read_dir(dir.path())
         .unwrap()
@@ -473,18 +479,7 @@ fn sigterm_while_loading_a_large_scene_exits_at_once() {
         .spawn()
         .unwrap();
     std::thread::sleep(Duration::from_millis(150));
-    let status = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(143),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    terminate(child);
     // The output directory is made right after loading: it does not exist,
     // so the signal ended the load itself (before, it was only recorded).
     assert!(!out_dir.exists(), "the load finished before the signal");

@@ -196,25 +196,18 @@ impl Slot {
         Slot::Anisotropy,
     ];
     /// The slots a path tracer shades with: all but occlusion.
-    pub const SHADED: [Slot; 17] = [
-        Slot::BaseColor,
-        Slot::MetallicRoughness,
-        Slot::Normal,
-        Slot::Emissive,
-        Slot::Transmission,
-        Slot::Specular,
-        Slot::SpecularColor,
-        Slot::Clearcoat,
-        Slot::ClearcoatRoughness,
-        Slot::ClearcoatNormal,
-        Slot::SheenColor,
-        Slot::SheenRoughness,
-        Slot::DiffuseTransmission,
-        Slot::DiffuseTransmissionColor,
-        Slot::Iridescence,
-        Slot::IridescenceThickness,
-        Slot::Anisotropy,
-    ];
+    pub const SHADED: [Slot; 17] = {
+        let mut shaded = [Slot::BaseColor; 17];
+        let (mut i, mut j) = (0, 0);
+        while i < Slot::ALL.len() {
+            if !matches!(Slot::ALL[i], Slot::Occlusion) {
+                shaded[j] = Slot::ALL[i];
+                j += 1;
+            }
+            i += 1;
+        }
+        shaded
+    };
     /// The slots of `PtMaterial` (four bindings per material).
     pub const BASE: [Slot; 4] = [
         Slot::BaseColor,
