@@ -46,6 +46,8 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "lights.h"),
     kernel!("trace" / "media.h"),
     kernel!("trace" / "lens.h"),
+    kernel!("trace" / "scene_view.h"),
+    kernel!("trace" / "direct_light.h"),
     kernel!("trace" / "pathtrace.cl"),
     kernel!("trace" / "pt_probe.cl"),
     kernel!("trace" / "motion.h"),

@@ -6,7 +6,7 @@
 //! animation all count), and the path tracer follows the first hit's point
 //! of its triangle (same barycentrics) through the three steps, projecting
 //! each with that step's camera (`project`, the twin of `pt_project` in
-//! kernels/trace/pathtrace.cl).
+//! kernels/trace/scene_view.h).
 //!
 //! The frame's centre is its instant, or with `--motion-blur` the middle of
 //! its shutter: the vectors describe the surface at the shutter's centre,

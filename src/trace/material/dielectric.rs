@@ -50,7 +50,7 @@ impl Dielectric {
     /// surface, the volume it is in; `trace::media`): F0 from the relative
     /// index `ior / n_other`, and for a volume the relative index
     /// `media::relative_eta`. Mirrors `pt_dielectric_params` in
-    /// `kernels/trace/pathtrace.cl`.
+    /// `kernels/trace/scene_view.h`.
     pub fn nested(
         ior: f32,
         n_other: f32,
