@@ -307,7 +307,7 @@ pub fn write_exr_denoised(
     for pass in &image.light {
         for (c, component) in ["R", "G", "B"].into_iter().enumerate() {
             let v = pass.pixels.iter().map(|p| p[c]).collect();
-            let name = format!("{}.{component}", pass.name);
+            let name = format!("{}.{component}", pass.name());
             channels.push(AnyChannel::new(name.as_str(), samples(v, half)));
         }
     }

@@ -224,7 +224,7 @@ fn every_lobe() -> (Soup, Vec<Material>) {
 fn pass<'a>(img: &'a Image, name: &str) -> &'a [[f32; 3]] {
     &img.light
         .iter()
-        .find(|p| p.name == name)
+        .find(|p| p.name() == name)
         .unwrap_or_else(|| panic!("no {name} pass"))
         .pixels
 }

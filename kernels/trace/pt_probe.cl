@@ -185,6 +185,10 @@ inline BsdfParams probe_layer_params(const __global float* c) {
     return p;
 }
 
+// A layer probe case's wo and wi.
+inline float3 probe_layer_wo(const __global float* c) { return (float3)(c[20], c[21], c[22]); }
+inline float3 probe_layer_wi(const __global float* c) { return (float3)(c[24], c[25], c[26]); }
+
 #ifdef HAS_LAYERS
 // As bsdf_ext_probe with the coat and sheen layers: per case the 36 floats
 // of probe_layer_params. Out as bsdf_probe: 12 floats, plus only-delta: 13.
@@ -193,8 +197,8 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
     if (i >= n) return;
     const __global float* c = in + (size_t)i * 36u;
     BsdfParams p = probe_layer_params(c);
-    float3 wo = (float3)(c[20], c[21], c[22]);
-    float3 wi = (float3)(c[24], c[25], c[26]);
+    float3 wo = probe_layer_wo(c);
+    float3 wi = probe_layer_wi(c);
     __global float* o = out + (size_t)i * 13u;
     probe_bsdf_out(p, wo, wi, (float3)(c[28], c[29], c[30]), o);
     o[12] = bsdf_only_delta(p) ? 1.0f : 0.0f;
@@ -209,8 +213,8 @@ __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, ui
     if (i >= n) return;
     const __global float* c = in + (size_t)i * 36u;
     BsdfParams p = probe_layer_params(c);
-    float3 wo = (float3)(c[20], c[21], c[22]);
-    float3 wi = (float3)(c[24], c[25], c[26]);
+    float3 wo = probe_layer_wo(c);
+    float3 wi = probe_layer_wi(c);
     float3 d, t;
     float3 f = bsdf_eval(p, wo, wi);
     bsdf_lobe_parts(p, wo, wi, &d, &t);

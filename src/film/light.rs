@@ -50,21 +50,18 @@ pub const LIGHT_PASS_NAMES: [&str; LIGHT_PASSES as usize] = [
     "TransCol", "Emit", "Env",
 ];
 
-/// One resolved light pass: its name (`LIGHT_PASS_NAMES`) and a value per
-/// pixel.
+/// One resolved light pass: its place in `LIGHT_PASS_NAMES` (and in a
+/// pixel's sums) and a value per pixel.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LightPass {
-    pub name: &'static str,
+    pub index: usize,
     pub pixels: Vec<[f32; 3]>,
 }
 
 impl LightPass {
-    /// Its place in `LIGHT_PASS_NAMES` and in a pixel's sums.
-    pub fn index(&self) -> usize {
-        LIGHT_PASS_NAMES
-            .iter()
-            .position(|n| *n == self.name)
-            .expect("a light pass is named from LIGHT_PASS_NAMES")
+    /// Its EXR layer name, as Blender's.
+    pub fn name(&self) -> &'static str {
+        LIGHT_PASS_NAMES[self.index]
     }
 }
 
@@ -83,12 +80,10 @@ pub fn passes_of(aovs: Aovs, pixels: usize) -> Vec<LightPass> {
         aovs.emission,
         aovs.environment,
     ];
-    LIGHT_PASS_NAMES
-        .iter()
-        .zip(on)
-        .filter(|(_, on)| *on)
-        .map(|(name, _)| LightPass {
-            name,
+    (0..LIGHT_PASS_NAMES.len())
+        .filter(|&index| on[index])
+        .map(|index| LightPass {
+            index,
             pixels: vec![[0.0; 3]; pixels],
         })
         .collect()

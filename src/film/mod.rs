@@ -248,6 +248,21 @@ macro_rules! aov_names {
 
             /// Every name, for the usage message.
             const CHOICES: &'static str = concat!($($name, ", "),*);
+
+            /// The AOVs on in either set.
+            pub const fn union(self, other: Aovs) -> Aovs {
+                Aovs { $($field: self.$field || other.$field),* }
+            }
+
+            /// The AOVs on in both sets.
+            pub const fn intersection(self, other: Aovs) -> Aovs {
+                Aovs { $($field: self.$field && other.$field),* }
+            }
+
+            /// The AOVs on in this set and off in `other`.
+            pub const fn without(self, other: Aovs) -> Aovs {
+                Aovs { $($field: self.$field && !other.$field),* }
+            }
         }
     };
 }
@@ -279,6 +294,16 @@ impl Aovs {
         ..Aovs::NONE
     };
 
+    /// Every light-path pass (`--passes light`).
+    pub const LIGHT: Aovs = Aovs {
+        diffuse: true,
+        glossy: true,
+        transmission: true,
+        emission: true,
+        environment: true,
+        ..Aovs::NONE
+    };
+
     /// These AOVs with the light-path passes `--passes` names (`light`,
     /// or any of diffuse, glossy, transmission, emission, environment).
     pub fn with_light_passes(self, list: &str) -> Result<Aovs, UsageError> {
@@ -288,33 +313,19 @@ impl Aovs {
                  transmission, emission, environment (e.g. --passes light)"
             ))
         })?;
-        let other = Aovs {
-            diffuse: false,
-            glossy: false,
-            transmission: false,
-            emission: false,
-            environment: false,
-            ..passes
-        };
+        let other = passes.without(Aovs::LIGHT);
         if other != Aovs::NONE {
             return Err(UsageError(format!(
                 "--passes {list:?}: {} is an AOV, not a light pass; give it to --aov",
                 other.names().join(", ")
             )));
         }
-        Ok(Aovs {
-            diffuse: self.diffuse || passes.diffuse,
-            glossy: self.glossy || passes.glossy,
-            transmission: self.transmission || passes.transmission,
-            emission: self.emission || passes.emission,
-            environment: self.environment || passes.environment,
-            ..self
-        })
+        Ok(self.union(passes))
     }
 
     /// Whether any light-path pass is on (`film::light`).
     pub fn light(&self) -> bool {
-        self.diffuse || self.glossy || self.transmission || self.emission || self.environment
+        self.intersection(Aovs::LIGHT) != Aovs::NONE
     }
 
     /// Parses `--aov` (any subset of `names`, any order, comma-separated;
@@ -324,11 +335,7 @@ impl Aovs {
         for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let item = item.to_ascii_lowercase();
             if item == "light" {
-                aovs.diffuse = true;
-                aovs.glossy = true;
-                aovs.transmission = true;
-                aovs.emission = true;
-                aovs.environment = true;
+                aovs = aovs.union(Aovs::LIGHT);
             } else if !aovs.set(&item) {
                 return Err(UsageError(format!(
                     "--aov: unknown AOV {item:?}; choose from {}, light (e.g. --aov depth,normal,albedo)",
@@ -457,7 +464,7 @@ impl Image {
     }
 
     fn has_light_pass(&self, name: &str) -> bool {
-        self.light.iter().any(|p| p.name == name)
+        self.light.iter().any(|p| p.name() == name)
     }
 }
 
@@ -627,7 +634,7 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
             let per = 3 * light::LIGHT_PASSES as usize;
             let passes = light::resolve_pixel(&acc.light[per * i..per * (i + 1)], kept);
             for pass in &mut image.light {
-                pass.pixels[i] = passes[pass.index()];
+                pass.pixels[i] = passes[pass.index];
             }
         }
         if let Some(z) = &mut image.depth {
