@@ -1,16 +1,27 @@
-//! Primary-ray closest-hit throughput: soupray's device traversals (the
-//! default 4-wide stack traversal, the binary tree's stack traversal and the
-//! stackless escape-index one), the Rust CPU reference, and Embree 3 when built
-//! with `--features embree`, on the same soup, camera and rays, in one run.
+//! Ray throughput of soupray's device traversals against Embree 3, on the
+//! same soup and the same rays, in one run: the 4-wide and 8-wide stack
+//! traversals, the binary tree's stack traversal and the stackless
+//! escape-index one, the Rust CPU reference, and Embree (`rtcIntersect1`,
+//! `rtcOccluded1`) when built with `--features embree`. Three ray sets per
+//! mesh:
+//! - primary: one camera ray per pixel (coherent);
+//! - bounce: from every primary hit, a cosine-distributed diffuse bounce
+//!   (incoherent), closest hit;
+//! - shadow: from every primary hit towards a point light, any hit.
 //!
-//!   cargo bench --bench trace_primary                     # soupray only
-//!   cargo bench --bench trace_primary --features embree   # with Embree 3
-//!   cargo bench --bench trace_primary -- --runs 9 --size 512 --threads 2 --local 64
+//! ```text
+//! cargo bench --bench trace_primary                     # soupray only
+//! cargo bench --bench trace_primary --features embree   # with Embree 3
+//! cargo bench --bench trace_primary -- --runs 9 --size 512 --threads 2 --local 64 \
+//!     --meshes beast.ply,nefertiti.ply --leaf 4 --bins 16
+//! ```
 //!
-//! Prints a Markdown table: median device time (profiling events) and wall
-//! time per frame of 512x512 primary rays, Mrays/s, the hit fraction, and
-//! agreement with the CPU reference; plus the host cost of the stackless
-//! layout's escape indices and of the 4-wide collapse after a build.
+//! Each timed run launches every tracer once, in turn (interleaved), and
+//! the table gives the median of the runs: device time (profiling events)
+//! for soupray, wall time for Embree and the CPU reference, Mrays/s, the
+//! share of Embree's throughput, and agreement with the CPU reference (the
+//! same triangle; for shadow rays the same occlusion). A second table gives
+//! the host cost of each traversal layout after a build.
 
 mod support;
 
@@ -19,6 +30,9 @@ use soupray::bvh::{BuildParams, Bvh};
 use soupray::cli::report::median;
 use soupray::device::Device;
 use soupray::soup::Soup;
+use soupray::trace::intersect::{
+    geometric_normal, hit_point, offset_ray_origin_scaled, offset_scale,
+};
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceKind};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -102,20 +116,6 @@ fn parallel(
     });
 }
 
-struct Row {
-    mesh: String,
-    tris: usize,
-    tracer: String,
-    device_ms: Option<f64>,
-    wall_ms: f64,
-    hit_fraction: f64,
-    agree: f64,
-}
-
-fn agreement(a: &[Hit], b: &[Hit]) -> f64 {
-    a.iter().zip(b).filter(|(x, y)| x.prim == y.prim).count() as f64 / a.len() as f64
-}
-
 /// The bench's settings, from the command line.
 struct Settings {
     /// Timed runs per tracer (the median is reported).
@@ -126,29 +126,124 @@ struct Settings {
     threads: usize,
     /// The device kernels' work-group size.
     local: usize,
+    /// The meshes, by file name under the shared `meshes/`.
+    meshes: Vec<String>,
+    /// The build's parameters (`--leaf`, `--bins`; the defaults otherwise).
+    params: BuildParams,
 }
 
-/// One mesh's BVH and the host cost of its other layouts: name, triangles,
-/// nodes, the escape indices' median ms, the 4-wide nodes and the 4-wide
-/// collapse's median ms.
-type LayoutRow = (&'static str, usize, usize, f64, usize, f64);
+/// The meshes of the issue's table: three scans, two scanned statues and a
+/// bumpy sphere of 977K triangles.
+const MESHES: &str = "beast.ply,nefertiti.ply,stanford-bunny.ply,ogre.ply,sphere1m.ply";
+
+/// One ray set of a mesh.
+#[derive(Clone, Copy, PartialEq)]
+enum RaySet {
+    Primary,
+    Bounce,
+    Shadow,
+}
+
+impl RaySet {
+    fn name(self) -> &'static str {
+        match self {
+            RaySet::Primary => "primary",
+            RaySet::Bounce => "diffuse bounce",
+            RaySet::Shadow => "shadow",
+        }
+    }
+}
+
+/// Who traces a ray set: a device kernel, or Embree on the host.
+#[derive(Clone, Copy)]
+enum Tracer {
+    Device(TraceKind, &'static str),
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    Embree,
+}
+
+/// The tracers of a ray set, the default traversal first.
+fn tracers(set: RaySet) -> Vec<Tracer> {
+    let mut t = match set {
+        RaySet::Shadow => vec![
+            Tracer::Device(TraceKind::AnyWide, "soupray 4-wide any-hit (the default)"),
+            Tracer::Device(TraceKind::AnyWide8, "soupray 8-wide any-hit"),
+            Tracer::Device(TraceKind::Any, "soupray binary any-hit"),
+        ],
+        _ => vec![
+            Tracer::Device(TraceKind::ClosestWide, "soupray 4-wide (the default)"),
+            Tracer::Device(TraceKind::ClosestWide8, "soupray 8-wide"),
+            Tracer::Device(TraceKind::Closest, "soupray binary, stack"),
+        ],
+    };
+    if set == RaySet::Primary {
+        t.push(Tracer::Device(
+            TraceKind::ClosestStackless,
+            "soupray binary, stackless",
+        ));
+    }
+    if cfg!(feature = "embree") {
+        t.push(Tracer::Embree);
+    }
+    t
+}
+
+fn stage_of(kind: TraceKind) -> &'static str {
+    match kind {
+        TraceKind::Closest => "trace/closest",
+        TraceKind::Any => "trace/any",
+        TraceKind::ClosestStackless => "trace/stackless",
+        TraceKind::ClosestWide => "trace/closest_wide",
+        TraceKind::AnyWide => "trace/any_wide",
+        TraceKind::ClosestWide8 => "trace/closest_wide8",
+        TraceKind::AnyWide8 => "trace/any_wide8",
+    }
+}
+
+struct Row {
+    mesh: String,
+    tris: usize,
+    set: RaySet,
+    rays: usize,
+    tracer: String,
+    /// Median ms per launch: device time for soupray, wall for the others.
+    ms: f64,
+    embree: bool,
+    agree: f64,
+}
+
+/// One mesh's tree and the host cost of its traversal layouts: name,
+/// triangles, binary nodes, then (nodes, median ms) of the escape-index,
+/// 4-wide and 8-wide layouts.
+type LayoutRow = (String, usize, usize, [(usize, f64); 3]);
 
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let meshes = args
+        .iter()
+        .position(|a| a == "--meshes")
+        .and_then(|i| args.get(i + 1))
+        .map(String::as_str)
+        .unwrap_or(MESHES);
     let s = Settings {
         runs: arg("--runs", 7).max(1),
         size: arg("--size", 512) as u32,
         threads: arg("--threads", 2),
         local: arg("--local", 64),
+        meshes: meshes.split(',').map(str::to_owned).collect(),
+        params: BuildParams {
+            leaf_size: arg("--leaf", BuildParams::default().leaf_size as usize) as u32,
+            bins: arg("--bins", BuildParams::default().bins as usize) as u32,
+        },
     };
-    let (runs, size, threads, local) = (s.runs, s.size, s.threads, s.local);
     let device = Device::open(None).expect("an OpenCL device");
     println!(
-        "device: {} ({}, {} compute units); {size}x{size} primary rays, median of {runs} runs; CPU paths on {threads} threads; work-groups of {local}",
-        device.info.name, device.info.platform, device.info.compute_units
+        "device: {} ({}, {} compute units); {}x{} primary rays and the bounce and shadow rays of their hits; median of {} interleaved runs; CPU paths on {} threads; work-groups of {}; leaves of at most {} triangles, {} bins",
+        device.info.name, device.info.platform, device.info.compute_units, s.size, s.size, s.runs, s.threads, s.local, s.params.leaf_size, s.params.bins
     );
     let mut rows = Vec::new();
-    let mut escape_rows = Vec::new();
-    for name in ["beast.ply", "nefertiti.ply"] {
+    let mut layout_rows = Vec::new();
+    for name in &s.meshes {
         let soup = match mesh(name) {
             Ok(soup) => soup,
             Err(e) => {
@@ -156,230 +251,272 @@ fn main() {
                 continue;
             }
         };
-        bench_mesh(&device, &s, name, &soup, &mut rows, &mut escape_rows);
+        bench_mesh(&device, &s, name, &soup, &mut rows, &mut layout_rows);
     }
-    print_tables(&rows, escape_rows, size);
+    print_tables(&rows, &layout_rows);
 }
 
-/// Every tracer on one mesh: the layouts' host cost, then the CPU
-/// reference, the device traversals and (with the feature) Embree, each
-/// on the same camera's rays.
+/// A small deterministic generator for the bounce directions.
+struct Rng(u64);
+
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        // SplitMix64.
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// From each primary hit: a diffuse bounce (cosine-distributed about the
+/// normal on the side the camera sees) and a shadow ray towards `light`,
+/// both from the offset hit point.
+fn secondary_rays(
+    soup: &Soup,
+    primary: &[Ray],
+    hits: &[Hit],
+    light: [f32; 3],
+) -> (Vec<Ray>, Vec<Ray>) {
+    let mut rng = Rng(7);
+    let (mut bounce, mut shadow) = (Vec::new(), Vec::new());
+    for (ray, hit) in primary.iter().zip(hits).filter(|(_, h)| h.is_hit()) {
+        let p = hit_point(&soup.positions, hit.prim, hit.u, hit.v);
+        let mut n = geometric_normal(&soup.positions, hit.prim);
+        if (0..3).map(|a| n[a] * ray.dir[a]).sum::<f32>() > 0.0 {
+            n = n.map(|c| -c);
+        }
+        let o = offset_ray_origin_scaled(p, n, offset_scale(&soup.positions, hit.prim));
+        // An orthonormal frame about n (Duff et al. 2017).
+        let sign = 1.0f32.copysign(n[2]);
+        let a = -1.0 / (sign + n[2]);
+        let b = n[0] * n[1] * a;
+        let t = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
+        let bt = [b, sign + n[1] * n[1] * a, -n[1]];
+        let (u1, u2) = (rng.f32(), rng.f32());
+        let r = u1.sqrt();
+        let phi = std::f32::consts::TAU * u2;
+        let (x, y, z) = (r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt());
+        let d: [f32; 3] = std::array::from_fn(|k| x * t[k] + y * bt[k] + z * n[k]);
+        bounce.push(Ray::new(o, d));
+        let to: [f32; 3] = std::array::from_fn(|k| light[k] - o[k]);
+        let dist = to.iter().map(|c| c * c).sum::<f32>().sqrt();
+        let mut s = Ray::new(o, to.map(|c| c / dist));
+        s.tmax = dist * (1.0 - 1e-4);
+        shadow.push(s);
+    }
+    (bounce, shadow)
+}
+
+/// The CPU reference's hits (closest, or any for shadow rays), on the
+/// bench's threads.
+fn reference(bvh: &Bvh, soup: &Soup, rays: &[Ray], set: RaySet, threads: usize) -> Vec<Hit> {
+    let mut out = vec![Hit::miss(0.0); rays.len()];
+    parallel(rays, &mut out, threads, &|r, h| {
+        for (ray, hit) in r.iter().zip(h.iter_mut()) {
+            *hit = if set == RaySet::Shadow {
+                trace::trace_any(bvh, &soup.positions, ray)
+            } else {
+                trace::trace_closest(bvh, &soup.positions, ray)
+            };
+        }
+    });
+    out
+}
+
+/// Agreement with the reference: the same triangle, or for shadow rays the
+/// same occlusion (any-hit may report any occluder).
+fn agreement(a: &[Hit], b: &[Hit], set: RaySet) -> f64 {
+    let same = |x: &Hit, y: &Hit| {
+        if set == RaySet::Shadow {
+            x.is_hit() == y.is_hit()
+        } else {
+            x.prim == y.prim
+        }
+    };
+    a.iter().zip(b).filter(|(x, y)| same(x, y)).count() as f64 / a.len().max(1) as f64
+}
+
+/// Every tracer on one mesh's three ray sets, interleaved run by run.
 fn bench_mesh(
     device: &Device,
     s: &Settings,
-    name: &'static str,
+    name: &str,
     soup: &Soup,
     rows: &mut Vec<Row>,
-    escape_rows: &mut Vec<LayoutRow>,
+    layout_rows: &mut Vec<LayoutRow>,
 ) {
     let n = soup.triangle_count();
-    let mut builder = DeviceBuilder::new(device, BuildParams::default()).unwrap();
+    let mut builder = DeviceBuilder::new(device, s.params).unwrap();
     let (bvh, _) = builder.build(soup).unwrap();
     let mut positions = device.buffer::<[f32; 4]>(soup.positions.len()).unwrap();
     device.write(&mut positions, &soup.positions).unwrap();
     let prim_ids = builder.device_prim_ids().unwrap();
     let camera = filling_camera(&bvh, soup, s.size);
-    let rays_host = camera.rays();
-    let count = rays_host.len();
+    let primary = camera.rays();
 
     let mut tracer = DeviceTracer::new(device).unwrap();
     tracer.local_size = s.local;
     tracer.upload_bvh(&bvh).unwrap();
-    escape_rows.push(layout_costs(&mut tracer, &bvh, name, n, s.runs));
-    let rays = device.buffer::<Ray>(count).unwrap();
-    let hits = device.buffer::<Hit>(count).unwrap();
-    tracer.generate_primary(&camera, &rays).unwrap();
-    device.finish().unwrap();
-    let mut generated = vec![Ray::default(); count];
-    device.read(&rays, &mut generated).unwrap();
-    assert_eq!(generated, rays_host, "device and host primary rays differ");
+    layout_rows.push(layout_costs(&mut tracer, &bvh, name, n, s.runs));
+    // The device's own camera rays are the host's, bit for bit.
+    let generated = device.buffer::<Ray>(primary.len()).unwrap();
+    tracer.generate_primary(&camera, &generated).unwrap();
+    let mut back = vec![Ray::default(); primary.len()];
+    device.read(&generated, &mut back).unwrap();
+    assert_eq!(back, primary, "device and host primary rays differ");
 
-    let (reference, row) = cpu_reference(&bvh, soup, &rays_host, s, name);
-    let hit_fraction = row.hit_fraction;
-    rows.push(row);
-
-    for (kind, label, stage) in [
-        (
-            TraceKind::Closest,
-            "soupray device, stack (binary tree)",
-            "trace/closest",
-        ),
-        (
-            TraceKind::ClosestStackless,
-            "soupray device, stackless",
-            "trace/stackless",
-        ),
-        (
-            TraceKind::ClosestWide,
-            "soupray device, wide (stack, 4-wide layout; the default)",
-            "trace/closest_wide",
-        ),
-    ] {
-        let mut out = vec![Hit::miss(0.0); count];
-        tracer
-            .trace(kind, &positions, prim_ids, &rays, &hits, count)
-            .unwrap();
-        device.take_timings().unwrap();
-        let (mut dev, mut wall) = (Vec::new(), Vec::new());
-        for _ in 0..s.runs {
-            let t = Instant::now();
-            tracer
-                .trace(kind, &positions, prim_ids, &rays, &hits, count)
-                .unwrap();
-            let timings = device.take_timings().unwrap();
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-            dev.push(timings.ms(stage));
-        }
-        device.read(&hits, &mut out).unwrap();
-        rows.push(Row {
-            mesh: name.into(),
-            tris: n,
-            tracer: label.into(),
-            device_ms: Some(median(dev)),
-            wall_ms: median(wall),
-            hit_fraction,
-            agree: agreement(&out, &reference),
-        });
-    }
-
+    let primary_hits = reference(&bvh, soup, &primary, RaySet::Primary, s.threads);
+    let (lo, hi) = soup.bounds().unwrap();
+    let diag = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f32>().sqrt();
+    let light: [f32; 3] =
+        std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]) + diag * [0.4, 1.0, 0.3][a]);
+    let (bounce, shadow) = secondary_rays(soup, &primary, &primary_hits, light);
     #[cfg(feature = "embree")]
-    rows.push(embree_row(
-        soup,
-        &rays_host,
-        &reference,
-        hit_fraction,
-        s,
-        name,
-    ));
+    let scene = trace::embree::EmbreeScene::new(&soup.positions, s.threads);
+
+    for (set, rays) in [
+        (RaySet::Primary, primary),
+        (RaySet::Bounce, bounce),
+        (RaySet::Shadow, shadow),
+    ] {
+        let count = rays.len();
+        let expected = reference(&bvh, soup, &rays, set, s.threads);
+        let mut ray_buffer = device.buffer::<Ray>(count.max(1)).unwrap();
+        device.write(&mut ray_buffer, &rays).unwrap();
+        let hits = device.buffer::<Hit>(count.max(1)).unwrap();
+        let list = tracers(set);
+        let mut ms: Vec<Vec<f64>> = vec![Vec::new(); list.len()];
+        let mut agree = vec![0.0; list.len()];
+        let mut out = vec![Hit::miss(0.0); count];
+        // Run 0 warms every tracer up and checks its hits; runs 1.. are timed.
+        for run in 0..=s.runs {
+            for (i, t) in list.iter().enumerate() {
+                // A pause, so that no tracer starts on threads another one
+                // has left busy (PoCL's workers spin for a while).
+                std::thread::sleep(std::time::Duration::from_millis(5));
+                let elapsed = match *t {
+                    Tracer::Device(kind, _) => {
+                        tracer
+                            .trace(kind, &positions, prim_ids, &ray_buffer, &hits, count)
+                            .unwrap();
+                        let timings = device.take_timings().unwrap();
+                        if run == 0 {
+                            device.read(&hits, &mut out).unwrap();
+                        }
+                        timings.ms(stage_of(kind))
+                    }
+                    Tracer::Embree => {
+                        let start = Instant::now();
+                        #[cfg(feature = "embree")]
+                        parallel(&rays, &mut out, s.threads, &|r, h| {
+                            let flags = trace::embree::CONTEXT_INCOHERENT;
+                            if set == RaySet::Shadow {
+                                scene.occluded(r, h, flags)
+                            } else {
+                                scene.intersect(r, h, flags)
+                            }
+                        });
+                        start.elapsed().as_secs_f64() * 1e3
+                    }
+                };
+                if run == 0 {
+                    agree[i] = agreement(&out, &expected, set);
+                } else {
+                    ms[i].push(elapsed);
+                }
+            }
+        }
+        for (i, t) in list.iter().enumerate() {
+            let (label, embree) = match *t {
+                Tracer::Device(_, label) => (label.to_owned(), false),
+                Tracer::Embree => {
+                    let call = if set == RaySet::Shadow {
+                        "rtcOccluded1"
+                    } else {
+                        "rtcIntersect1"
+                    };
+                    (format!("Embree 3 {call} ({} threads)", s.threads), true)
+                }
+            };
+            rows.push(Row {
+                mesh: name.into(),
+                tris: n,
+                set,
+                rays: count,
+                tracer: label,
+                ms: median(std::mem::take(&mut ms[i])),
+                embree,
+                agree: agree[i],
+            });
+        }
+    }
     drop(builder);
 }
 
-/// The host cost of the stackless layout's escape indices and of the
-/// 4-wide collapse of `bvh`, medians of `runs`.
+/// The host cost of the escape-index, 4-wide and 8-wide layouts of `bvh`,
+/// medians of `runs`.
 fn layout_costs(
     tracer: &mut DeviceTracer,
     bvh: &Bvh,
-    name: &'static str,
+    name: &str,
     n: usize,
     runs: usize,
 ) -> LayoutRow {
-    let mut layout_ms = Vec::new();
-    let mut wide_ms = Vec::new();
-    let mut wide_nodes = 0;
+    let mut ms: [Vec<f64>; 3] = Default::default();
+    let mut nodes = [0usize; 3];
     for _ in 0..runs {
-        layout_ms.push(tracer.upload_stackless(bvh).unwrap().layout_ms);
-        let wide = tracer.upload_wide(bvh).unwrap();
-        wide_ms.push(wide.layout_ms);
-        wide_nodes = wide.entries;
+        let stats = [
+            tracer.upload_stackless(bvh).unwrap(),
+            tracer.upload_wide(bvh).unwrap(),
+            tracer.upload_wide8(bvh).unwrap(),
+        ];
+        for (k, st) in stats.iter().enumerate() {
+            ms[k].push(st.layout_ms);
+            nodes[k] = st.entries;
+        }
     }
+    let [a, b, c] = ms.map(median);
     (
-        name,
+        name.into(),
         n,
         bvh.nodes.len(),
-        median(layout_ms),
-        wide_nodes,
-        median(wide_ms),
+        [(nodes[0], a), (nodes[1], b), (nodes[2], c)],
     )
 }
 
-/// The CPU reference: the yardstick for agreement, and a plain-Rust
-/// scalar throughput for scale. Returns its hits and its row.
-fn cpu_reference(
-    bvh: &Bvh,
-    soup: &Soup,
-    rays_host: &[Ray],
-    s: &Settings,
-    name: &str,
-) -> (Vec<Hit>, Row) {
-    let (runs, threads) = (s.runs, s.threads);
-    let count = rays_host.len();
-    let mut reference = vec![Hit::miss(0.0); count];
-    let mut wall = Vec::new();
-    for _ in 0..runs.min(3) {
-        let t = Instant::now();
-        parallel(rays_host, &mut reference, threads, &|r, h| {
-            for (ray, hit) in r.iter().zip(h.iter_mut()) {
-                *hit = trace::trace_closest(bvh, &soup.positions, ray);
-            }
-        });
-        wall.push(t.elapsed().as_secs_f64() * 1e3);
-    }
-    let hit_fraction = reference.iter().filter(|h| h.is_hit()).count() as f64 / count as f64;
-    let row = Row {
-        mesh: name.into(),
-        tris: soup.triangle_count(),
-        tracer: format!("CPU reference (Rust, stack, {threads} threads)"),
-        device_ms: None,
-        wall_ms: median(wall),
-        hit_fraction,
-        agree: 1.0,
-    };
-    (reference, row)
-}
-
-/// Embree 3's `rtcIntersect1` on the same rays, after one untimed run.
-#[cfg(feature = "embree")]
-fn embree_row(
-    soup: &Soup,
-    rays_host: &[Ray],
-    reference: &[Hit],
-    hit_fraction: f64,
-    s: &Settings,
-    name: &str,
-) -> Row {
-    let (runs, threads) = (s.runs, s.threads);
-    let count = rays_host.len();
-    let scene = trace::embree::EmbreeScene::new(&soup.positions, threads);
-    let mut out = vec![Hit::miss(0.0); count];
-    let mut wall = Vec::new();
-    for run in 0..=runs {
-        let t = Instant::now();
-        parallel(rays_host, &mut out, threads, &|r, h| {
-            scene.intersect(r, h, trace::embree::CONTEXT_INCOHERENT)
-        });
-        if run > 0 {
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-        }
-    }
-    Row {
-        mesh: name.into(),
-        tris: soup.triangle_count(),
-        tracer: format!("Embree 3 rtcIntersect1 ({threads} threads)"),
-        device_ms: None,
-        wall_ms: median(wall),
-        hit_fraction,
-        agree: agreement(&out, reference),
-    }
-}
-
 /// The throughput table and the layouts' host-cost table, in Markdown.
-fn print_tables(rows: &[Row], escape_rows: Vec<LayoutRow>, size: u32) {
+fn print_tables(rows: &[Row], layout_rows: &[LayoutRow]) {
     println!();
-    println!("| mesh | triangles | tracer | device ms | wall ms | Mrays/s (device) | Mrays/s (wall) | rays hitting | same triangle as CPU ref |");
-    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    println!("| mesh | triangles | rays | count | tracer | ms (median) | Mrays/s | share of Embree | same result as CPU ref |");
+    println!("|---|---:|---|---:|---|---:|---:|---:|---:|");
     for r in rows {
-        let count = (size * size) as f64;
-        let (dms, dm) = match r.device_ms {
-            Some(ms) => (format!("{ms:.2}"), format!("{:.2}", count / ms / 1e3)),
-            None => ("-".into(), "-".into()),
+        let embree = rows
+            .iter()
+            .find(|e| e.embree && e.mesh == r.mesh && e.set == r.set)
+            .map(|e| e.ms);
+        let share = match embree {
+            Some(e) if !r.embree => format!("{:.0}%", 100.0 * e / r.ms),
+            _ => "-".into(),
         };
         println!(
-            "| {} | {} | {} | {} | {:.2} | {} | {:.2} | {:.1}% | {:.3}% |",
+            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.3}% |",
             r.mesh,
             r.tris,
+            r.set.name(),
+            r.rays,
             r.tracer,
-            dms,
-            r.wall_ms,
-            dm,
-            count / r.wall_ms / 1e3,
-            100.0 * r.hit_fraction,
+            r.ms,
+            r.rays as f64 / r.ms / 1e3,
+            share,
             100.0 * r.agree
         );
     }
     println!();
-    println!("| mesh | triangles | BVH nodes | escape-index layout (host ms, median) | 4-wide nodes | 4-wide collapse (host ms, median) |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (name, n, nodes, ms, wide_nodes, wide_ms) in escape_rows {
-        println!("| {name} | {n} | {nodes} | {ms:.2} | {wide_nodes} | {wide_ms:.2} |");
+    println!("| mesh | triangles | BVH nodes | escape-index layout (host ms) | 4-wide nodes | 4-wide collapse (host ms) | 8-wide nodes | 8-wide collapse (host ms) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, n, nodes, [(_, esc), (w4, w4ms), (w8, w8ms)]) in layout_rows {
+        println!("| {name} | {n} | {nodes} | {esc:.2} | {w4} | {w4ms:.2} | {w8} | {w8ms:.2} |");
     }
 }

@@ -83,6 +83,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 trace::Hit::layout(),
                 escape::StacklessNode::layout(),
                 wide::WideNode::layout(),
+                wide::Wide8Node::layout(),
             ],
         },
         GeneratedHeader {

@@ -127,9 +127,14 @@ fn all_mappings() -> Vec<Mapping> {
 
 fn all_traversals() -> Vec<Traversal> {
     let _ = |t: Traversal| match t {
-        Traversal::Stack | Traversal::Stackless | Traversal::Wide => (),
+        Traversal::Stack | Traversal::Stackless | Traversal::Wide | Traversal::Wide8 => (),
     };
-    vec![Traversal::Stack, Traversal::Stackless, Traversal::Wide]
+    vec![
+        Traversal::Stack,
+        Traversal::Stackless,
+        Traversal::Wide,
+        Traversal::Wide8,
+    ]
 }
 
 fn all_samplers() -> Vec<Sampler> {
@@ -249,7 +254,7 @@ fn pathtrace_variants() -> Vec<Variant> {
                 for transmission in [false, true] {
                     for compensation in [false, true] {
                         // Compensation is independent of the traversal.
-                        if compensation && traversal != Traversal::Wide {
+                        if compensation && traversal != Traversal::Wide8 {
                             continue;
                         }
                         let defines = pathtrace_defines(
@@ -347,7 +352,7 @@ fn film_variants() -> Vec<Variant> {
     // alone and with motion blur.
     let lens = film_defines(
         pathtrace_defines(
-            Traversal::Wide,
+            Traversal::Wide8,
             true,
             Sampler::default(),
             false,
@@ -375,7 +380,7 @@ fn film_variants() -> Vec<Variant> {
         entry: "pathtrace.cl",
         defines: film_defines(
             pathtrace_defines(
-                Traversal::Wide,
+                Traversal::Wide8,
                 true,
                 Sampler::default(),
                 true,
@@ -435,7 +440,7 @@ fn lobe_variants() -> Vec<Variant> {
             v.push(Variant {
                 entry: "pathtrace.cl",
                 defines: pathtrace_defines(
-                    Traversal::Wide,
+                    Traversal::Wide8,
                     true,
                     Sampler::default(),
                     transmission,

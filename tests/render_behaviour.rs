@@ -21,7 +21,7 @@ fn renders_are_identical_whatever_the_schedule_and_traversal() {
     let d = common::device();
     let (s, t, lights) = busy_scene();
     let mut st = settings(29, 12);
-    assert_eq!(st.traversal, Traversal::Wide, "the default traversal");
+    assert_eq!(st.traversal, Traversal::Wide8, "the default traversal");
     // Keyed by the frame number (below); the default fixed pattern is not.
     st.noise_pattern = NoisePattern::PerFrame;
     st.environment = Environment::Color([0.2, 0.3, 0.4]);
@@ -74,8 +74,16 @@ fn renders_are_identical_whatever_the_schedule_and_traversal() {
         bits(&sl.image),
         "wide and stackless images differ"
     );
-    // So does the stack traversal of the binary tree as built (the default
-    // traverses it collapsed into 4-wide nodes), shadow rays included.
+    // So does the 4-wide layout (the default is 8-wide)...
+    st.traversal = Traversal::Wide;
+    let wide4 = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 3).unwrap();
+    assert_eq!(
+        bits(&a.image),
+        bits(&wide4.image),
+        "8-wide and 4-wide images differ"
+    );
+    // ...and the stack traversal of the binary tree as built, shadow rays
+    // included.
     st.traversal = Traversal::Stack;
     let binary = render_soup(&d, &s, &t, &busy_camera(), &lights, &st, 3).unwrap();
     assert_eq!(

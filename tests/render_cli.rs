@@ -129,7 +129,7 @@ fn frames_split_over_runs_give_identical_files() {
     assert_eq!(log["build"]["leaf_size"], 4);
     assert_eq!(log["render"]["width"], 48);
     assert_eq!(log["render"]["spp"], 2);
-    assert_eq!(log["render"]["traversal"], "wide", "the default traversal");
+    assert_eq!(log["render"]["traversal"], "wide8", "the default traversal");
     assert!(log["render"]["rays"].as_u64().unwrap() >= 48 * 27 * 2);
     assert!(log["camera"]["position"].is_array());
     assert!(log["warnings"].is_array());

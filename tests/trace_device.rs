@@ -66,6 +66,29 @@ fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
         &t.cpu_closest,
         &format!("{what}: device wide any-hit"),
     );
+    assert_same(
+        &t.dev_wide8,
+        &t.cpu_wide8,
+        rays,
+        &format!("{what}: device vs CPU 8-wide"),
+    );
+    assert_same(
+        &t.cpu_wide8,
+        &t.cpu_closest,
+        rays,
+        &format!("{what}: CPU 8-wide vs stack"),
+    );
+    assert_same(
+        &t.dev_any_wide8,
+        &t.cpu_any_wide8,
+        rays,
+        &format!("{what}: device vs CPU 8-wide any-hit"),
+    );
+    assert_any_agrees(
+        &t.dev_any_wide8,
+        &t.cpu_closest,
+        &format!("{what}: device 8-wide any-hit"),
+    );
     // Culling never loses the closest hit: brute force over every triangle
     // (the first of all hits sorted by t, then index) on a sample.
     let step = (rays.len() / 300).max(1);

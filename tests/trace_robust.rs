@@ -110,11 +110,22 @@ fn check_watertight(mesh: &Mesh, center: [f32; 3], radius: f32, what: &str) -> u
         &format!("{what}: device stackless"),
     );
     assert_same(&t.dev_wide, &brute, &rays, &format!("{what}: device wide"));
+    assert_same(
+        &t.dev_wide8,
+        &brute,
+        &rays,
+        &format!("{what}: device 8-wide"),
+    );
     assert_any_agrees(&t.dev_any, &brute, &format!("{what}: device any-hit"));
     assert_any_agrees(
         &t.dev_any_wide,
         &brute,
         &format!("{what}: device wide any-hit"),
+    );
+    assert_any_agrees(
+        &t.dev_any_wide8,
+        &brute,
+        &format!("{what}: device 8-wide any-hit"),
     );
     rays.len()
 }
@@ -233,6 +244,7 @@ fn axis_parallel_rays_with_signed_zeros_hit_the_right_triangle() {
             &format!("x{s} +{off}: stackless"),
         );
         assert_same(&t.dev_wide, &brute, &rays, &format!("x{s} +{off}: wide"));
+        assert_same(&t.dev_wide8, &brute, &rays, &format!("x{s} +{off}: 8-wide"));
         assert_same(&t.cpu_closest, &brute, &rays, &format!("x{s} +{off}: CPU"));
     }
 }
@@ -302,6 +314,8 @@ fn degenerate_triangles_are_never_hit() {
             (t.dev_any[i], "device any"),
             (t.dev_wide[i], "device wide"),
             (t.dev_any_wide[i], "device wide any"),
+            (t.dev_wide8[i], "device 8-wide"),
+            (t.dev_any_wide8[i], "device 8-wide any"),
             (t.cpu_closest[i], "CPU closest"),
         ] {
             assert!(

@@ -65,4 +65,14 @@ typedef struct {
     uint count[4];
 } WideNode;
 
+// One 8-wide node (`Wide8Node`): `WideNode` with eight slots, so that a
+// node's box test fills a 256-bit register. 256 bytes.
+// `Wide8Node` in src/trace/wide.rs (256 bytes).
+typedef struct {
+    float lo[3][8];
+    float hi[3][8];
+    uint child[8];
+    uint count[8];
+} Wide8Node;
+
 #endif

@@ -633,7 +633,7 @@ inline void matte_count(uint2* slots, uint key) {
 // have converged and take no more samples; `listed` > 0 launches over the
 // first `listed` entries of `pixel_list` (the pixels still active at the
 // last check) instead of the tile.
-__kernel void pt_render(__global const BvhNode* nodes, __global const WideNode* wnodes,
+__kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode* wnodes,
                         __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
                         __global const float* positions, __global const float* normals,

@@ -8,10 +8,21 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+// The wide layout's node: 8-wide with WIDE_WIDTH = 8, else 4-wide.
+#if defined(TRAVERSAL_WIDE) && WIDE_WIDTH == 8
+typedef Wide8Node PtWideNode;
+#define PT_TRACE_CLOSEST_WIDE trace_closest_wide8_bvh
+#define PT_TRACE_ANY_WIDE trace_any_wide8_bvh
+#else
+typedef WideNode PtWideNode;
+#define PT_TRACE_CLOSEST_WIDE trace_closest_wide_bvh
+#define PT_TRACE_ANY_WIDE trace_any_wide_bvh
+#endif
+
 // Everything a path needs, gathered once per work-item.
 typedef struct {
     const __global BvhNode* nodes;
-    const __global WideNode* wnodes;
+    const __global PtWideNode* wnodes;
     const __global StacklessNode* snodes;
     uint snode_count;
     const __global uint* prim_ids;
@@ -200,7 +211,7 @@ inline Hit pt_trace_closest(PtScene* s, Ray ray) {
 #ifdef TRAVERSAL_STACKLESS
     return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, SGEOM(s), ray);
 #elif defined(TRAVERSAL_WIDE)
-    return trace_closest_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), ray);
+    return PT_TRACE_CLOSEST_WIDE(s->wnodes, s->prim_ids, SGEOM(s), ray);
 #else
     return trace_closest_bvh(s->nodes, s->prim_ids, SGEOM(s), ray);
 #endif
@@ -363,7 +374,7 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
 inline Hit pt_trace_any(PtScene* s, Ray r) {
     s->rays += 1u;
 #ifdef TRAVERSAL_WIDE
-    return trace_any_wide_bvh(s->wnodes, s->prim_ids, SGEOM(s), r);
+    return PT_TRACE_ANY_WIDE(s->wnodes, s->prim_ids, SGEOM(s), r);
 #else
     return trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
 #endif

@@ -49,6 +49,23 @@ __kernel void trace_any_wide(__global const WideNode* wnodes, __global const uin
     hits[i] = trace_any_wide_bvh(wnodes, prim_ids, positions, rays[i]);
 }
 
+__kernel void trace_closest_wide8(__global const Wide8Node* wnodes,
+                                  __global const uint* prim_ids,
+                                  __global const float* positions, __global const Ray* rays,
+                                  __global Hit* hits, uint count) {
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    hits[i] = trace_closest_wide8_bvh(wnodes, prim_ids, positions, rays[i]);
+}
+
+__kernel void trace_any_wide8(__global const Wide8Node* wnodes, __global const uint* prim_ids,
+                              __global const float* positions, __global const Ray* rays,
+                              __global Hit* hits, uint count) {
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    hits[i] = trace_any_wide8_bvh(wnodes, prim_ids, positions, rays[i]);
+}
+
 // Pinhole camera: pixel (x, y) (y down, row-major) gets the ray from `org`
 // through p00 + (x + 0.5) * du + (y + 0.5) * dv, in the same float operations
 // as PinholeCamera::ray on the host.

@@ -140,7 +140,7 @@ fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
         sweep: "default",
         sweep_builder: false,
         params: BuildParams::default(),
-        traversal: Traversal::Wide,
+        traversal: Traversal::Wide8,
         sampler: Sampler::Sobol,
         spp: 16,
         denoise: false,
@@ -172,7 +172,7 @@ fn configs(max_spp: u32, denoise: bool) -> Vec<Config> {
             ..base
         });
     }
-    for traversal in [Traversal::Stack, Traversal::Stackless] {
+    for traversal in [Traversal::Wide, Traversal::Stack, Traversal::Stackless] {
         out.push(Config {
             sweep: "traversal",
             traversal,

@@ -398,14 +398,14 @@ pub struct RenderArgs {
     /// OpenCL device, by index or name substring (see `soupray devices`).
     #[arg(long, value_name = "INDEX|NAME", help_heading = "Device")]
     pub device: Option<String>,
-    /// BVH traversal: `wide` (the default: front to back with a stack, over
-    /// the tree collapsed into 4-wide nodes), `stack` (front to back over the
-    /// builder's binary tree as it is) or `stackless` (escape indices, the
-    /// paper's comparison). All three give the same image; only the time
-    /// differs.
+    /// BVH traversal: `wide8` (the default: front to back with a stack, over
+    /// the tree collapsed into 8-wide nodes), `wide` (the same over 4-wide
+    /// nodes), `stack` (front to back over the builder's binary tree as it
+    /// is) or `stackless` (escape indices, the paper's comparison). All four
+    /// give the same image; only the time differs.
     #[arg(
         long,
-        default_value = "wide",
+        default_value = "wide8",
         value_name = "KIND",
         help_heading = "Device"
     )]

@@ -12,11 +12,12 @@
 //! rays, hits, n)` as often as the bounces need, all on the device.
 
 use super::escape::{stackless_layout_into, StacklessNode};
+use super::settings::Traversal;
 use super::traverse::check_depth;
-use super::wide::{wide_layout_into, WideNode};
+use super::wide::{wide_layout_into, Wide8Node, WideNode};
 use super::{Hit, PinholeCamera, Ray, TraceError};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
-use crate::device::{Arg, Device, GrowBuffer};
+use crate::device::{Arg, BufferArg, Device, GrowBuffer};
 use opencl3::kernel::Kernel;
 use opencl3::memory::Buffer;
 use std::time::Instant;
@@ -36,6 +37,10 @@ pub enum TraceKind {
     ClosestWide,
     /// Any hit through the 4-wide layout.
     AnyWide,
+    /// Closest hit through the 8-wide layout (needs `upload_wide8`).
+    ClosestWide8,
+    /// Any hit through the 8-wide layout.
+    AnyWide8,
 }
 
 /// The cost of making a traversal layout (stackless or 4-wide) for one tree.
@@ -62,6 +67,9 @@ pub struct TreeLayouts {
     wnodes: GrowBuffer<WideNode>,
     wnode_host: Vec<WideNode>,
     wnode_count: usize,
+    w8nodes: GrowBuffer<Wide8Node>,
+    w8node_host: Vec<Wide8Node>,
+    w8node_count: usize,
     snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     snode_count: usize,
@@ -70,7 +78,10 @@ pub struct TreeLayouts {
 impl TreeLayouts {
     /// Device buffer (re)allocations so far.
     pub fn allocations(&self) -> usize {
-        self.nodes.allocations() + self.wnodes.allocations() + self.snodes.allocations()
+        self.nodes.allocations()
+            + self.wnodes.allocations()
+            + self.w8nodes.allocations()
+            + self.snodes.allocations()
     }
 
     /// Checks the tree's depth against the stack and uploads its nodes.
@@ -109,14 +120,29 @@ impl TreeLayouts {
         Ok(stats)
     }
 
+    /// Checks the tree's depth, collapses it into the 8-wide layout on the
+    /// host and uploads that.
+    pub fn upload_wide8(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
+        self.w8node_count = 0;
+        check_depth(bvh)?;
+        let start = Instant::now();
+        wide_layout_into(bvh, &mut self.w8node_host)?;
+        let stats = upload_layout(device, &mut self.w8nodes, &self.w8node_host, start)?;
+        self.w8node_count = stats.entries;
+        Ok(stats)
+    }
+
     /// The tree of an empty soup in every layout: an empty root for the
     /// binary and 4-wide traversals, no stackless entries. Nothing is hit.
     pub fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
         device.write(self.nodes.ensure(device, 1)?, &[BvhNode::empty()])?;
         device.write(self.wnodes.ensure(device, 1)?, &[WideNode::empty()])?;
+        let empty8 = <Wide8Node as super::wide::WideLayout>::empty();
+        device.write(self.w8nodes.ensure(device, 1)?, &[empty8])?;
         self.snodes.ensure(device, 1)?;
         self.depth = Some(0);
         self.wnode_count = 1;
+        self.w8node_count = 1;
         self.snode_count = 0;
         Ok(())
     }
@@ -126,6 +152,7 @@ impl TreeLayouts {
     pub fn ensure_all(&mut self, device: &Device) -> Result<(), TraceError> {
         self.nodes.ensure(device, 1)?;
         self.wnodes.ensure(device, 1)?;
+        self.w8nodes.ensure(device, 1)?;
         self.snodes.ensure(device, 1)?;
         Ok(())
     }
@@ -133,6 +160,17 @@ impl TreeLayouts {
     /// The three buffers, after `ensure_all`; those never uploaded are unread.
     pub fn buffers(&self) -> (&Buffer<BvhNode>, &Buffer<WideNode>, &Buffer<StacklessNode>) {
         (self.nodes.get(), self.wnodes.get(), self.snodes.get())
+    }
+
+    /// The wide nodes a kernel compiled for `traversal` reads (8-wide for
+    /// `Wide8`, else 4-wide, unread by the binary traversals), after
+    /// `ensure_all`.
+    pub fn wide_arg(&self, traversal: Traversal) -> &dyn BufferArg {
+        if traversal == Traversal::Wide8 {
+            self.w8nodes.get()
+        } else {
+            self.wnodes.get()
+        }
     }
 
     /// The binary nodes, once uploaded.
@@ -143,6 +181,11 @@ impl TreeLayouts {
     /// The 4-wide nodes, once uploaded.
     pub fn wide(&self) -> Option<&Buffer<WideNode>> {
         self.wnodes.buffer().filter(|_| self.wnode_count > 0)
+    }
+
+    /// The 8-wide nodes, once uploaded.
+    pub fn wide8(&self) -> Option<&Buffer<Wide8Node>> {
+        self.w8nodes.buffer().filter(|_| self.w8node_count > 0)
     }
 
     /// The stackless entries and their count, once uploaded.
@@ -183,6 +226,8 @@ pub struct DeviceTracer<'d> {
     stackless: Kernel,
     closest_wide: Kernel,
     any_wide: Kernel,
+    closest_wide8: Kernel,
+    any_wide8: Kernel,
     primary: Kernel,
     layouts: TreeLayouts,
     /// Scratch for `trace_rays` (tests, tools).
@@ -206,6 +251,8 @@ impl<'d> DeviceTracer<'d> {
             stackless: k("trace_closest_stackless")?,
             closest_wide: k("trace_closest_wide")?,
             any_wide: k("trace_any_wide")?,
+            closest_wide8: k("trace_closest_wide8")?,
+            any_wide8: k("trace_any_wide8")?,
             primary: k("generate_primary")?,
             layouts: TreeLayouts::default(),
             rays: GrowBuffer::new(),
@@ -237,6 +284,12 @@ impl<'d> DeviceTracer<'d> {
     /// needed after every build before `ClosestWide`/`AnyWide`.
     pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
         self.layouts.upload_wide(self.device, bvh)
+    }
+
+    /// Collapses the tree into the 8-wide layout on the host and uploads it:
+    /// needed after every build before `ClosestWide8`/`AnyWide8`.
+    pub fn upload_wide8(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
+        self.layouts.upload_wide8(self.device, bvh)
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
@@ -283,6 +336,18 @@ impl<'d> DeviceTracer<'d> {
                     ("trace/closest_wide", &self.closest_wide)
                 } else {
                     ("trace/any_wide", &self.any_wide)
+                };
+                (stage, kernel, vec![Arg::Buf(wnodes)])
+            }
+            TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
+                let wnodes = self
+                    .layouts
+                    .wide8()
+                    .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
+                let (stage, kernel) = if kind == TraceKind::ClosestWide8 {
+                    ("trace/closest_wide8", &self.closest_wide8)
+                } else {
+                    ("trace/any_wide8", &self.any_wide8)
                 };
                 (stage, kernel, vec![Arg::Buf(wnodes)])
             }

@@ -1,7 +1,7 @@
 //! A minimal binding to Embree 3 (`libembree3`, Debian's libembree-dev), only
 //! behind the `embree` cargo feature: the reference the trace benchmark
 //! measures soupray's traversal against, on the same soup and rays. Just
-//! enough of the API for one triangle mesh and `rtcIntersect1`.
+//! enough of the API for one triangle mesh, `rtcIntersect1` and `rtcOccluded1`.
 
 use super::{Hit, Ray, MISS};
 use std::ffi::c_void;
@@ -72,6 +72,7 @@ extern "C" {
         item_count: usize,
     );
     fn rtcIntersect1(scene: RtcScene, context: *mut RtcIntersectContext, rayhit: *mut RtcRayHit);
+    fn rtcOccluded1(scene: RtcScene, context: *mut RtcIntersectContext, ray: *mut RtcRayHit);
 }
 
 /// An Embree scene of one triangle soup, sharing the soup's memory.
@@ -169,6 +170,42 @@ impl<'a> EmbreeScene<'a> {
                 }
             };
             debug_assert!(hit.prim != MISS || rh.geom_id == RTC_INVALID_GEOMETRY_ID);
+        }
+    }
+}
+
+impl EmbreeScene<'_> {
+    /// Occlusion of `rays` with `rtcOccluded1`: `hits[i]` is a hit (its
+    /// `prim` is 0, Embree does not say which triangle) when something lies
+    /// within the ray's interval, else a miss.
+    pub fn occluded(&self, rays: &[Ray], hits: &mut [Hit], flags: c_int) {
+        let mut context = RtcIntersectContext {
+            flags,
+            filter: std::ptr::null(),
+            inst_id: [RTC_INVALID_GEOMETRY_ID],
+        };
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            // An RTCRay is the first 48 bytes of an RTCRayHit.
+            let mut rh = RtcRayHit {
+                org: ray.org,
+                tnear: ray.tmin,
+                dir: ray.dir,
+                tfar: ray.tmax,
+                mask: u32::MAX,
+                ..RtcRayHit::default()
+            };
+            // SAFETY: a committed scene, an initialised context and ray.
+            unsafe { rtcOccluded1(self.scene, &mut context, &mut rh) };
+            *hit = if rh.tfar == f32::NEG_INFINITY {
+                Hit {
+                    t: ray.tmax,
+                    prim: 0,
+                    u: 0.0,
+                    v: 0.0,
+                }
+            } else {
+                Hit::miss(ray.tmax)
+            };
         }
     }
 }

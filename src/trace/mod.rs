@@ -46,7 +46,7 @@ pub use traverse::{
     check_depth, trace_any, trace_any_wide, trace_closest, trace_closest_stackless,
     trace_closest_wide,
 };
-pub use wide::{wide_layout, WideNode};
+pub use wide::{wide_layout, Wide8Node, WideLayout, WideNode};
 
 use crate::device_struct::{device_consts, device_struct};
 use bytemuck::{Pod, Zeroable};

@@ -8,7 +8,7 @@
 
 use super::escape::{StacklessNode, LEAF_COUNT_BITS};
 use super::intersect::{intersect_triangle, RayPre, CULL_SCALE};
-use super::wide::WideNode;
+use super::wide::WideLayout;
 use super::{Hit, Ray, TraceError, MISS};
 use crate::bvh::{Bvh, Child, MAX_DEPTH};
 
@@ -199,13 +199,12 @@ pub fn trace_any(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray) -> Hit {
     traverse(bvh, positions, ray, true)
 }
 
-/// `TRAVERSE_WIDE_BODY`: front-to-back stack traversal of the 4-wide
-/// layout. Hit leaves are intersected in slot order as their boxes are
-/// tested; the hit inner children, sorted by entry distance (a stable
-/// insertion, as the kernel's), are entered nearest first, the rest stacked
-/// farthest first.
-fn traverse_wide(
-    wnodes: &[WideNode],
+/// `TRAVERSE_WIDE_BODY`: front-to-back stack traversal of a W-wide layout.
+/// Hit leaves are intersected in slot order as their boxes are tested; the
+/// hit inner children, sorted by entry distance (a stable insertion, as the
+/// kernel's), are entered nearest first, the rest stacked farthest first.
+fn traverse_wide<N: WideLayout>(
+    wnodes: &[N],
     prim_ids: &[u32],
     positions: &[[f32; 4]],
     ray: &Ray,
@@ -215,23 +214,24 @@ fn traverse_wide(
     let Some(r) = RayPre::new(ray) else {
         return best;
     };
-    let mut stack: Vec<(u32, f32)> = Vec::with_capacity(3 * MAX_DEPTH as usize);
+    let mut stack: Vec<(u32, f32)> = Vec::with_capacity((N::WIDTH - 1) * MAX_DEPTH as usize);
+    let mut near: Vec<(f32, u32)> = Vec::with_capacity(N::WIDTH);
+    let mut entries = vec![0.0f32; N::WIDTH];
     let mut node = 0usize;
     loop {
         let n = &wnodes[node];
-        // All four entries first, against the closest hit on entry to the
-        // node, as the kernel tests the four boxes at once.
-        let entries: [f32; 4] = std::array::from_fn(|c| {
-            let lo = [n.lo[0][c], n.lo[1][c], n.lo[2][c]];
-            let hi = [n.hi[0][c], n.hi[1][c], n.hi[2][c]];
-            r.box_entry(&lo, &hi, best.t)
-        });
-        let mut near: Vec<(f32, u32)> = Vec::with_capacity(4);
+        // Every entry first, against the closest hit on entry to the node,
+        // as the kernel tests the node's boxes at once.
+        for (c, e) in entries.iter_mut().enumerate() {
+            let (lo, hi) = n.slot_box(c);
+            *e = r.box_entry(&lo, &hi, best.t);
+        }
+        near.clear();
         for (c, &t) in entries.iter().enumerate() {
             if t == f32::INFINITY {
                 continue;
             }
-            let (child, count) = (n.child[c], n.count[c]);
+            let (child, count) = n.child_count(c);
             if count > 0 {
                 if visit_leaf(&r, positions, prim_ids, (child, count), any, &mut best) {
                     return best;
@@ -256,9 +256,9 @@ fn traverse_wide(
     }
 }
 
-/// The closest hit through the 4-wide layout (`wide::wide_layout_into`).
-pub fn trace_closest_wide(
-    wnodes: &[WideNode],
+/// The closest hit through a W-wide layout (`wide::wide_layout_into`).
+pub fn trace_closest_wide<N: WideLayout>(
+    wnodes: &[N],
     prim_ids: &[u32],
     positions: &[[f32; 4]],
     ray: &Ray,
@@ -266,9 +266,9 @@ pub fn trace_closest_wide(
     traverse_wide(wnodes, prim_ids, positions, ray, false)
 }
 
-/// Any hit through the 4-wide layout.
-pub fn trace_any_wide(
-    wnodes: &[WideNode],
+/// Any hit through a W-wide layout.
+pub fn trace_any_wide<N: WideLayout>(
+    wnodes: &[N],
     prim_ids: &[u32],
     positions: &[[f32; 4]],
     ray: &Ray,

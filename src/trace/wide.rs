@@ -30,31 +30,96 @@ pub struct WideNode as "WideNode" {
 }
 }
 
+device_struct! {
+/// One 8-wide node (`Wide8Node`): `WideNode` with eight slots, so that a
+/// node's box test fills a 256-bit register. 256 bytes.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Wide8Node as "Wide8Node" {
+    pub lo: [[f32; 8]; 3],
+    pub hi: [[f32; 8]; 3],
+    pub child: [u32; 8],
+    pub count: [u32; 8],
+}
+}
+
 const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+const _: () = assert!(std::mem::size_of::<Wide8Node>() == 256);
+
+/// A node of a W-wide layout: `WideNode` (W = 4) or `Wide8Node` (W = 8).
+pub trait WideLayout: Copy + Pod {
+    /// Children per node.
+    const WIDTH: usize;
+    /// A node with every child absent.
+    fn empty() -> Self;
+    /// Slot `k` decoded.
+    fn slot(&self, k: usize) -> (Child, Aabb);
+    /// Slot `k`'s box.
+    fn slot_box(&self, k: usize) -> ([f32; 3], [f32; 3]);
+    /// Sets slot `k`: `count == 0` an inner node's index, else a leaf.
+    fn set_slot(&mut self, k: usize, b: &Aabb, child: u32, count: u32);
+    /// Slot `k`'s child and count fields, as stored.
+    fn child_count(&self, k: usize) -> (u32, u32);
+}
+
+macro_rules! wide_layout_impl {
+    ($node:ty, $w:literal) => {
+        impl WideLayout for $node {
+            const WIDTH: usize = $w;
+
+            fn empty() -> Self {
+                Self {
+                    lo: [[f32::INFINITY; $w]; 3],
+                    hi: [[f32::NEG_INFINITY; $w]; 3],
+                    child: [EMPTY_CHILD; $w],
+                    count: [0; $w],
+                }
+            }
+
+            fn slot(&self, k: usize) -> (Child, Aabb) {
+                let child = match (self.child[k], self.count[k]) {
+                    (EMPTY_CHILD, 0) => Child::Empty,
+                    (c, 0) => Child::Inner(c),
+                    (first, count) => Child::Leaf { first, count },
+                };
+                let (lo, hi) = self.slot_box(k);
+                (child, Aabb { lo, hi })
+            }
+
+            fn slot_box(&self, k: usize) -> ([f32; 3], [f32; 3]) {
+                (
+                    [self.lo[0][k], self.lo[1][k], self.lo[2][k]],
+                    [self.hi[0][k], self.hi[1][k], self.hi[2][k]],
+                )
+            }
+
+            fn set_slot(&mut self, k: usize, b: &Aabb, child: u32, count: u32) {
+                for a in 0..3 {
+                    self.lo[a][k] = b.lo[a];
+                    self.hi[a][k] = b.hi[a];
+                }
+                self.child[k] = child;
+                self.count[k] = count;
+            }
+
+            fn child_count(&self, k: usize) -> (u32, u32) {
+                (self.child[k], self.count[k])
+            }
+        }
+    };
+}
+wide_layout_impl!(WideNode, 4);
+wide_layout_impl!(Wide8Node, 8);
 
 impl WideNode {
     /// A node with four absent children.
     pub fn empty() -> WideNode {
-        WideNode {
-            lo: [[f32::INFINITY; 4]; 3],
-            hi: [[f32::NEG_INFINITY; 4]; 3],
-            child: [EMPTY_CHILD; 4],
-            count: [0; 4],
-        }
+        <WideNode as WideLayout>::empty()
     }
 
     /// Slot `k` decoded.
     pub fn slot(&self, k: usize) -> (Child, Aabb) {
-        let child = match (self.child[k], self.count[k]) {
-            (EMPTY_CHILD, 0) => Child::Empty,
-            (c, 0) => Child::Inner(c),
-            (first, count) => Child::Leaf { first, count },
-        };
-        let b = Aabb {
-            lo: [self.lo[0][k], self.lo[1][k], self.lo[2][k]],
-            hi: [self.hi[0][k], self.hi[1][k], self.hi[2][k]],
-        };
-        (child, b)
+        <WideNode as WideLayout>::slot(self, k)
     }
 }
 
@@ -68,28 +133,28 @@ fn children(bvh: &Bvh, index: u32) -> Result<impl Iterator<Item = (Child, Aabb)>
         .filter(|(c, _)| *c != Child::Empty))
 }
 
-/// The 4-wide layout of `bvh`.
-pub fn wide_layout(bvh: &Bvh) -> Result<Vec<WideNode>, TraceError> {
+/// The W-wide layout of `bvh`.
+pub fn wide_layout<N: WideLayout>(bvh: &Bvh) -> Result<Vec<N>, TraceError> {
     let mut out = Vec::new();
     wide_layout_into(bvh, &mut out)?;
     Ok(out)
 }
 
-/// The 4-wide layout of `bvh` into `out` (cleared first, its capacity kept
+/// The W-wide layout of `bvh` into `out` (cleared first, its capacity kept
 /// from frame to frame).
-pub fn wide_layout_into(bvh: &Bvh, out: &mut Vec<WideNode>) -> Result<(), TraceError> {
+pub fn wide_layout_into<N: WideLayout>(bvh: &Bvh, out: &mut Vec<N>) -> Result<(), TraceError> {
     out.clear();
     if bvh.nodes.is_empty() {
         return Err(TraceError::Malformed("the tree has no root node".into()));
     }
-    out.push(WideNode::empty());
+    out.push(N::empty());
     // (binary node, its wide node)
     let mut work = vec![(0u32, 0usize)];
-    let mut slots: Vec<(Child, Aabb)> = Vec::with_capacity(4);
+    let mut slots: Vec<(Child, Aabb)> = Vec::with_capacity(N::WIDTH);
     while let Some((binary, wide)) = work.pop() {
         slots.clear();
         slots.extend(children(bvh, binary)?);
-        while slots.len() < 4 {
+        while slots.len() < N::WIDTH {
             // The inner child of largest surface area is opened.
             let open = slots
                 .iter()
@@ -105,21 +170,14 @@ pub fn wide_layout_into(bvh: &Bvh, out: &mut Vec<WideNode>) -> Result<(), TraceE
             slots.swap_remove(k);
             slots.extend(children(bvh, index)?);
         }
-        let mut w = WideNode::empty();
+        let mut w = N::empty();
         for (k, (child, b)) in slots.iter().enumerate() {
-            for a in 0..3 {
-                w.lo[a][k] = b.lo[a];
-                w.hi[a][k] = b.hi[a];
-            }
             match *child {
-                Child::Leaf { first, count } => {
-                    w.child[k] = first;
-                    w.count[k] = count;
-                }
+                Child::Leaf { first, count } => w.set_slot(k, b, first, count),
                 Child::Inner(c) => {
-                    w.child[k] = out.len() as u32;
-                    out.push(WideNode::empty());
-                    work.push((c, w.child[k] as usize));
+                    w.set_slot(k, b, out.len() as u32, 0);
+                    out.push(N::empty());
+                    work.push((c, out.len() - 1));
                 }
                 Child::Empty => {}
             }
@@ -149,19 +207,22 @@ mod tests {
         out
     }
 
-    #[test]
-    fn the_wide_layout_keeps_every_leaf_once_and_reaches_every_node_once() {
+    fn check_layout<N: WideLayout>() {
+        let w = N::WIDTH;
         for (n, seed) in [(1usize, 1u64), (3, 2), (100, 3), (5000, 4)] {
             let soup = random_soup(n, 0.05, seed);
             let bvh = binned::build(&soup, BuildParams::default()).unwrap();
-            let wide = wide_layout(&bvh).unwrap();
+            let wide = wide_layout::<N>(&bvh).unwrap();
             let mut leaves = Vec::new();
             let mut reached = vec![0u32; wide.len()];
             reached[0] = 1;
             for node in &wide {
-                let used = (0..4).filter(|&k| node.slot(k).0 != Child::Empty).count();
-                assert!((1..=4).contains(&used), "{n}: a node of {used} children");
-                for k in 0..4 {
+                let used = (0..w).filter(|&k| node.slot(k).0 != Child::Empty).count();
+                assert!(
+                    (1..=w).contains(&used),
+                    "{w}/{n}: a node of {used} children"
+                );
+                for k in 0..w {
                     match node.slot(k).0 {
                         Child::Leaf { first, count } => leaves.push((first, count)),
                         Child::Inner(c) => reached[c as usize] += 1,
@@ -170,15 +231,21 @@ mod tests {
                 }
             }
             leaves.sort_unstable();
-            assert_eq!(leaves, leaves_of_binary(&bvh), "{n}: leaves");
-            assert!(reached.iter().all(|&r| r == 1), "{n}: {reached:?}");
+            assert_eq!(leaves, leaves_of_binary(&bvh), "{w}/{n}: leaves");
+            assert!(reached.iter().all(|&r| r == 1), "{w}/{n}: {reached:?}");
             // Each wide node stands for a distinct binary node.
             assert!(
                 wide.len() <= bvh.nodes.len(),
-                "{n}: {} of {}",
+                "{w}/{n}: {} of {}",
                 wide.len(),
                 bvh.nodes.len()
             );
         }
+    }
+
+    #[test]
+    fn the_wide_layouts_keep_every_leaf_once_and_reach_every_node_once() {
+        check_layout::<WideNode>();
+        check_layout::<Wide8Node>();
     }
 }

@@ -52,16 +52,21 @@ pub struct Traced {
     pub cpu_any: Vec<Hit>,
     pub cpu_wide: Vec<Hit>,
     pub cpu_any_wide: Vec<Hit>,
+    pub cpu_wide8: Vec<Hit>,
+    pub cpu_any_wide8: Vec<Hit>,
     pub dev_closest: Vec<Hit>,
     pub dev_stackless: Vec<Hit>,
     pub dev_any: Vec<Hit>,
     pub dev_wide: Vec<Hit>,
     pub dev_any_wide: Vec<Hit>,
+    pub dev_wide8: Vec<Hit>,
+    pub dev_any_wide8: Vec<Hit>,
     pub bvh: Bvh,
 }
 
 /// Builds `soup`'s tree on the device and traces `rays` on the device and
-/// with the CPU reference: stack, stackless and wide, closest and any.
+/// with the CPU reference: stack, stackless, 4-wide and 8-wide, closest and
+/// any.
 pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let mut builder = DeviceBuilder::new(d, BuildParams::default()).unwrap();
     let (bvh, _) = builder.build(soup).unwrap();
@@ -71,6 +76,7 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     tracer.upload_bvh(&bvh).unwrap();
     tracer.upload_stackless(&bvh).unwrap();
     tracer.upload_wide(&bvh).unwrap();
+    tracer.upload_wide8(&bvh).unwrap();
     let prim_ids = builder.device_prim_ids().unwrap();
     let mut dev = |k| tracer.trace_rays(k, &positions, prim_ids, rays).unwrap();
     let dev_closest = dev(TraceKind::Closest);
@@ -78,8 +84,11 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let dev_any = dev(TraceKind::Any);
     let dev_wide = dev(TraceKind::ClosestWide);
     let dev_any_wide = dev(TraceKind::AnyWide);
+    let dev_wide8 = dev(TraceKind::ClosestWide8);
+    let dev_any_wide8 = dev(TraceKind::AnyWide8);
     let snodes = trace::stackless_layout(&bvh).unwrap();
-    let wnodes = trace::wide_layout(&bvh).unwrap();
+    let wnodes = trace::wide_layout::<trace::WideNode>(&bvh).unwrap();
+    let w8nodes = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
     let p = &soup.positions;
     Traced {
         cpu_closest: rays
@@ -99,11 +108,21 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
             .iter()
             .map(|r| trace::trace_any_wide(&wnodes, &bvh.prim_ids, p, r))
             .collect(),
+        cpu_wide8: rays
+            .iter()
+            .map(|r| trace::trace_closest_wide(&w8nodes, &bvh.prim_ids, p, r))
+            .collect(),
+        cpu_any_wide8: rays
+            .iter()
+            .map(|r| trace::trace_any_wide(&w8nodes, &bvh.prim_ids, p, r))
+            .collect(),
         dev_closest,
         dev_stackless,
         dev_any,
         dev_wide,
         dev_any_wide,
+        dev_wide8,
+        dev_any_wide8,
         bvh,
     }
 }

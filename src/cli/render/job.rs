@@ -204,11 +204,12 @@ fn sampling_limits(
 fn tracer_kinds(args: &RenderArgs) -> Result<(Traversal, Sampler, NoisePattern), UsageError> {
     let traversal = match args.traversal.as_str() {
         "wide" => Traversal::Wide,
+        "wide8" => Traversal::Wide8,
         "stack" => Traversal::Stack,
         "stackless" => Traversal::Stackless,
         other => {
             return Err(UsageError(format!(
-                "--traversal {other:?}: use `wide` (the default), `stack` or `stackless`"
+                "--traversal {other:?}: use `wide8` (the default), `wide`, `stack` or `stackless`"
             )))
         }
     };

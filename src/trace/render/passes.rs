@@ -358,7 +358,7 @@ impl PathTracer<'_> {
                 let items = cw as usize * ch as usize;
                 let mut args = vec![
                     Arg::Buf(self.layouts.buffers().0),
-                    Arg::Buf(self.layouts.buffers().1),
+                    Arg::Buf(self.layouts.wide_arg(self.settings.traversal)),
                     Arg::Buf(self.layouts.buffers().2),
                     Arg::U32(snode_count),
                     Arg::Buf(prim_ids),

@@ -56,6 +56,10 @@ pub fn pathtrace_defines(
         Traversal::Stack => {}
         Traversal::Stackless => defines.push(("TRAVERSAL_STACKLESS", "1".to_owned())),
         Traversal::Wide => defines.push(("TRAVERSAL_WIDE", "1".to_owned())),
+        Traversal::Wide8 => {
+            defines.push(("TRAVERSAL_WIDE", "1".to_owned()));
+            defines.push(("WIDE_WIDTH", "8".to_owned()));
+        }
     }
     if textures {
         defines.push(("HAS_TEXTURES", "1".to_owned()));

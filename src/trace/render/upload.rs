@@ -172,6 +172,10 @@ impl PathTracer<'_> {
                 self.layouts.upload_wide(d, bvh)?;
                 0
             }
+            Traversal::Wide8 => {
+                self.layouts.upload_wide8(d, bvh)?;
+                0
+            }
             Traversal::Stackless => self.layouts.upload_stackless(d, bvh)?.entries as u32,
         };
         self.layouts.ensure_all(d)?;
