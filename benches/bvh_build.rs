@@ -1,8 +1,10 @@
 //! BVH build benchmark: the device builder side by side with the `bvh`
-//! crate's parallel builder and soupray's CPU builders, on real meshes and
+//! crate's parallel builder, soupray's CPU builders and (built with
+//! `--features embree`) Embree 3's scene build, on real meshes and
 //! instanced arrangements of them, in one run.
 //!
 //!   cargo bench --bench bvh_build            # all sizes
+//!   cargo bench --bench bvh_build --features embree  # with Embree 3
 //!   cargo bench --bench bvh_build -- --quick # 70K and 250K only
 //!   cargo bench --bench bvh_build -- --write-ply DIR  # the soups as PLY files
 //!
@@ -102,6 +104,10 @@ fn run_peak_child(builder: &str, scene: usize, quick: bool) {
         }
         "cpu-sweep" => {
             sweep::build(&soup, params);
+        }
+        #[cfg(feature = "embree")]
+        "embree" => {
+            drop(soupray::trace::embree::EmbreeScene::new(&soup.positions, 2));
         }
         _ => {
             let mut shapes: Vec<Tri> = (0..soup.triangle_count())
@@ -228,6 +234,8 @@ fn main() {
         rows.push(time_paper(&case, &mut paper, sweep_sah));
         rows.push(time_cpu_binned(&case, params, sweep_sah));
         rows.push(time_bvh_crate(&case, sweep_sah));
+        #[cfg(feature = "embree")]
+        rows.push(time_embree(&case));
     }
     print_table(&rows);
 }
@@ -426,14 +434,47 @@ fn time_bvh_crate(case: &Case, sweep_sah: f64) -> Row {
     )
 }
 
+/// Embree 3's scene build (its default: BVH of the CPU's widest SIMD,
+/// build quality MEDIUM, spatial splits off) on 2 threads, the same count
+/// as the device's compute units here. Embree keeps its tree to itself, so
+/// no SAH cost.
+#[cfg(feature = "embree")]
+fn time_embree(case: &Case) -> Row {
+    let label = &case.label;
+    eprintln!("{label}: embree");
+    let mut times = Vec::new();
+    for _ in 0..=case.reps {
+        let (scene, ms) = soupray::trace::embree::EmbreeScene::new_timed(&case.soup.positions, 2);
+        drop(scene);
+        times.push(ms);
+    }
+    times.remove(0); // the warm-up
+    let ms = median(times);
+    let mut row = case.row(
+        "Embree 3 rtcCommitScene (2 threads)",
+        ms,
+        String::new(),
+        f64::NAN,
+        1.0,
+        "embree",
+    );
+    row.sah_vs_sweep = f64::NAN;
+    row
+}
+
 /// The table for BENCHMARKS.md, in Markdown.
 fn print_table(rows: &[Row]) {
     println!("| scene | builder | build ms (median) | Mtris/s | device stages ms | SAH cost | SAH / sweep | peak host MiB |");
     println!("|---|---|---:|---:|---|---:|---:|---:|");
     for r in rows {
+        let (sah, vs) = if r.sah.is_nan() {
+            ("-".to_owned(), "-".to_owned())
+        } else {
+            (format!("{:.2}", r.sah), format!("{:.3}", r.sah_vs_sweep))
+        };
         println!(
-            "| {} | {} | {:.1} | {:.2} | {} | {:.2} | {:.3} | {:.0} |",
-            r.scene, r.builder, r.ms, r.mtris, r.stages, r.sah, r.sah_vs_sweep, r.peak
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.0} |",
+            r.scene, r.builder, r.ms, r.mtris, r.stages, sah, vs, r.peak
         );
     }
 }

@@ -166,13 +166,13 @@ enum Tracer {
 fn tracers(set: RaySet) -> Vec<Tracer> {
     let mut t = match set {
         RaySet::Shadow => vec![
-            Tracer::Device(TraceKind::AnyWide, "soupray 4-wide any-hit (the default)"),
-            Tracer::Device(TraceKind::AnyWide8, "soupray 8-wide any-hit"),
+            Tracer::Device(TraceKind::AnyWide8, "soupray 8-wide any-hit (the default)"),
+            Tracer::Device(TraceKind::AnyWide, "soupray 4-wide any-hit"),
             Tracer::Device(TraceKind::Any, "soupray binary any-hit"),
         ],
         _ => vec![
-            Tracer::Device(TraceKind::ClosestWide, "soupray 4-wide (the default)"),
-            Tracer::Device(TraceKind::ClosestWide8, "soupray 8-wide"),
+            Tracer::Device(TraceKind::ClosestWide8, "soupray 8-wide (the default)"),
+            Tracer::Device(TraceKind::ClosestWide, "soupray 4-wide"),
             Tracer::Device(TraceKind::Closest, "soupray binary, stack"),
         ],
     };

@@ -90,6 +90,12 @@ impl<'a> EmbreeScene<'a> {
     /// Builds Embree's BVH over `positions` (three `[x, y, z, _]` per
     /// triangle, shared, not copied) with `threads` build threads.
     pub fn new(positions: &'a [[f32; 4]], threads: usize) -> EmbreeScene<'a> {
+        Self::new_timed(positions, threads).0
+    }
+
+    /// `new`, and the milliseconds of its BVH build alone (the geometry
+    /// and scene commits; not the device's thread-pool start-up).
+    pub fn new_timed(positions: &'a [[f32; 4]], threads: usize) -> (EmbreeScene<'a>, f64) {
         let n = positions.len() / 3;
         let indices: Vec<[u32; 3]> = (0..n as u32)
             .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
@@ -123,16 +129,19 @@ impl<'a> EmbreeScene<'a> {
                 12,
                 n,
             );
+            let start = std::time::Instant::now();
             rtcCommitGeometry(geometry);
             rtcAttachGeometry(scene, geometry);
             rtcReleaseGeometry(geometry);
             rtcCommitScene(scene);
-            EmbreeScene {
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            let scene = EmbreeScene {
                 device,
                 scene,
                 _positions: positions,
                 _indices: indices,
-            }
+            };
+            (scene, ms)
         }
     }
 
