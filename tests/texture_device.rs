@@ -3,8 +3,9 @@
 //! both filters, sRGB and linear, on small generated images and on the real
 //! textures of the test assets, at random uvs (far outside [0, 1] and
 //! negative included), exact texel centres and edges, and NaN/infinite uvs;
-//! the 256 sRGB bytes; KHR_texture_transform and TEXCOORD selection; and an
-//! untextured scene, which gets no buffers.
+//! the 256 sRGB bytes; KHR_texture_transform and TEXCOORD selection; a
+//! texture's mean over random triangles (which weighs textured emitters);
+//! and an untextured scene, which gets no buffers.
 //!
 //! The device and the reference perform the same float operations with FMA
 //! contraction off and decode through the same table, so they agree exactly;
@@ -301,6 +302,72 @@ fn real_asset(file: &str, random: usize) {
     }
     assert!(!bindings.is_empty(), "{file} samples no texture");
     compare(&set, &host, &bindings, &uv0, &uv0.clone(), file);
+}
+
+/// `texture_triangle_mean` on the device against its Rust reference, for
+/// every shaded texture of `file` over `count` random triangles: most
+/// within [0, 1]², some a texel or less across, some spanning several
+/// periods.
+fn triangle_means(file: &str, count: usize) {
+    let Some(path) = asset(file) else {
+        return;
+    };
+    let d = common::device();
+    let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
+    let table = scene.materials();
+    let host = HostTextures::new(table).unwrap();
+    let set = TextureSet::new(&d, table).unwrap();
+    let mut rng = common::Rng::new(11);
+    let (mut bindings, mut triangles) = (Vec::new(), Vec::new());
+    for m in &table.materials {
+        for slot in Slot::SHADED {
+            let b = set.slot_binding(m, slot);
+            if b.is_none() {
+                continue;
+            }
+            for i in 0..count {
+                let scale = [1.0f32, 1e-3, 4.0][i % 3];
+                let base = [rng.f32(), rng.f32()];
+                let mut corner = || std::array::from_fn(|a| base[a] + scale * (rng.f32() - 0.5));
+                let tri: ([[f32; 2]; 3], [[f32; 2]; 3]) = (
+                    [corner(), corner(), corner()],
+                    [corner(), corner(), corner()],
+                );
+                bindings.push(b);
+                triangles.push(tri);
+            }
+        }
+    }
+    assert!(!bindings.is_empty(), "{file} has no texture");
+    let device = set.triangle_mean_batch(&bindings, &triangles).unwrap();
+    let mut worst = 0.0f32;
+    for i in 0..bindings.len() {
+        let want = soupray::trace::texture_mean::texture_triangle_mean_ref(
+            &host,
+            &bindings[i],
+            &triangles[i],
+        );
+        for k in 0..4 {
+            let diff = (want[k] - device[i][k]).abs();
+            assert!(
+                diff <= TOLERANCE,
+                "{file}: triangle {i} {:?}: device {:?}, reference {want:?}",
+                triangles[i],
+                device[i]
+            );
+            worst = worst.max(diff);
+        }
+    }
+    eprintln!(
+        "{file}: {} triangle means, largest difference {worst:e}",
+        bindings.len()
+    );
+}
+
+#[test]
+fn triangle_means_match_reference_on_real_textures() {
+    triangle_means("DamagedHelmet/DamagedHelmet.glb", 600);
+    triangle_means("Fox/Fox.glb", 600);
 }
 
 #[test]

@@ -18,6 +18,9 @@
 // [`TextureBinding::texture`] of a slot without a texture: it samples
 // as (1, 1, 1, 1), which leaves a glTF factor unchanged.
 #define TEXTURE_NONE 4294967295u
+// `texture_triangle_mean` samples a triangle at the centroids of the
+// grid² congruent triangles it divides into.
+#define TEXTURE_MEAN_GRID 4u
 
 // One glTF texture (image + sampler) the scene samples. Its texels are
 // texels[offset + y * width + x], rows top to bottom (uv (0, 0) is the

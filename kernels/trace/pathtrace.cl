@@ -935,20 +935,51 @@ __kernel void pt_dilate(__global const uint* unconverged, __global uint* active,
     active[i] = active[i] & any;
 }
 
+// The emissive texture's mean over triangle `prim` (texture_triangle_mean),
+// each channel no lower than EMIT_TEXTURE_FLOOR. Only the choice of triangle uses it, so an
+// estimate off by any factor costs noise, never bias; the floor keeps every
+// part of a textured emitter within reach of next-event estimation, should
+// its samples all fall on black.
+#ifdef HAS_TEXTURES
+#define EMIT_TEXTURE_FLOOR (1.0f / 64.0f)
+inline float3 pt_emissive_texture_mean(int binding, const __global float* uvs,
+                                       const __global float* uvs1, uint frame_flags,
+                                       uint prim TEX_DECL) {
+    float2 t0[3], t1[3];
+    for (uint k = 0u; k < 3u; ++k) {
+        t0[k] = (frame_flags & FRAME_UVS) != 0u
+                    ? (float2)(uvs[6u * prim + 2u * k], uvs[6u * prim + 2u * k + 1u])
+                    : (float2)(0.0f);
+        t1[k] = (frame_flags & FRAME_UVS1) != 0u
+                    ? (float2)(uvs1[6u * prim + 2u * k], uvs1[6u * prim + 2u * k + 1u])
+                    : (float2)(0.0f);
+    }
+    float4 mean = texture_triangle_mean(TEXTURE_ARGS, tex_bindings[binding], t0[0], t0[1],
+                                        t0[2], t1[0], t1[1], t1[2]);
+    return fmax(mean.xyz, (float3)(EMIT_TEXTURE_FLOOR));
+}
+#endif
+
 // Each triangle's emitted power up to a constant factor (luminance of the
-// emissive factor times the area; twice that when double-sided), 0 for
-// triangles whose material does not emit. The host turns it into the
-// emissive triangles' sampling distribution.
+// emissive factor, times the emissive texture's mean over the triangle,
+// times the area; twice that when double-sided), 0 for triangles whose
+// material does not emit. The host turns it into the emissive triangles'
+// sampling distribution.
 __kernel void pt_emissive_power(__global const float* positions,
-                                __global const uint* material_ids,
+                                __global const float* uvs, __global const float* uvs1,
+                                uint frame_flags, __global const uint* material_ids,
                                 __global const PtMaterial* materials, uint material_count,
-                                uint n, __global float* power) {
+                                uint n, __global float* power TEX_DECL) {
     uint i = get_global_id(0);
     if (i >= n) return;
     PtMaterial m = materials[min(material_ids[i], material_count - 1u)];
     float p = 0.0f;
     if ((m.flags & MAT_EMISSIVE) != 0u) {
         float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
+#ifdef HAS_TEXTURES
+        if (m.emissive_tex >= 0)
+            e = e * pt_emissive_texture_mean(m.emissive_tex, uvs, uvs1, frame_flags, i TEX_PASS);
+#endif
 #ifdef MOTION_BLUR
         // The power at the shutter's opening (step 0) drives the choice of
         // triangle only; the pdf of a sample uses the area at its path's

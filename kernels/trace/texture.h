@@ -203,4 +203,35 @@ inline float4 sample_texture(TEXTURE_PARAMS, TextureBinding b, float2 uv) {
     return top + (bottom - top) * fy;
 }
 
+// A uv set at barycentrics (u, v) of a triangle whose corners have the
+// uvs t0, t1, t2 (w = 1 - u - v), as the path tracer interpolates them.
+inline float2 texture_interpolate_uv(float2 t0, float2 t1, float2 t2, float u, float v) {
+    float w = 1.0f - u - v;
+    return (float2)((w * t0.x + u * t1.x) + v * t2.x, (w * t0.y + u * t1.y) + v * t2.y);
+}
+
+// The mean of the binding's texture over a triangle, whose corners have
+// the uvs a0, b0, c0 (TEXCOORD_0) and a1, b1, c1 (the second set): the
+// average of its samples at the centroids of the TEXTURE_MEAN_GRID²
+// congruent triangles the triangle divides into, so stratified over its
+// area and its uv footprint.
+inline float4 texture_triangle_mean(TEXTURE_PARAMS, TextureBinding b, float2 a0, float2 b0,
+                                    float2 c0, float2 a1, float2 b1, float2 c1) {
+    const float g = (float)TEXTURE_MEAN_GRID;
+    float4 sum = (float4)(0.0f);
+    for (uint i = 0u; i < TEXTURE_MEAN_GRID; ++i) {
+        for (uint j = 0u; i + j < TEXTURE_MEAN_GRID; ++j) {
+            // The upright cell's centroid, and the inverted one's beside it.
+            for (uint k = 0u; k < (i + j + 1u < TEXTURE_MEAN_GRID ? 2u : 1u); ++k) {
+                float s = k == 0u ? 1.0f / 3.0f : 2.0f / 3.0f;
+                float u = ((float)i + s) / g, v = ((float)j + s) / g;
+                float2 uv = texture_uv(b, texture_interpolate_uv(a0, b0, c0, u, v),
+                                       texture_interpolate_uv(a1, b1, c1, u, v));
+                sum += sample_texture(TEXTURE_ARGS, b, uv);
+            }
+        }
+    }
+    return sum / (g * g);
+}
+
 #endif

@@ -35,6 +35,7 @@ pub mod render;
 pub mod sampling;
 pub mod settings;
 pub mod texture;
+pub mod texture_mean;
 pub mod traverse;
 pub mod vectors;
 pub mod wide;

@@ -51,6 +51,9 @@ device_consts! {
     /// [`TextureBinding::texture`] of a slot without a texture: it samples
     /// as (1, 1, 1, 1), which leaves a glTF factor unchanged.
     pub const TEXTURE_NONE: u32 = u32::MAX;
+    /// `texture_triangle_mean` samples a triangle at the centroids of the
+    /// grid² congruent triangles it divides into.
+    pub const TEXTURE_MEAN_GRID: u32 = 4;
 }
 
 device_struct! {
@@ -785,6 +788,11 @@ impl<'d> TextureSet<'d> {
     /// exactly when [`is_empty`](Self::is_empty).
     pub fn texel_buffer(&self) -> Option<&Buffer<u32>> {
         self.buffers.as_ref().map(|(_, texels)| texels)
+    }
+
+    /// The device the set lives on.
+    pub(super) fn device(&self) -> &Device {
+        self.device
     }
 
     pub fn texture_count(&self) -> usize {

@@ -7,7 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use opencl3::memory::Buffer;
 
-use super::{usage, MotionSteps, PathTracer, SoupBuffers};
+use super::{or_dummy, usage, MotionSteps, PathTracer, SoupBuffers};
 use crate::bvh::Bvh;
 use crate::device::{Arg, Device};
 use crate::device_struct::{device_consts, device_struct};
@@ -225,20 +225,31 @@ impl PathTracer<'_> {
         let mut emit = EmissiveDistribution::default();
         if self.any_emissive && soup.triangles > 0 {
             let n = soup.triangles;
+            let flags = self.frame_flags(soup, &mut Vec::new());
             let pbuf = self.power.ensure(d, n)?;
+            let mut args = vec![
+                Arg::Buf(soup.positions),
+                or_dummy(soup.uvs, &self.dummy_f32),
+                or_dummy(soup.uvs1, &self.dummy_f32),
+                Arg::U32(flags),
+                Arg::Buf(soup.material_ids),
+                Arg::Buf(&self.materials),
+                Arg::U32(self.material_count),
+                Arg::U32(n as u32),
+                Arg::Buf(&*pbuf),
+            ];
+            // The emissive textures weigh each triangle by their mean.
+            if let Some((set, bindings)) = &self.textures {
+                args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
+                args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
+                args.push(Arg::Buf(bindings));
+            }
             d.launch(
                 "pathtrace/emissive_power",
                 &self.kernels.emissive_power,
                 n.div_ceil(64),
                 64,
-                &[
-                    Arg::Buf(soup.positions),
-                    Arg::Buf(soup.material_ids),
-                    Arg::Buf(&self.materials),
-                    Arg::U32(self.material_count),
-                    Arg::U32(n as u32),
-                    Arg::Buf(&*pbuf),
-                ],
+                &args,
             )?;
             self.power_host.resize(n, 0.0);
             d.read(pbuf, &mut self.power_host)?;
