@@ -9,8 +9,13 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::render::perspective;
 use common::scene::Builder;
+use glam::Vec3;
 use serde_json::json;
+use soupray::scene::{LoadOptions, Scene};
+use soupray::trace::render::PathTracer;
+use soupray::trace::settings::{Environment, RenderSettings};
 
 /// A 2x1 RGBA PNG: white on the left, black on the right.
 fn white_black_png() -> Vec<u8> {
@@ -177,4 +182,53 @@ fn a_half_black_emissive_texture_lights_and_samples_as_its_bright_half() {
         vt < 1.15 * vh,
         "textured lamp's relative variance {vt} against its bright half's {vh}"
     );
+}
+
+#[test]
+fn texture_factors_are_kept_while_their_inputs_stay_and_frames_stay_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::load(&lamp_scene(dir.path(), true), &LoadOptions::default()).unwrap();
+    let table = scene.materials();
+    let d = common::device();
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        spp: 4,
+        environment: Environment::Color([0.0; 3]),
+        ..RenderSettings::default()
+    };
+    let camera = perspective(Vec3::new(0.0, 0.5, 2.5), Vec3::ZERO, Vec3::Y, 50.0);
+    let still = scene.evaluate(0.0).unwrap().soup;
+    // The lamp moved: new positions, the same uvs and materials.
+    let mut moved = still.clone();
+    for p in &mut moved.positions {
+        if p[1] > 0.5 {
+            p[0] += 0.25;
+        }
+    }
+    // The uvs changed: the lamp's texture slides.
+    let mut slid = moved.clone();
+    for uv in &mut slid.uvs {
+        uv[0] += 0.125;
+    }
+    let mut pt = PathTracer::with_materials(&d, table, &settings).unwrap();
+    let mut images = Vec::new();
+    for (frame, soup) in [&still, &moved, &slid].into_iter().enumerate() {
+        let out = pt.render_soup(soup, &camera, &[], frame as i64).unwrap();
+        images.push(out.image);
+    }
+    // Computed for the first frame and for the slid uvs; kept for the move.
+    assert_eq!(pt.emitter_texture_factor_frames(), (2, 1));
+    // Each frame as it would be rendered alone, bit for bit.
+    for (frame, soup) in [&moved, &slid].into_iter().enumerate() {
+        let frame = frame + 1;
+        let mut alone = PathTracer::with_materials(&d, table, &settings).unwrap();
+        let out = alone.render_soup(soup, &camera, &[], frame as i64).unwrap();
+        let bits = |i: &soupray::film::Image| -> Vec<u32> {
+            i.rgba.iter().flatten().map(|v| v.to_bits()).collect()
+        };
+        assert_eq!(bits(&out.image), bits(&images[frame]), "frame {frame}");
+        assert_eq!(alone.emitter_texture_factor_frames(), (1, 0));
+    }
+    assert!(images[1].rgba.iter().any(|p| p[0] > 0.0), "a black frame");
 }

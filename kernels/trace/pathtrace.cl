@@ -935,51 +935,73 @@ __kernel void pt_dilate(__global const uint* unconverged, __global uint* active,
     active[i] = active[i] & any;
 }
 
-// The emissive texture's mean over triangle `prim` (texture_triangle_mean),
-// each channel no lower than EMIT_TEXTURE_FLOOR. Only the choice of triangle uses it, so an
-// estimate off by any factor costs noise, never bias; the floor keeps every
-// part of a textured emitter within reach of next-event estimation, should
-// its samples all fall on black.
 #ifdef HAS_TEXTURES
+// For each triangle, what its emitted power takes from its material's
+// emissive texture: the texture's mean over the triangle
+// (texture_triangle_mean), each channel no lower than EMIT_TEXTURE_FLOOR;
+// 1 without one. Only the choice of triangle uses it, so a mean off by
+// any factor costs noise, never bias; the floor keeps every part of a
+// textured emitter within reach of next-event estimation should its
+// samples all fall on black.
 #define EMIT_TEXTURE_FLOOR (1.0f / 64.0f)
-inline float3 pt_emissive_texture_mean(int binding, const __global float* uvs,
-                                       const __global float* uvs1, uint frame_flags,
-                                       uint prim TEX_DECL) {
-    float2 t0[3], t1[3];
-    for (uint k = 0u; k < 3u; ++k) {
-        t0[k] = (frame_flags & FRAME_UVS) != 0u
-                    ? (float2)(uvs[6u * prim + 2u * k], uvs[6u * prim + 2u * k + 1u])
-                    : (float2)(0.0f);
-        t1[k] = (frame_flags & FRAME_UVS1) != 0u
-                    ? (float2)(uvs1[6u * prim + 2u * k], uvs1[6u * prim + 2u * k + 1u])
-                    : (float2)(0.0f);
+__kernel void pt_emissive_texture_factor(__global const float* uvs, __global const float* uvs1,
+                                         uint frame_flags, __global const uint* material_ids,
+                                         __global const PtMaterial* materials,
+                                         uint material_count, uint n,
+                                         __global float4* factor TEX_DECL) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    PtMaterial m = materials[min(material_ids[i], material_count - 1u)];
+    float4 f = (float4)(1.0f);
+    if ((m.flags & MAT_EMISSIVE) != 0u && m.emissive_tex >= 0) {
+        float2 t0[3], t1[3];
+        for (uint k = 0u; k < 3u; ++k) {
+            t0[k] = (frame_flags & FRAME_UVS) != 0u
+                        ? (float2)(uvs[6u * i + 2u * k], uvs[6u * i + 2u * k + 1u])
+                        : (float2)(0.0f);
+            t1[k] = (frame_flags & FRAME_UVS1) != 0u
+                        ? (float2)(uvs1[6u * i + 2u * k], uvs1[6u * i + 2u * k + 1u])
+                        : (float2)(0.0f);
+        }
+        f = texture_triangle_mean(TEXTURE_ARGS, tex_bindings[m.emissive_tex], t0[0], t0[1],
+                                  t0[2], t1[0], t1[1], t1[2]);
+        f = fmax(f, (float4)(EMIT_TEXTURE_FLOOR));
     }
-    float4 mean = texture_triangle_mean(TEXTURE_ARGS, tex_bindings[binding], t0[0], t0[1],
-                                        t0[2], t1[0], t1[1], t1[2]);
-    return fmax(mean.xyz, (float3)(EMIT_TEXTURE_FLOOR));
+    factor[i] = f;
 }
 #endif
 
+// Each word of `current` against `kept`, which then holds it: `same` (1 on
+// entry) becomes 0 at any difference. The host keeps the emissive texture
+// factors from frame to frame while their inputs stay the same bit for bit.
+__kernel void pt_compare_and_keep(__global const uint* current, __global uint* kept, uint n,
+                                  __global volatile uint* same) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    uint w = current[i];
+    if (kept[i] != w) {
+        kept[i] = w;
+        atomic_and(same, 0u);
+    }
+}
+
 // Each triangle's emitted power up to a constant factor (luminance of the
-// emissive factor, times the emissive texture's mean over the triangle,
-// times the area; twice that when double-sided), 0 for triangles whose
-// material does not emit. The host turns it into the emissive triangles'
-// sampling distribution.
+// emissive factor, times the texture factor when `has_factor`
+// (pt_emissive_texture_factor), times the area; twice that when
+// double-sided), 0 for triangles whose material does not emit. The host
+// turns it into the emissive triangles' sampling distribution.
 __kernel void pt_emissive_power(__global const float* positions,
-                                __global const float* uvs, __global const float* uvs1,
-                                uint frame_flags, __global const uint* material_ids,
+                                __global const uint* material_ids,
                                 __global const PtMaterial* materials, uint material_count,
-                                uint n, __global float* power TEX_DECL) {
+                                uint n, __global const float4* factor, uint has_factor,
+                                __global float* power) {
     uint i = get_global_id(0);
     if (i >= n) return;
     PtMaterial m = materials[min(material_ids[i], material_count - 1u)];
     float p = 0.0f;
     if ((m.flags & MAT_EMISSIVE) != 0u) {
         float3 e = (float3)(m.emissive[0], m.emissive[1], m.emissive[2]);
-#ifdef HAS_TEXTURES
-        if (m.emissive_tex >= 0)
-            e = e * pt_emissive_texture_mean(m.emissive_tex, uvs, uvs1, frame_flags, i TEX_PASS);
-#endif
+        if (has_factor != 0u) e = e * factor[i].xyz;
 #ifdef MOTION_BLUR
         // The power at the shutter's opening (step 0) drives the choice of
         // triangle only; the pdf of a sample uses the area at its path's

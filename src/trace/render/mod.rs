@@ -27,6 +27,7 @@
 //! `program` chooses the kernels' defines, `upload` writes each frame's tables,
 //! `passes` queues the sample passes, and `host_soup` renders host soups.
 
+mod emitters;
 mod host_soup;
 mod passes;
 mod program;
@@ -191,6 +192,10 @@ pub struct PathTracer<'d> {
     lights: GrowBuffer<DeviceLight>,
     power: GrowBuffer<f32>,
     power_host: Vec<f32>,
+    /// The textured emitters' factors, kept while their inputs stay.
+    texture_factors: emitters::TextureFactors,
+    /// Counts `set_materials` calls: the texture factors' key.
+    materials_generation: u64,
     emit_prims: GrowBuffer<u32>,
     emit_cdf: GrowBuffer<f32>,
     emit_pmf: GrowBuffer<f32>,
@@ -416,6 +421,8 @@ impl<'d> PathTracer<'d> {
             lights: GrowBuffer::new(),
             power: GrowBuffer::new(),
             power_host: Vec::new(),
+            texture_factors: emitters::TextureFactors::new(),
+            materials_generation: 0,
             emit_prims: GrowBuffer::new(),
             emit_cdf: GrowBuffer::new(),
             emit_pmf: GrowBuffer::new(),
@@ -525,7 +532,14 @@ impl<'d> PathTracer<'d> {
             self.device.write(buf, e)?;
         }
         self.any_emissive = host.iter().any(DeviceMaterial::emits);
+        self.materials_generation += 1;
         Ok(())
+    }
+
+    /// Frames so far whose textured emitters' factors were computed, and
+    /// kept from the frame before (for tests and tools).
+    pub fn emitter_texture_factor_frames(&self) -> (u64, u64) {
+        (self.texture_factors.computed, self.texture_factors.reused)
     }
 
     /// Changes how frames are cut into launches (the image does not change).

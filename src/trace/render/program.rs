@@ -20,6 +20,9 @@ pub(super) struct Kernels {
     pub(super) converge: Kernel,
     pub(super) dilate: Kernel,
     pub(super) emissive_power: Kernel,
+    /// `pt_emissive_texture_factor`, compiled with textures only.
+    pub(super) emissive_texture_factor: Option<Kernel>,
+    pub(super) compare_and_keep: Kernel,
     _program: Program,
 }
 
@@ -35,6 +38,12 @@ impl Kernels {
             converge: device.kernel(&program, "pt_converge")?,
             dilate: device.kernel(&program, "pt_dilate")?,
             emissive_power: device.kernel(&program, "pt_emissive_power")?,
+            emissive_texture_factor: if defines.iter().any(|(name, _)| *name == "HAS_TEXTURES") {
+                Some(device.kernel(&program, "pt_emissive_texture_factor")?)
+            } else {
+                None
+            },
+            compare_and_keep: device.kernel(&program, "pt_compare_and_keep")?,
             _program: program,
         })
     }

@@ -7,9 +7,9 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use opencl3::memory::Buffer;
 
-use super::{or_dummy, usage, MotionSteps, PathTracer, SoupBuffers};
+use super::{usage, MotionSteps, PathTracer, SoupBuffers};
 use crate::bvh::Bvh;
-use crate::device::{Arg, Device};
+use crate::device::Device;
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
@@ -213,63 +213,6 @@ impl PathTracer<'_> {
         let lbuf = self.lights.ensure(d, host_lights.len())?;
         d.write(lbuf, &host_lights)?;
         Ok(())
-    }
-
-    /// Emissive triangles, chosen in proportion to their power: computed on
-    /// the device, turned into a CDF on the host.
-    pub(super) fn upload_emitters(
-        &mut self,
-        soup: &SoupBuffers,
-    ) -> Result<EmissiveDistribution, TraceError> {
-        let d = self.device;
-        let mut emit = EmissiveDistribution::default();
-        if self.any_emissive && soup.triangles > 0 {
-            let n = soup.triangles;
-            let flags = self.frame_flags(soup, &mut Vec::new());
-            let pbuf = self.power.ensure(d, n)?;
-            let mut args = vec![
-                Arg::Buf(soup.positions),
-                or_dummy(soup.uvs, &self.dummy_f32),
-                or_dummy(soup.uvs1, &self.dummy_f32),
-                Arg::U32(flags),
-                Arg::Buf(soup.material_ids),
-                Arg::Buf(&self.materials),
-                Arg::U32(self.material_count),
-                Arg::U32(n as u32),
-                Arg::Buf(&*pbuf),
-            ];
-            // The emissive textures weigh each triangle by their mean.
-            if let Some((set, bindings)) = &self.textures {
-                args.push(Arg::Buf(set.info_buffer().expect("non-empty set")));
-                args.push(Arg::Buf(set.texel_buffer().expect("non-empty set")));
-                args.push(Arg::Buf(bindings));
-            }
-            d.launch(
-                "pathtrace/emissive_power",
-                &self.kernels.emissive_power,
-                n.div_ceil(64),
-                64,
-                &args,
-            )?;
-            self.power_host.resize(n, 0.0);
-            d.read(pbuf, &mut self.power_host)?;
-            emit = EmissiveDistribution::from_power(&self.power_host);
-        }
-        if !emit.is_empty() {
-            d.write(self.emit_prims.ensure(d, emit.prims.len())?, &emit.prims)?;
-            d.write(self.emit_cdf.ensure(d, emit.cdf.len())?, &emit.cdf)?;
-            d.write(
-                self.emit_pmf.ensure(d, emit.pmf_by_prim.len())?,
-                &emit.pmf_by_prim,
-            )?;
-        } else {
-            // MIS reads the pmf of every hit triangle: all zero.
-            let n = soup.triangles.max(1);
-            d.write(self.emit_pmf.ensure(d, n)?, &vec![0.0f32; n])?;
-            self.emit_prims.ensure(d, 1)?;
-            self.emit_cdf.ensure(d, 2)?;
-        }
-        Ok(emit)
     }
 
     /// The environment. The default: the studio sky unless the scene has
