@@ -21,8 +21,8 @@
 # tests (the builder bit for bit in both mappings, the soup, traversal hit
 # for hit, golden images; with SOUPRAY_BVH_MAPPING set to each mapping in
 # turn); times `soupray bvh` on the build benchmark's 1M and 2.5M-triangle
-# soups in both mappings; runs the primary-ray and path-tracing benchmarks;
-# renders the shipped animation. Everything, with the device, the driver
+# soups in both mappings; runs the ray-throughput (camera, bounce and
+# shadow rays) and path-tracing benchmarks; renders the shipped animation. Everything, with the device, the driver
 # version and the programs' build logs, goes under OUT; OUT/summary.txt
 # lists each step, its status and time. Exit status: 0 when every step
 # passed, 1 otherwise.
@@ -254,10 +254,10 @@ run_check() {
     done
   done
 
-  # Trace: primary, diffuse-bounce and shadow rays (Mrays/s) of the 4-wide,
-  # 8-wide and binary traversals, on two scans and the 977K-triangle sphere
-  # (the CPU reference on 8 threads), and path tracing (samples/s).
-  step bench-trace_primary 90 sh -c '"$1" --runs 5 --threads 8 --meshes beast.ply,nefertiti.ply,sphere1m.ply > "$2"' _ "$B/bench/trace_primary" "$OUT/bench/trace_primary.md"
+  # Trace: camera, diffuse-bounce and shadow rays (Mrays/s) of the 8-wide,
+  # 4-wide and binary traversals on the two scans the bundle carries (the
+  # CPU reference on 8 threads), and path tracing (samples/s).
+  step bench-trace_primary 90 sh -c '"$1" --runs 5 --threads 8 --meshes beast.ply,nefertiti.ply > "$2"' _ "$B/bench/trace_primary" "$OUT/bench/trace_primary.md"
   step bench-render_spp 90 sh -c '"$1" --frames 3 > "$2"' _ "$B/bench/render_spp" "$OUT/bench/render_spp.md"
 
   # The shipped animation, as a farm renders it: start-up in frame 0's log.
