@@ -43,22 +43,23 @@ pub enum TraceKind {
     AnyWide8,
 }
 
-/// The cost of making a traversal layout (stackless or 4-wide) for one tree.
+/// The cost of making a traversal layout (stackless, 4-wide or 8-wide) for
+/// one tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct LayoutStats {
     /// Host time to compute the layout from the tree.
     pub layout_ms: f64,
     /// Wall time of the upload.
     pub upload_ms: f64,
-    /// Entries (stackless) or nodes (4-wide) of the layout.
+    /// Entries (stackless) or nodes (4-wide, 8-wide) of the layout.
     pub entries: usize,
 }
 
 /// A frame's tree on the device in the layout each traversal reads: the
-/// binary nodes as built, their 4-wide collapse, the stackless entries.
-/// Buffers (and the host scratch of the layouts) are kept from frame to
-/// frame and grow only when a tree outgrows them. Shared by `DeviceTracer`
-/// and the path tracer.
+/// binary nodes as built, their 4-wide and 8-wide collapses, the stackless
+/// entries. Buffers (and the host scratch of the layouts) are kept from
+/// frame to frame and grow only when a tree outgrows them. Shared by
+/// `DeviceTracer` and the path tracer.
 #[derive(Default)]
 pub struct TreeLayouts {
     nodes: GrowBuffer<BvhNode>,
@@ -133,7 +134,7 @@ impl TreeLayouts {
     }
 
     /// The tree of an empty soup in every layout: an empty root for the
-    /// binary and 4-wide traversals, no stackless entries. Nothing is hit.
+    /// binary and wide traversals, no stackless entries. Nothing is hit.
     pub fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
         device.write(self.nodes.ensure(device, 1)?, &[BvhNode::empty()])?;
         device.write(self.wnodes.ensure(device, 1)?, &[WideNode::empty()])?;

@@ -1,13 +1,15 @@
-//! A 4-wide view of the frame's BVH for traversal: each node of the paper's
-//! binary tree is collapsed with its largest descendants into a node of up
-//! to four children whose boxes are stored axis by axis. A ray then tests
-//! four boxes per node fetch and takes half as many steps down the tree and
-//! through its stack. The tree's leaves, and so the hits, are unchanged.
+//! W-wide views of the frame's BVH for traversal (W = 8, the default, or
+//! 4): each node of the paper's binary tree is collapsed with its largest
+//! descendants into a node of up to W children whose boxes are stored axis
+//! by axis. A ray then tests W boxes per node fetch, as the lanes of one
+//! vector operation, and takes a half (4-wide) or a third (8-wide) as many
+//! steps down the tree and through its stack. The tree's leaves, and so
+//! the hits, are unchanged.
 //!
 //! Collapsing: a node starts with its two children and, while it has fewer
-//! than four, replaces its inner child of largest surface area by that
-//! child's two children (the children a ray is most likely to reach). Nodes
-//! are numbered in the order they are made; node 0 is the root.
+//! than W, replaces its inner child of largest surface area by that child's
+//! two children (the children a ray is most likely to reach). Nodes are
+//! numbered in the order they are made; node 0 is the root.
 
 use super::TraceError;
 use crate::bvh::{Aabb, Bvh, Child, EMPTY_CHILD};
