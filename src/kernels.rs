@@ -48,6 +48,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "lens.h"),
     kernel!("trace" / "scene_view.h"),
     kernel!("trace" / "direct_light.h"),
+    kernel!("trace" / "path_sample.h"),
     kernel!("trace" / "pathtrace.cl"),
     kernel!("trace" / "pt_probe.cl"),
     kernel!("trace" / "motion.h"),

@@ -15,8 +15,8 @@
 // materials are crossed with probability 1 - alpha (stochastic coverage),
 // for camera, bounce and shadow rays alike. Compiled with STACK_SIZE,
 // TRAVERSAL_STACKLESS for the escape-index traversal or TRAVERSAL_WIDE for
-// the stack traversal of the 4-wide layout, HAS_TEXTURES when some
-// material is textured, MOTION_BLUR for frames that move within the
+// the stack traversal of the 4-wide layout (8-wide with WIDE_WIDTH 8),
+// HAS_TEXTURES when some material is textured, MOTION_BLUR for frames that move within the
 // shutter (each camera sample's path sees the soup, camera and lights at
 // its own time: trace_common.h, motion.h), HAS_TRANSMISSION when some material uses
 // KHR_materials_transmission, _ior, _volume, _specular or
@@ -79,228 +79,19 @@
 
 #include "scene_view.h"
 #include "direct_light.h"
+#include "path_sample.h"
 
-// Results of one camera sample.
-typedef struct {
-    float3 radiance;
-    float alpha;
-    float depth;
-    float3 normal;
-    float3 albedo;
-#ifdef FILM_MATTES
-    uint matte; // the first hit's matte pair + 1; 0: no hit
-#endif
-#ifdef FILM_VECTORS
-    float4 motion; // the first hit's motion vectors (pt_motion_vector)
-#endif
-#ifdef FILM_GEOMETRY
-    float3 position; // the first hit's world-space point
-    float2 uv;       // and TEXCOORD_0 there
-#endif
-#ifdef FILM_CATCHER
-    // The camera ray met a shadow catcher first: the light there with the
-    // scene's shadows and without them (pt_catcher_light).
-    bool catcher;
-    float3 catcher_lit;
-    float3 catcher_unshadowed;
-#endif
-#ifdef FILM_LIGHT
-    // This sample's light for the light-path passes (film::light), kept
-    // in as few sums as the passes allow and split by lobe once, when the
-    // pixel adds it (light_sums_add): the emission and environment the
-    // camera saw; the light sampled at the first scattering vertex, by
-    // lobe there; the light found after that vertex, straight from a light
-    // (`after_direct`) or beyond; and the first vertex's lobe weight f
-    // |cos| / pdf and the diffuse and transmission shares of it, which
-    // split all that comes after.
-    float3 seen_emit;
-    float3 seen_env;
-    float3 first_diffuse;
-    float3 first_glossy;
-    float3 first_transmit;
-    float3 after_direct;
-    float3 after_indirect;
-    float3 weight;
-    float3 share_diffuse;
-    float3 share_transmit;
-#endif
-} PtSample;
-
-#ifdef FILM_LIGHT
-// At the path's first scattering vertex, the sampled direction wi (BSDF
-// value f, pdf, from a delta lobe or not): the lobe weight f |cos| / pdf,
-// whose mean is the lobes' albedo (the colour passes), and the shares of
-// it the diffuse and transmission lobes gave. A delta lobe is glossy above
-// the surface and transmission below.
-inline void pt_first_lobes(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
-                           float pdf, bool delta) {
-    if (delta) {
-        out->share_transmit = (float3)(wi.z < 0.0f ? 1.0f : 0.0f);
-    } else {
-        // f is bsdf_eval's value at wi (bsdf_sample's own).
-        float3 fd, ft;
-        bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
-        out->share_diffuse = lobe_share(fd, f);
-        out->share_transmit = lobe_share(ft, f);
-    }
-    float3 w = f * (fabs(wi.z) / pdf);
-    if (isfinite(w.x) && isfinite(w.y) && isfinite(w.z)) out->weight = w;
-}
-
-// Adds `c`, a light sample's contribution at a vertex after `depth`
-// scattering ones (at `wi`, where the BSDF is `f`), to the light-path
-// passes: at the first vertex by its lobes there, later to the light
-// found after it.
-inline void light_pass_direct(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
-                              float3 c, uint depth) {
-    if (depth != 0u) {
-        out->after_indirect += c;
-        return;
-    }
-    if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return;
-    float3 fd, ft;
-    bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
-    float3 d = c * lobe_share(fd, f);
-    float3 t = c * lobe_share(ft, f);
-    out->first_diffuse += d;
-    out->first_glossy += fmax((c - d) - t, (float3)(0.0f));
-    out->first_transmit += t;
-}
-
-// Adds `c`, emission or environment (`env`) found after `depth`
-// scattering vertices, to the light-path passes.
-inline void light_pass_found(PtSample* out, float3 c, uint depth, bool env) {
-    if (depth == 0u) {
-        if (env)
-            out->seen_env += c;
-        else
-            out->seen_emit += c;
-    } else if (depth == 1u) {
-        out->after_direct += c;
-    } else {
-        out->after_indirect += c;
-    }
-}
-
-// Adds a kept sample `r` to a pixel's light-path pass sums (film::light's
-// LIGHT_PASS_NAMES order): the light after the first vertex split by its
-// shares there, glossy taking what the other two do not.
-inline void light_sums_add(float3* light, PtSample r) {
-    float3 zero = (float3)(0.0f);
-    float3 dd = r.after_direct * r.share_diffuse, dt = r.after_direct * r.share_transmit;
-    float3 id = r.after_indirect * r.share_diffuse, it = r.after_indirect * r.share_transmit;
-    float3 wd = r.weight * r.share_diffuse, wt = r.weight * r.share_transmit;
-    light[LIGHT_DIFFUSE] += r.first_diffuse + dd;
-    light[LIGHT_DIFFUSE + 1u] += id;
-    light[LIGHT_DIFFUSE + 2u] += wd;
-    light[LIGHT_GLOSSY] += r.first_glossy + fmax((r.after_direct - dd) - dt, zero);
-    light[LIGHT_GLOSSY + 1u] += fmax((r.after_indirect - id) - it, zero);
-    light[LIGHT_GLOSSY + 2u] += fmax((r.weight - wd) - wt, zero);
-    light[LIGHT_TRANSMISSION] += r.first_transmit + dt;
-    light[LIGHT_TRANSMISSION + 1u] += it;
-    light[LIGHT_TRANSMISSION + 2u] += wt;
-    light[LIGHT_EMIT] += r.seen_emit;
-    light[LIGHT_ENV] += r.seen_env;
-}
-#endif
-
+// One camera sample through pixel (px, py): its path from the camera, one
+// scattering vertex per bounce, and what the film keeps of it.
 inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const float* filter,
                         uint px, uint py, uint sample TEX_DECL) {
-    PtSample out;
-    out.radiance = (float3)(0.0f);
-    out.alpha = 0.0f;
-    out.depth = 0.0f;
-    out.normal = (float3)(0.0f);
-    out.albedo = (float3)(0.0f);
-#ifdef FILM_MATTES
-    out.matte = 0u;
-#endif
-#ifdef FILM_VECTORS
-    out.motion = (float4)(0.0f);
-#endif
-#ifdef FILM_GEOMETRY
-    out.position = (float3)(0.0f);
-    out.uv = (float2)(0.0f);
-#endif
-#ifdef FILM_CATCHER
-    out.catcher = false;
-    out.catcher_lit = (float3)(0.0f);
-    out.catcher_unshadowed = (float3)(0.0f);
-#endif
-#ifdef FILM_LIGHT
-    out.seen_emit = (float3)(0.0f);
-    out.seen_env = (float3)(0.0f);
-    out.first_diffuse = (float3)(0.0f);
-    out.first_glossy = (float3)(0.0f);
-    out.first_transmit = (float3)(0.0f);
-    out.after_direct = (float3)(0.0f);
-    out.after_indirect = (float3)(0.0f);
-    out.weight = (float3)(0.0f);
-    out.share_diffuse = (float3)(0.0f);
-    out.share_transmit = (float3)(0.0f);
-    s->split_lobes = false;
-    s->shade_wi = (float3)(0.0f);
-    s->shade_f = (float3)(0.0f);
-#endif
+    PtSample out = pt_sample_new(s);
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
                                    s->frame.frame_hi, pixel, sample);
 
-    // Filter importance sampling: the offset from the pixel centre follows
-    // the film's filter (the table of film::FilterSampler, same arithmetic).
-    float ox, oy;
-    float4 uc = rng_4d(rng, SET_CAMERA);
-    {
-        float n = 1024.0f;
-        float fu = uc.x * n;
-        uint i = min((uint)floor(fu), 1023u);
-        ox = filter[i] + (fu - (float)i) * (filter[i + 1u] - filter[i]);
-        float fv = uc.y * n;
-        uint j = min((uint)floor(fv), 1023u);
-        oy = filter[j] + (fv - (float)j) * (filter[j + 1u] - filter[j]);
-    }
-#ifdef MOTION_BLUR
-    // The path's time in the shutter: the camera set's third dimension, so
-    // time is stratified over the samples jointly with the pixel filter.
-    s->mt = motion_time(uc.z, s->motion_steps, s->motion_triangles);
-    PtCamera cv = motion_camera(cam, s->mt);
-#else
-    PtCamera cv = cam[0];
-#endif
-    float sx = (((float)px + 0.5f + ox) / (float)s->frame.width) * 2.0f - 1.0f;
-    float sy = 1.0f - (((float)py + 0.5f + oy) / (float)s->frame.height) * 2.0f;
-    float3 c_org = (float3)(cv.origin[0], cv.origin[1], cv.origin[2]);
-    float3 c_right = (float3)(cv.right[0], cv.right[1], cv.right[2]);
-    float3 c_up = (float3)(cv.up[0], cv.up[1], cv.up[2]);
-    float3 c_fwd = (float3)(cv.forward[0], cv.forward[1], cv.forward[2]);
-    float3 org, dir;
-    float tmin;
-    if (cv.ortho != 0u) {
-        org = (c_org + c_right * sx) + c_up * sy;
-        dir = c_fwd;
-        tmin = cv.znear;
-    } else {
-        float3 d = (c_fwd + c_right * sx) + c_up * sy;
-#ifdef HAS_DOF
-        if (cv.lens_radius > 0.0f) {
-            float4 ul = rng_4d(rng, SET_LENS);
-            float2 a = camera_aperture_point(ul.x, ul.y, cv.blades, cv.blade_rotation);
-            camera_lens_ray(c_org, c_right, c_up, c_fwd, d, cv.znear, cv.lens_radius,
-                            cv.focus_distance, a, &org, &dir, &tmin);
-        } else
-#endif
-        {
-            float l = length(d);
-            org = c_org;
-            dir = d / l;
-            tmin = cv.znear * l;
-        }
-    }
-    Ray ray;
-    ray.org[0] = org.x; ray.org[1] = org.y; ray.org[2] = org.z;
-    ray.dir[0] = dir.x; ray.dir[1] = dir.y; ray.dir[2] = dir.z;
-    ray.tmin = tmin;
-    ray.tmax = INFINITY;
+    float3 dir;
+    Ray ray = pt_camera_ray(s, cam, filter, px, py, rng, &dir);
 
     float3 beta = (float3)(1.0f);
     float prev_pdf = 0.0f;
@@ -331,29 +122,11 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
                                      &crossings TEX_PASS);
 #ifdef FILM_CATCHER
-        // The camera ray: a holdout cuts the frame (nothing of the sample
-        // is kept); it sees through shadow catchers (a closed one has two
-        // sides to cross), measuring the light at the first.
-        for (uint k = 0u; bounce == 0u && found && k < MAX_CROSSINGS; ++k) {
-            uint flags = s->triangle_flags[h.prim];
-            if ((flags & TRIANGLE_HOLDOUT) != 0u) return out;
-            if ((flags & TRIANGLE_SHADOW_CATCHER) == 0u) break;
-            float3 p = hit_point(SGEOM(s), h.prim, h.u, h.v);
-            float3 ng = geometric_normal(SGEOM(s), h.prim);
-            float3 facing = dot(dir, ng) > 0.0f ? -ng : ng;
-            if (!out.catcher) {
-                out.catcher = true;
-                pt_catcher_light(s, p, facing, h.prim, rng, &out.catcher_lit,
-                                 &out.catcher_unshadowed TEX_PASS);
-            }
-            float3 o = offset_ray_origin_scaled(p, -facing, offset_scale(SGEOM(s), h.prim));
-            ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
-            ray.tmin = 0.0f;
-            ray.tmax = INFINITY;
-            float before = travelled;
-            found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
-                                    &crossings TEX_PASS);
-            travelled += before;
+        if (bounce == 0u && found) {
+            int seen = pt_through_catchers(s, &out, &ray, dir, rng, &h, &travelled, &blocked,
+                                           &crossings TEX_PASS);
+            if (seen < 0) return out;
+            found = seen > 0;
         }
 #endif
 #ifdef HAS_TRANSMISSION
@@ -368,19 +141,8 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             // (through cut-outs too) is left out; alpha is 0 there.
             if (bounce == 0u) break;
 #endif
-            if (!blocked && s->env.kind != ENV_NONE) {
-                float3 le = env_radiance(s->env, s->env_texels, dir);
-                float w = 1.0f;
-                if (depth > 0u && !prev_delta && s->frame.env_select_pmf > 0.0f) {
-                    float pl = s->frame.env_select_pmf *
-                               env_pdf(s->env, s->env_marginal, s->env_conditional, dir);
-                    w = power_heuristic(prev_pdf, pl);
-                }
-                out.radiance += beta * le * w;
-#ifdef FILM_LIGHT
-                light_pass_found(&out, beta * le * w, depth, true);
-#endif
-            }
+            if (!blocked && s->env.kind != ENV_NONE)
+                pt_env_found(s, &out, dir, beta, depth, prev_delta, prev_pdf);
             break;
         }
         PtMaterial m = pt_material(s, h.prim);
@@ -406,36 +168,12 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.at, &albedo TEX_PASS);
-        if (bounce == 0u) {
-            out.alpha = 1.0f;
-            out.depth = travelled;
-            out.normal = sf.ns;
-            out.albedo = albedo;
-#ifdef FILM_MATTES
-            out.matte = s->triangle_mattes[h.prim] + 1u;
-#endif
-#ifdef FILM_VECTORS
-            out.motion = pt_motion_vector(s, h.prim, h.u, h.v);
-#endif
-#ifdef FILM_GEOMETRY
-            out.position = sf.p;
-            out.uv = sf.at.uv.xy;
-#endif
-        }
+        if (bounce == 0u) pt_first_hit(&out, s, h, sf, travelled, albedo);
         // A single-sided emitter emits from its front only (the light
         // sampler's pdf is 0 behind it too).
-        if ((m.flags & MAT_EMISSIVE) != 0u && (sf.front || (m.flags & MAT_DOUBLE_SIDED) != 0u)) {
-            float3 le = pt_emission(m, sf.at TEX_PASS);
-            float w = 1.0f;
-            if (depth > 0u && !prev_delta) {
-                float cos_l = dot(-dir, sf.ng);
-                w = power_heuristic(prev_pdf, pt_emissive_pdf(s, h.prim, reach, cos_l));
-            }
-            out.radiance += beta * le * w;
-#ifdef FILM_LIGHT
-            light_pass_found(&out, beta * le * w, depth, false);
-#endif
-        }
+        if ((m.flags & MAT_EMISSIVE) != 0u && (sf.front || (m.flags & MAT_DOUBLE_SIDED) != 0u))
+            pt_emitter_found(s, &out, m, sf, h.prim, dir, beta, reach, depth, prev_delta,
+                             prev_pdf TEX_PASS);
 #ifdef HAS_UNLIT
         if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
             out.radiance += beta * albedo;
@@ -462,29 +200,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
 #ifdef HAS_TRANSMISSION
         sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
-        // The indices on the two sides: the volume the path is in, and for a
-        // refracting surface the one beyond it (media.h).
-        uint inner = media_innermost(&media);
-        uint other = volume ? media_other(&media, mat, sf.front) : inner;
-#ifdef HAS_DISPERSION
-        // KHR_materials_dispersion: at the first dispersive volume it
-        // meets, the path picks one colour channel uniformly and carries it
-        // alone, three times as strong (unbiased per channel), with that
-        // channel's indices from here on. The light set's fourth number is
-        // unused by light sampling.
-        if (channel < 0 && volume && mx.dispersion > 0.0f && mx.transmission > 0.0f &&
-            (s->frame.flags & FRAME_CLAY) == 0u) {
-            float u = rng_4d(rng, set_bounce(bounce, SET_LIGHT)).w;
-            channel = min((int)(u * 3.0f), 2);
-            beta = (float3)(channel == 0 ? 3.0f * beta.x : 0.0f, channel == 1 ? 3.0f * beta.y : 0.0f,
-                            channel == 2 ? 3.0f * beta.z : 0.0f);
-        }
-#endif
-        pt_dielectric_params(s, mx, volume, sf.front, pt_medium_ior(s, other, channel), channel, sf.at,
-                             &bp TEX_PASS);
-        sf.medium_above = inner;
-        sf.medium_below = volume && sf.front ? mat : other;
-        sf.channel = channel;
+        pt_interface(s, mx, mat, volume, &media, rng, bounce, &sf, &channel, &beta, &bp TEX_PASS);
 #endif
 #ifdef HAS_ANISOTROPY
         if (pt_anisotropy_frame(s, sf, h.prim, bp, &t, &b)) wo = to_local(wo_w, t, b, sf.ns);
@@ -493,46 +209,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         pt_layer_params(s, mx, sf, wo_w, t, b, &bp TEX_PASS);
 #endif
 
-        // Next-event estimation: every punctual light when the frame loops
-        // over them, then one light from the selection distribution; none
-        // where every lobe is a delta lobe (bsdf_eval is 0 there). Skipping
-        // draws no sample, and the sampler's dimensions are fixed per set,
-        // so the other sets are unchanged.
-        bool only_delta = bsdf_only_delta(bp);
-#ifdef FILM_LIGHT
-        s->split_lobes = depth == 0u;
-#endif
-        if (!only_delta && !last && s->frame.light_loop != 0u) {
-            for (uint i = 0u; i < s->frame.light_count; ++i) {
-                float3 c = pt_punctual_direct(s, i, 1.0f, sf, bp, wo, t, b, above, beta, rng,
-                                              bounce TEX_PASS);
-                out.radiance += c;
-#ifdef FILM_LIGHT
-                light_pass_direct(&out, bp, wo, s->shade_wi, s->shade_f, c, depth);
-#endif
-            }
-        }
-        if (!only_delta && !last && s->frame.select_count > 0u) {
-            float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
-            uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
-            uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
-            float3 c;
-            if (pick < first) {
-                float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
-                c = pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta, rng,
-                                       bounce TEX_PASS);
-            } else if (pick == first && s->frame.emit_count > 0u) {
-                c = pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
-                                       bounce TEX_PASS);
-            } else {
-                c = pt_env_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
-                                  bounce TEX_PASS);
-            }
-            out.radiance += c;
-#ifdef FILM_LIGHT
-            light_pass_direct(&out, bp, wo, s->shade_wi, s->shade_f, c, depth);
-#endif
-        }
+        pt_next_event(s, &out, sf, bp, wo, t, b, above, beta, rng, bounce, depth, last TEX_PASS);
 
         // Continue the path by sampling the BSDF.
         float3 wi, f;
@@ -579,21 +256,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #endif
             prev_pdf = pdf;
             prev_delta = delta;
-            // Russian roulette from the sixth vertex on (after the fifth
-            // bounce's sample), keeping throughput near 1 where it survives.
-            // Started at the fourth vertex it was the largest source of noise
-            // on the clay scan under a sky: a path ground -> mesh -> ground
-            // became 0 or 2x instead of 0.51, 3.2x the error of starting here
-            // for 0.9% fewer rays (BENCHMARKS.md); Mitsuba 3 starts at the same
-            // depth.
-            if (depth >= RR_FIRST_BOUNCE) {
-                float q = fmin(fmax(fmax(beta.x, beta.y), beta.z), 1.0f);
-                if (!(q > 0.0f)) break;
-                if (q < 1.0f) {
-                    if (ub.w >= q) break;
-                    beta = beta / q;
-                }
-            }
+            if (depth >= RR_FIRST_BOUNCE && !pt_roulette(&beta, ub.w)) break;
             depth += 1u;
         }
         dir = wi_w;
