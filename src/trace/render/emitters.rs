@@ -46,23 +46,20 @@ impl TextureFactors {
     }
 }
 
-/// Compares `words` words of `current` with `kept` on the device, which
-/// then holds `current`; whether they were the same.
+/// Queues a comparison of `words` words of `current` with `kept` on the
+/// device, which then holds `current`; a difference clears `same`. Returns
+/// false when `kept` had to grow, since its words were then not the last
+/// frame's whatever they hold.
 fn compare_and_keep(
     d: &Device,
     kernel: &opencl3::kernel::Kernel,
     current: &dyn BufferArg,
     kept: &mut GrowBuffer<u32>,
     words: usize,
-    same: &mut Buffer<u32>,
+    same: &Buffer<u32>,
 ) -> Result<bool, TraceError> {
-    // A buffer that grows holds stale words past the last frame's: a
-    // different size is a change whatever they hold.
     let allocations = kept.allocations();
     kept.ensure(d, words.max(1))?;
-    let fresh = kept.allocations() != allocations;
-    d.write(same, &[1u32])?;
-    let kept = kept.get();
     d.launch(
         "pathtrace/emissive_texture_compare",
         kernel,
@@ -70,21 +67,20 @@ fn compare_and_keep(
         64,
         &[
             Arg::Buf(current),
-            Arg::Buf(kept),
+            Arg::Buf(kept.get()),
             Arg::U32(words as u32),
-            Arg::Buf(&*same),
+            Arg::Buf(same),
         ],
     )?;
-    let mut flag = [0u32];
-    d.read(same, &mut flag)?;
-    Ok(flag[0] == 1 && !fresh)
+    Ok(kept.allocations() == allocations)
 }
 
 impl PathTracer<'_> {
-    /// The textured emitters' factors for this frame's soup: kept from the
-    /// last frame when every input is the same, else computed. False when
-    /// no material has textures (the factors are all 1).
-    fn texture_factors(&mut self, soup: &SoupBuffers) -> Result<bool, TraceError> {
+    /// The textured emitters' factors for this frame's soup (frame flags
+    /// `flags`): kept from the last frame when every input is the same, else
+    /// computed. False when no material has textures (the factors are all
+    /// 1).
+    fn texture_factors(&mut self, soup: &SoupBuffers, flags: u32) -> Result<bool, TraceError> {
         let (Some((set, bindings)), Some(kernel)) =
             (&self.textures, &self.kernels.emissive_texture_factor)
         else {
@@ -92,13 +88,14 @@ impl PathTracer<'_> {
         };
         let d = self.device;
         let n = soup.triangles;
-        let flags = self.frame_flags(soup, &mut Vec::new());
         let tf = &mut self.texture_factors;
         let same = match &mut tf.same {
             Some(b) => b,
             None => tf.same.insert(d.buffer::<u32>(1)?),
         };
-        // Every input is compared (and kept) each frame, whatever the key.
+        // Every input is compared (and kept) each frame, whatever the key,
+        // under one flag read back once.
+        d.write(same, &[1u32])?;
         let compare = &self.kernels.compare_and_keep;
         let mut unchanged = tf.key == Some((self.materials_generation, n, flags));
         unchanged &= compare_and_keep(d, compare, soup.material_ids, &mut tf.kept_ids, n, same)?;
@@ -108,6 +105,9 @@ impl PathTracer<'_> {
         if let Some(uvs1) = soup.uvs1 {
             unchanged &= compare_and_keep(d, compare, uvs1, &mut tf.kept_uvs1, 6 * n, same)?;
         }
+        let mut flag = [0u32];
+        d.read(same, &mut flag)?;
+        unchanged &= flag[0] == 1;
         tf.key = Some((self.materials_generation, n, flags));
         if unchanged && tf.factor.buffer().is_some() {
             tf.reused += 1;
@@ -142,12 +142,13 @@ impl PathTracer<'_> {
     pub(super) fn upload_emitters(
         &mut self,
         soup: &SoupBuffers,
+        flags: u32,
     ) -> Result<EmissiveDistribution, TraceError> {
         let d = self.device;
         let mut emit = EmissiveDistribution::default();
         if self.any_emissive && soup.triangles > 0 {
             let n = soup.triangles;
-            let has_factor = self.texture_factors(soup)?;
+            let has_factor = self.texture_factors(soup, flags)?;
             let factor: &dyn BufferArg = match self.texture_factors.factor.buffer() {
                 Some(f) if has_factor => f,
                 _ => &self.dummy_f4,

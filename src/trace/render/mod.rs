@@ -705,9 +705,10 @@ impl<'d> PathTracer<'d> {
         let empty = soup.triangles == 0 || bvh.nodes.is_empty();
         let snode_count = self.upload_tree(bvh, empty)?;
         self.upload_lights(lights, motion)?;
-        let emit = self.upload_emitters(soup)?;
+        let flags = self.frame_flags(soup);
+        let emit = self.upload_emitters(soup, flags)?;
         let env = self.upload_environment(lights, &mut warnings)?;
-        let flags = self.frame_flags(soup, &mut warnings);
+        self.warn_missing_uvs(soup, &mut warnings);
         let frame = FrameTables {
             lights,
             emit: &emit,

@@ -257,7 +257,7 @@ impl PathTracer<'_> {
     }
 
     /// `PtFrame.flags`: the attributes the soup carries, and `--clay`.
-    pub(super) fn frame_flags(&self, soup: &SoupBuffers, warnings: &mut Vec<String>) -> u32 {
+    pub(super) fn frame_flags(&self, soup: &SoupBuffers) -> u32 {
         let mut flags = 0;
         if soup.normals.is_some() {
             flags |= FRAME_NORMALS;
@@ -270,7 +270,17 @@ impl PathTracer<'_> {
         }
         if soup.uvs.is_some() {
             flags |= FRAME_UVS;
-        } else if self.features.contains(&"anisotropy") {
+        }
+        if self.settings.clay {
+            flags |= FRAME_CLAY;
+        }
+        flags
+    }
+
+    /// Warns when an anisotropic material has no TEXCOORD_0 to give its
+    /// direction.
+    pub(super) fn warn_missing_uvs(&self, soup: &SoupBuffers, warnings: &mut Vec<String>) {
+        if soup.uvs.is_none() && self.features.contains(&"anisotropy") {
             warnings.push(
                 "a material uses KHR_materials_anisotropy but the scene has no TEXCOORD_0: the \
                  anisotropy direction, which is given in the tangent frame of the texture \
@@ -278,10 +288,6 @@ impl PathTracer<'_> {
                     .to_owned(),
             );
         }
-        if self.settings.clay {
-            flags |= FRAME_CLAY;
-        }
-        flags
     }
 
     /// The frame's constants (`PtFrame`), with the distribution next-event
