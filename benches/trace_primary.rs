@@ -33,6 +33,7 @@ use soupray::soup::Soup;
 use soupray::trace::intersect::{
     geometric_normal, hit_point, offset_ray_origin_scaled, offset_scale,
 };
+use soupray::trace::sampling::onb;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceKind};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -188,18 +189,6 @@ fn tracers(set: RaySet) -> Vec<Tracer> {
     t
 }
 
-fn stage_of(kind: TraceKind) -> &'static str {
-    match kind {
-        TraceKind::Closest => "trace/closest",
-        TraceKind::Any => "trace/any",
-        TraceKind::ClosestStackless => "trace/stackless",
-        TraceKind::ClosestWide => "trace/closest_wide",
-        TraceKind::AnyWide => "trace/any_wide",
-        TraceKind::ClosestWide8 => "trace/closest_wide8",
-        TraceKind::AnyWide8 => "trace/any_wide8",
-    }
-}
-
 struct Row {
     mesh: String,
     tris: usize,
@@ -288,18 +277,13 @@ fn secondary_rays(
             n = n.map(|c| -c);
         }
         let o = offset_ray_origin_scaled(p, n, offset_scale(&soup.positions, hit.prim));
-        // An orthonormal frame about n (Duff et al. 2017).
-        let sign = 1.0f32.copysign(n[2]);
-        let a = -1.0 / (sign + n[2]);
-        let b = n[0] * n[1] * a;
-        let t = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
-        let bt = [b, sign + n[1] * n[1] * a, -n[1]];
+        let nv = glam::Vec3::from(n);
+        let (t, bt) = onb(nv);
         let (u1, u2) = (rng.f32(), rng.f32());
         let r = u1.sqrt();
         let phi = std::f32::consts::TAU * u2;
         let (x, y, z) = (r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt());
-        let d: [f32; 3] = std::array::from_fn(|k| x * t[k] + y * bt[k] + z * n[k]);
-        bounce.push(Ray::new(o, d));
+        bounce.push(Ray::new(o, (t * x + bt * y + nv * z).to_array()));
         let to: [f32; 3] = std::array::from_fn(|k| light[k] - o[k]);
         let dist = to.iter().map(|c| c * c).sum::<f32>().sqrt();
         let mut s = Ray::new(o, to.map(|c| c / dist));
@@ -405,7 +389,7 @@ fn bench_mesh(
                         if run == 0 {
                             device.read(&hits, &mut out).unwrap();
                         }
-                        timings.ms(stage_of(kind))
+                        timings.ms(kind.stage())
                     }
                     Tracer::Embree => {
                         let start = Instant::now();

@@ -7,21 +7,22 @@
 
 #include "trace_common.h"
 
-__kernel void trace_closest(__global const BvhNode* nodes, __global const uint* prim_ids,
-                            __global const float* positions, __global const Ray* rays,
-                            __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_closest_bvh(nodes, prim_ids, positions, rays[i]);
-}
+// One work-item per ray through the layout of NODE: `hits[i] = FN(ray i)`.
+#define TRACE_KERNEL(NAME, NODE, FN)                                              \
+    __kernel void NAME(__global const NODE* nodes, __global const uint* prim_ids, \
+                       __global const float* positions, __global const Ray* rays, \
+                       __global Hit* hits, uint count) {                          \
+        uint i = get_global_id(0);                                                \
+        if (i >= count) return;                                                   \
+        hits[i] = FN(nodes, prim_ids, positions, rays[i]);                        \
+    }
 
-__kernel void trace_any(__global const BvhNode* nodes, __global const uint* prim_ids,
-                        __global const float* positions, __global const Ray* rays,
-                        __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_any_bvh(nodes, prim_ids, positions, rays[i]);
-}
+TRACE_KERNEL(trace_closest, BvhNode, trace_closest_bvh)
+TRACE_KERNEL(trace_any, BvhNode, trace_any_bvh)
+TRACE_KERNEL(trace_closest_wide, WideNode, trace_closest_wide_bvh)
+TRACE_KERNEL(trace_any_wide, WideNode, trace_any_wide_bvh)
+TRACE_KERNEL(trace_closest_wide8, Wide8Node, trace_closest_wide8_bvh)
+TRACE_KERNEL(trace_any_wide8, Wide8Node, trace_any_wide8_bvh)
 
 __kernel void trace_closest_stackless(__global const StacklessNode* snodes, uint entries,
                                       __global const uint* prim_ids,
@@ -31,39 +32,6 @@ __kernel void trace_closest_stackless(__global const StacklessNode* snodes, uint
     uint i = get_global_id(0);
     if (i >= count) return;
     hits[i] = trace_closest_stackless_bvh(snodes, entries, prim_ids, positions, rays[i]);
-}
-
-__kernel void trace_closest_wide(__global const WideNode* wnodes, __global const uint* prim_ids,
-                                 __global const float* positions, __global const Ray* rays,
-                                 __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_closest_wide_bvh(wnodes, prim_ids, positions, rays[i]);
-}
-
-__kernel void trace_any_wide(__global const WideNode* wnodes, __global const uint* prim_ids,
-                             __global const float* positions, __global const Ray* rays,
-                             __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_any_wide_bvh(wnodes, prim_ids, positions, rays[i]);
-}
-
-__kernel void trace_closest_wide8(__global const Wide8Node* wnodes,
-                                  __global const uint* prim_ids,
-                                  __global const float* positions, __global const Ray* rays,
-                                  __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_closest_wide8_bvh(wnodes, prim_ids, positions, rays[i]);
-}
-
-__kernel void trace_any_wide8(__global const Wide8Node* wnodes, __global const uint* prim_ids,
-                              __global const float* positions, __global const Ray* rays,
-                              __global Hit* hits, uint count) {
-    uint i = get_global_id(0);
-    if (i >= count) return;
-    hits[i] = trace_any_wide8_bvh(wnodes, prim_ids, positions, rays[i]);
 }
 
 // Pinhole camera: pixel (x, y) (y down, row-major) gets the ray from `org`

@@ -14,7 +14,7 @@
 use super::escape::{stackless_layout_into, StacklessNode};
 use super::settings::Traversal;
 use super::traverse::check_depth;
-use super::wide::{wide_layout_into, Wide8Node, WideNode};
+use super::wide::{wide_layout_into, Wide8Node, WideLayout, WideNode};
 use super::{Hit, PinholeCamera, Ray, TraceError};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
 use crate::device::{Arg, BufferArg, Device, GrowBuffer};
@@ -43,6 +43,45 @@ pub enum TraceKind {
     AnyWide8,
 }
 
+impl TraceKind {
+    /// Every kind, in declaration order (`kind as usize` indexes it).
+    const ALL: [TraceKind; 7] = [
+        TraceKind::Closest,
+        TraceKind::Any,
+        TraceKind::ClosestStackless,
+        TraceKind::ClosestWide,
+        TraceKind::AnyWide,
+        TraceKind::ClosestWide8,
+        TraceKind::AnyWide8,
+    ];
+
+    /// The kernel of `trace.cl` that runs it.
+    fn kernel_name(self) -> &'static str {
+        match self {
+            TraceKind::Closest => "trace_closest",
+            TraceKind::Any => "trace_any",
+            TraceKind::ClosestStackless => "trace_closest_stackless",
+            TraceKind::ClosestWide => "trace_closest_wide",
+            TraceKind::AnyWide => "trace_any_wide",
+            TraceKind::ClosestWide8 => "trace_closest_wide8",
+            TraceKind::AnyWide8 => "trace_any_wide8",
+        }
+    }
+
+    /// The name its launches are timed under (`Timings::ms`).
+    pub fn stage(self) -> &'static str {
+        match self {
+            TraceKind::Closest => "trace/closest",
+            TraceKind::Any => "trace/any",
+            TraceKind::ClosestStackless => "trace/stackless",
+            TraceKind::ClosestWide => "trace/closest_wide",
+            TraceKind::AnyWide => "trace/any_wide",
+            TraceKind::ClosestWide8 => "trace/closest_wide8",
+            TraceKind::AnyWide8 => "trace/any_wide8",
+        }
+    }
+}
+
 /// The cost of making a traversal layout (stackless, 4-wide or 8-wide) for
 /// one tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -65,12 +104,8 @@ pub struct TreeLayouts {
     nodes: GrowBuffer<BvhNode>,
     /// The depth of the uploaded binary tree; `None`: none uploaded.
     depth: Option<u32>,
-    wnodes: GrowBuffer<WideNode>,
-    wnode_host: Vec<WideNode>,
-    wnode_count: usize,
-    w8nodes: GrowBuffer<Wide8Node>,
-    w8node_host: Vec<Wide8Node>,
-    w8node_count: usize,
+    wide4: WideTree<WideNode>,
+    wide8: WideTree<Wide8Node>,
     snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     snode_count: usize,
@@ -80,8 +115,8 @@ impl TreeLayouts {
     /// Device buffer (re)allocations so far.
     pub fn allocations(&self) -> usize {
         self.nodes.allocations()
-            + self.wnodes.allocations()
-            + self.w8nodes.allocations()
+            + self.wide4.nodes.allocations()
+            + self.wide8.nodes.allocations()
             + self.snodes.allocations()
     }
 
@@ -112,38 +147,23 @@ impl TreeLayouts {
     /// Checks the tree's depth, collapses it into the 4-wide layout on the
     /// host and uploads that.
     pub fn upload_wide(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.wnode_count = 0;
-        check_depth(bvh)?;
-        let start = Instant::now();
-        wide_layout_into(bvh, &mut self.wnode_host)?;
-        let stats = upload_layout(device, &mut self.wnodes, &self.wnode_host, start)?;
-        self.wnode_count = stats.entries;
-        Ok(stats)
+        self.wide4.upload(device, bvh)
     }
 
     /// Checks the tree's depth, collapses it into the 8-wide layout on the
     /// host and uploads that.
     pub fn upload_wide8(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.w8node_count = 0;
-        check_depth(bvh)?;
-        let start = Instant::now();
-        wide_layout_into(bvh, &mut self.w8node_host)?;
-        let stats = upload_layout(device, &mut self.w8nodes, &self.w8node_host, start)?;
-        self.w8node_count = stats.entries;
-        Ok(stats)
+        self.wide8.upload(device, bvh)
     }
 
     /// The tree of an empty soup in every layout: an empty root for the
     /// binary and wide traversals, no stackless entries. Nothing is hit.
     pub fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
         device.write(self.nodes.ensure(device, 1)?, &[BvhNode::empty()])?;
-        device.write(self.wnodes.ensure(device, 1)?, &[WideNode::empty()])?;
-        let empty8 = <Wide8Node as super::wide::WideLayout>::empty();
-        device.write(self.w8nodes.ensure(device, 1)?, &[empty8])?;
+        self.wide4.upload_empty(device)?;
+        self.wide8.upload_empty(device)?;
         self.snodes.ensure(device, 1)?;
         self.depth = Some(0);
-        self.wnode_count = 1;
-        self.w8node_count = 1;
         self.snode_count = 0;
         Ok(())
     }
@@ -152,15 +172,16 @@ impl TreeLayouts {
     /// though its traversal reads one (see `buffers`).
     pub fn ensure_all(&mut self, device: &Device) -> Result<(), TraceError> {
         self.nodes.ensure(device, 1)?;
-        self.wnodes.ensure(device, 1)?;
-        self.w8nodes.ensure(device, 1)?;
+        self.wide4.nodes.ensure(device, 1)?;
+        self.wide8.nodes.ensure(device, 1)?;
         self.snodes.ensure(device, 1)?;
         Ok(())
     }
 
-    /// The three buffers, after `ensure_all`; those never uploaded are unread.
-    pub fn buffers(&self) -> (&Buffer<BvhNode>, &Buffer<WideNode>, &Buffer<StacklessNode>) {
-        (self.nodes.get(), self.wnodes.get(), self.snodes.get())
+    /// The binary and stackless buffers, after `ensure_all`; those never
+    /// uploaded are unread (`wide_arg` gives the wide one).
+    pub fn buffers(&self) -> (&Buffer<BvhNode>, &Buffer<StacklessNode>) {
+        (self.nodes.get(), self.snodes.get())
     }
 
     /// The wide nodes a kernel compiled for `traversal` reads (8-wide for
@@ -168,9 +189,9 @@ impl TreeLayouts {
     /// `ensure_all`.
     pub fn wide_arg(&self, traversal: Traversal) -> &dyn BufferArg {
         if traversal == Traversal::Wide8 {
-            self.w8nodes.get()
+            self.wide8.nodes.get()
         } else {
-            self.wnodes.get()
+            self.wide4.nodes.get()
         }
     }
 
@@ -181,18 +202,60 @@ impl TreeLayouts {
 
     /// The 4-wide nodes, once uploaded.
     pub fn wide(&self) -> Option<&Buffer<WideNode>> {
-        self.wnodes.buffer().filter(|_| self.wnode_count > 0)
+        self.wide4.uploaded()
     }
 
     /// The 8-wide nodes, once uploaded.
     pub fn wide8(&self) -> Option<&Buffer<Wide8Node>> {
-        self.w8nodes.buffer().filter(|_| self.w8node_count > 0)
+        self.wide8.uploaded()
     }
 
     /// The stackless entries and their count, once uploaded.
     pub fn stackless(&self) -> Option<(&Buffer<StacklessNode>, u32)> {
         let buffer = self.snodes.buffer().filter(|_| self.snode_count > 0)?;
         Some((buffer, self.snode_count as u32))
+    }
+}
+
+/// One W-wide layout of the frame's tree: its nodes on the device, the host
+/// scratch it is collapsed into, and how many nodes were uploaded (0: none).
+struct WideTree<N> {
+    nodes: GrowBuffer<N>,
+    host: Vec<N>,
+    count: usize,
+}
+
+impl<N> Default for WideTree<N> {
+    fn default() -> Self {
+        WideTree {
+            nodes: GrowBuffer::new(),
+            host: Vec::new(),
+            count: 0,
+        }
+    }
+}
+
+impl<N: WideLayout> WideTree<N> {
+    /// Checks the tree's depth, collapses it on the host and uploads it.
+    fn upload(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
+        self.count = 0;
+        check_depth(bvh)?;
+        let start = Instant::now();
+        wide_layout_into(bvh, &mut self.host)?;
+        let stats = upload_layout(device, &mut self.nodes, &self.host, start)?;
+        self.count = stats.entries;
+        Ok(stats)
+    }
+
+    /// One node with no child: an empty tree.
+    fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
+        device.write(self.nodes.ensure(device, 1)?, &[N::empty()])?;
+        self.count = 1;
+        Ok(())
+    }
+
+    fn uploaded(&self) -> Option<&Buffer<N>> {
+        self.nodes.buffer().filter(|_| self.count > 0)
     }
 }
 
@@ -222,13 +285,8 @@ pub fn trace_defines() -> Vec<(&'static str, String)> {
 /// The trace kernels and the current tree, on one device.
 pub struct DeviceTracer<'d> {
     device: &'d Device,
-    closest: Kernel,
-    any: Kernel,
-    stackless: Kernel,
-    closest_wide: Kernel,
-    any_wide: Kernel,
-    closest_wide8: Kernel,
-    any_wide8: Kernel,
+    /// One per `TraceKind`, at `kind as usize`.
+    kernels: Vec<Kernel>,
     primary: Kernel,
     layouts: TreeLayouts,
     /// Scratch for `trace_rays` (tests, tools).
@@ -247,13 +305,10 @@ impl<'d> DeviceTracer<'d> {
         let k = |name| device.kernel(&program, name);
         Ok(DeviceTracer {
             device,
-            closest: k("trace_closest")?,
-            any: k("trace_any")?,
-            stackless: k("trace_closest_stackless")?,
-            closest_wide: k("trace_closest_wide")?,
-            any_wide: k("trace_any_wide")?,
-            closest_wide8: k("trace_closest_wide8")?,
-            any_wide8: k("trace_any_wide8")?,
+            kernels: TraceKind::ALL
+                .iter()
+                .map(|kind| k(kind.kernel_name()))
+                .collect::<Result<_, _>>()?,
             primary: k("generate_primary")?,
             layouts: TreeLayouts::default(),
             rays: GrowBuffer::new(),
@@ -315,54 +370,31 @@ impl<'d> DeviceTracer<'d> {
         let missing =
             |what: &str, fix: &str| TraceError::Malformed(format!("no {what} uploaded ({fix})"));
         // The tree's arguments for this kind, then the ones all kernels share.
-        let (stage, kernel, mut args) = match kind {
+        let mut args = match kind {
             TraceKind::Closest | TraceKind::Any => {
-                let nodes = self
-                    .layouts
-                    .binary()
-                    .ok_or_else(|| missing("tree", "upload_bvh"))?;
-                let (stage, kernel) = if kind == TraceKind::Closest {
-                    ("trace/closest", &self.closest)
-                } else {
-                    ("trace/any", &self.any)
-                };
-                (stage, kernel, vec![Arg::Buf(nodes)])
+                let nodes = self.layouts.binary();
+                vec![Arg::Buf(
+                    nodes.ok_or_else(|| missing("tree", "upload_bvh"))?,
+                )]
             }
             TraceKind::ClosestWide | TraceKind::AnyWide => {
-                let wnodes = self
-                    .layouts
-                    .wide()
-                    .ok_or_else(|| missing("4-wide layout", "upload_wide"))?;
-                let (stage, kernel) = if kind == TraceKind::ClosestWide {
-                    ("trace/closest_wide", &self.closest_wide)
-                } else {
-                    ("trace/any_wide", &self.any_wide)
-                };
-                (stage, kernel, vec![Arg::Buf(wnodes)])
+                let nodes = self.layouts.wide();
+                vec![Arg::Buf(
+                    nodes.ok_or_else(|| missing("4-wide layout", "upload_wide"))?,
+                )]
             }
             TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
-                let wnodes = self
-                    .layouts
-                    .wide8()
-                    .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
-                let (stage, kernel) = if kind == TraceKind::ClosestWide8 {
-                    ("trace/closest_wide8", &self.closest_wide8)
-                } else {
-                    ("trace/any_wide8", &self.any_wide8)
-                };
-                (stage, kernel, vec![Arg::Buf(wnodes)])
+                let nodes = self.layouts.wide8();
+                vec![Arg::Buf(
+                    nodes.ok_or_else(|| missing("8-wide layout", "upload_wide8"))?,
+                )]
             }
             TraceKind::ClosestStackless => {
                 let (snodes, entries) = self
                     .layouts
                     .stackless()
                     .ok_or_else(|| missing("stackless layout", "upload_stackless"))?;
-                let entries = Arg::U32(entries);
-                (
-                    "trace/stackless",
-                    &self.stackless,
-                    vec![Arg::Buf(snodes), entries],
-                )
+                vec![Arg::Buf(snodes), Arg::U32(entries)]
             }
         };
         args.extend([
@@ -372,8 +404,9 @@ impl<'d> DeviceTracer<'d> {
             Arg::Buf(hits),
             Arg::U32(count),
         ]);
+        let kernel = &self.kernels[kind as usize];
         self.device
-            .launch(stage, kernel, groups, self.local_size, &args)?;
+            .launch(kind.stage(), kernel, groups, self.local_size, &args)?;
         Ok(())
     }
 

@@ -42,12 +42,41 @@ struct RtcRayHit {
     inst_id: [c_uint; 1],
 }
 
+impl RtcRayHit {
+    /// `ray`, with no hit yet.
+    fn new(ray: &Ray) -> RtcRayHit {
+        RtcRayHit {
+            org: ray.org,
+            tnear: ray.tmin,
+            dir: ray.dir,
+            tfar: ray.tmax,
+            mask: u32::MAX,
+            flags: 0,
+            geom_id: RTC_INVALID_GEOMETRY_ID,
+            prim_id: RTC_INVALID_GEOMETRY_ID,
+            inst_id: [RTC_INVALID_GEOMETRY_ID],
+            ..RtcRayHit::default()
+        }
+    }
+}
+
 /// `struct RTCIntersectContext` (no min-width, one instance level).
 #[repr(C)]
 struct RtcIntersectContext {
     flags: c_int,
     filter: *const c_void,
     inst_id: [c_uint; 1],
+}
+
+impl RtcIntersectContext {
+    /// `rtcInitIntersectContext` with the context flags `flags`.
+    fn new(flags: c_int) -> RtcIntersectContext {
+        RtcIntersectContext {
+            flags,
+            filter: std::ptr::null(),
+            inst_id: [RTC_INVALID_GEOMETRY_ID],
+        }
+    }
 }
 
 #[link(name = "embree3")]
@@ -148,24 +177,9 @@ impl<'a> EmbreeScene<'a> {
     /// Closest hits of `rays` with `rtcIntersect1`, into `hits`, with the
     /// context flags `flags` (`CONTEXT_COHERENT` or `CONTEXT_INCOHERENT`).
     pub fn intersect(&self, rays: &[Ray], hits: &mut [Hit], flags: c_int) {
-        let mut context = RtcIntersectContext {
-            flags,
-            filter: std::ptr::null(),
-            inst_id: [RTC_INVALID_GEOMETRY_ID],
-        };
+        let mut context = RtcIntersectContext::new(flags);
         for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
-            let mut rh = RtcRayHit {
-                org: ray.org,
-                tnear: ray.tmin,
-                dir: ray.dir,
-                tfar: ray.tmax,
-                mask: u32::MAX,
-                flags: 0,
-                geom_id: RTC_INVALID_GEOMETRY_ID,
-                prim_id: RTC_INVALID_GEOMETRY_ID,
-                inst_id: [RTC_INVALID_GEOMETRY_ID],
-                ..RtcRayHit::default()
-            };
+            let mut rh = RtcRayHit::new(ray);
             // SAFETY: a committed scene, an initialised context and ray.
             unsafe { rtcIntersect1(self.scene, &mut context, &mut rh) };
             *hit = if rh.geom_id == RTC_INVALID_GEOMETRY_ID {
@@ -188,21 +202,10 @@ impl EmbreeScene<'_> {
     /// `prim` is 0, Embree does not say which triangle) when something lies
     /// within the ray's interval, else a miss.
     pub fn occluded(&self, rays: &[Ray], hits: &mut [Hit], flags: c_int) {
-        let mut context = RtcIntersectContext {
-            flags,
-            filter: std::ptr::null(),
-            inst_id: [RTC_INVALID_GEOMETRY_ID],
-        };
+        let mut context = RtcIntersectContext::new(flags);
         for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
             // An RTCRay is the first 48 bytes of an RTCRayHit.
-            let mut rh = RtcRayHit {
-                org: ray.org,
-                tnear: ray.tmin,
-                dir: ray.dir,
-                tfar: ray.tmax,
-                mask: u32::MAX,
-                ..RtcRayHit::default()
-            };
+            let mut rh = RtcRayHit::new(ray);
             // SAFETY: a committed scene, an initialised context and ray.
             unsafe { rtcOccluded1(self.scene, &mut context, &mut rh) };
             *hit = if rh.tfar == f32::NEG_INFINITY {

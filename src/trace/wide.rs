@@ -113,18 +113,6 @@ macro_rules! wide_layout_impl {
 wide_layout_impl!(WideNode, 4);
 wide_layout_impl!(Wide8Node, 8);
 
-impl WideNode {
-    /// A node with four absent children.
-    pub fn empty() -> WideNode {
-        <WideNode as WideLayout>::empty()
-    }
-
-    /// Slot `k` decoded.
-    pub fn slot(&self, k: usize) -> (Child, Aabb) {
-        <WideNode as WideLayout>::slot(self, k)
-    }
-}
-
 /// The present (not empty) children of binary node `index`.
 fn children(bvh: &Bvh, index: u32) -> Result<impl Iterator<Item = (Child, Aabb)>, TraceError> {
     let node = bvh.nodes.get(index as usize).ok_or_else(|| {

@@ -359,7 +359,7 @@ impl PathTracer<'_> {
                 let mut args = vec![
                     Arg::Buf(self.layouts.buffers().0),
                     Arg::Buf(self.layouts.wide_arg(self.settings.traversal)),
-                    Arg::Buf(self.layouts.buffers().2),
+                    Arg::Buf(self.layouts.buffers().1),
                     Arg::U32(snode_count),
                     Arg::Buf(prim_ids),
                     Arg::Buf(positions),
