@@ -19,10 +19,7 @@ use soupray::trace::settings::{Environment, RenderSettings};
 
 /// A 2x1 RGBA PNG: white on the left, black on the right.
 fn white_black_png() -> Vec<u8> {
-    let img = image::RgbaImage::from_raw(2, 1, vec![255, 255, 255, 255, 0, 0, 0, 255]).unwrap();
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
+    common::scene::png(2, 1, &[255, 255, 255, 255, 0, 0, 0, 255])
 }
 
 /// Positions, normals, uvs and indices of a grid of `nx` x `nz` cells over
@@ -123,21 +120,26 @@ fn lamp_scene(dir: &Path, textured: bool) -> PathBuf {
 /// differs between the two lamps; independent samples measure the choice's
 /// weights alone.
 fn render(scene: &Path, seed: u32, spp: u32) -> soupray::film::Image {
-    let out = scene.with_extension(format!("seed{seed}"));
-    let run = common::soupray_cmd()
-        .args(["render", scene.to_str().unwrap(), "--frames", "0"])
-        .args(["--width", "48", "--height", "48", "--spp", &spp.to_string()])
-        .args(["--seed", &seed.to_string(), "--env-color", "0,0,0"])
-        .args(["--sampler", "random"])
-        .args(["--out", out.to_str().unwrap(), "--name", "f.#.exr"])
-        .output()
-        .expect("run soupray");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let (seed, spp) = (seed.to_string(), spp.to_string());
+    let exr = common::render_exr(
+        scene,
+        (48, 48),
+        &scene.with_extension(format!("seed{seed}")),
+        "f.exr",
+        &[
+            "--frames",
+            "0",
+            "--spp",
+            &spp,
+            "--seed",
+            &seed,
+            "--env-color",
+            "0,0,0",
+            "--sampler",
+            "random",
+        ],
     );
-    soupray::output::read_exr_rgba(&out.join("f.0.exr")).unwrap()
+    soupray::output::read_exr_rgba(&exr).unwrap()
 }
 
 fn mean(img: &soupray::film::Image) -> f64 {

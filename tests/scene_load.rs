@@ -391,10 +391,7 @@ fn default_camera_frames_the_whole_clip() {
 
 /// A 2x1 PNG made with the `image` crate.
 fn tiny_png() -> Vec<u8> {
-    let img = image::RgbaImage::from_raw(2, 1, vec![255, 0, 0, 255, 0, 0, 255, 255]).unwrap();
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
+    common::scene::png(2, 1, &[255, 0, 0, 255, 0, 0, 255, 255])
 }
 
 #[test]

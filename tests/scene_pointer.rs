@@ -63,10 +63,7 @@ fn animated_cube_with_a_rotation_pointer_equals_the_original() {
 
 /// A 2x1 RGBA PNG: red on the left, green on the right.
 fn red_green_png() -> Vec<u8> {
-    let img = image::RgbaImage::from_raw(2, 1, vec![255, 0, 0, 255, 0, 255, 0, 255]).unwrap();
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
+    common::scene::png(2, 1, &[255, 0, 0, 255, 0, 255, 0, 255])
 }
 
 /// A unit quad at z = 0 facing +Z (uvs 0..1 left to right), its material

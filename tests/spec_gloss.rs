@@ -7,16 +7,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::scene::{shared, Builder};
+use common::scene::{png, shared, Builder};
 use serde_json::json;
 use soupray::scene::{LoadOptions, Scene};
-
-fn png(width: u32, height: u32, rgba: Vec<u8>) -> Vec<u8> {
-    let img = image::RgbaImage::from_raw(width, height, rgba).unwrap();
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
-}
 
 /// A triangle and two spec-gloss materials: factors only (over a fallback
 /// metallic-roughness that must lose), and textures with a glossiness of
@@ -25,9 +18,9 @@ fn spec_gloss_file(dir: &Path) -> PathBuf {
     let mut b = Builder::default();
     let positions = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 3);
     let uvs = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 2);
-    let diffuse = b.view(&png(1, 1, vec![200, 100, 50, 255]));
+    let diffuse = b.view(&png(1, 1, &[200, 100, 50, 255]));
     // Specular RGB in sRGB, glossiness in A: 0 on the left, 1 on the right.
-    let spec_gloss = b.view(&png(2, 1, vec![10, 20, 30, 0, 40, 50, 60, 255]));
+    let spec_gloss = b.view(&png(2, 1, &[10, 20, 30, 0, 40, 50, 60, 255]));
     let root = json!({
         "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
         "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],

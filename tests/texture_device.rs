@@ -269,8 +269,13 @@ fn transform_and_texcoord_on_the_device_by_hand() {
     }
 }
 
-/// Every shaded texture of `file`, sampled through its materials' bindings.
-fn real_asset(file: &str, random: usize) {
+/// The textures of `file`'s materials on the host and on the device, and
+/// the binding of every shaded slot that has one (after checking it
+/// against the host's), for `f`; nothing when the asset is absent.
+fn with_asset_textures(
+    file: &str,
+    f: impl FnOnce(&HostTextures, &TextureSet, Vec<TextureBinding>),
+) {
     let Some(path) = asset(file) else {
         return;
     };
@@ -281,15 +286,25 @@ fn real_asset(file: &str, random: usize) {
     let set = TextureSet::new(&d, table).unwrap();
     assert!(!set.is_empty(), "{file}");
     assert_eq!(set.texel_bytes(), host.texels.len() * 4);
-    let mut rng = common::Rng::new(7);
-    let (mut bindings, mut uv0) = (Vec::new(), Vec::new());
+    let mut slots = Vec::new();
     for m in &table.materials {
         for slot in Slot::SHADED {
             let b = set.slot_binding(m, slot);
-            if b.is_none() {
-                continue;
+            if !b.is_none() {
+                assert_eq!(b, host.binding(slot.of(m).unwrap(), slot.is_srgb()));
+                slots.push(b);
             }
-            assert_eq!(b, host.binding(slot.of(m).unwrap(), slot.is_srgb()));
+        }
+    }
+    f(&host, &set, slots);
+}
+
+/// Every shaded texture of `file`, sampled through its materials' bindings.
+fn real_asset(file: &str, random: usize) {
+    with_asset_textures(file, |host, set, slots| {
+        let mut rng = common::Rng::new(7);
+        let (mut bindings, mut uv0) = (Vec::new(), Vec::new());
+        for b in slots {
             let info = host.info[b.texture as usize];
             // Linear as well as the slot's own encoding.
             for srgb in [b.srgb, 1 - b.srgb] {
@@ -299,9 +314,9 @@ fn real_asset(file: &str, random: usize) {
                 }
             }
         }
-    }
-    assert!(!bindings.is_empty(), "{file} samples no texture");
-    compare(&set, &host, &bindings, &uv0, &uv0.clone(), file);
+        assert!(!bindings.is_empty(), "{file} samples no texture");
+        compare(set, host, &bindings, &uv0, &uv0.clone(), file);
+    });
 }
 
 /// `texture_triangle_mean` on the device against its Rust reference, for
@@ -309,33 +324,31 @@ fn real_asset(file: &str, random: usize) {
 /// within [0, 1]², some a texel or less across, some spanning several
 /// periods.
 fn triangle_means(file: &str, count: usize) {
-    let Some(path) = asset(file) else {
-        return;
-    };
-    let d = common::device();
-    let scene = Scene::load(&path, &LoadOptions::default()).unwrap();
-    let table = scene.materials();
-    let host = HostTextures::new(table).unwrap();
-    let set = TextureSet::new(&d, table).unwrap();
+    with_asset_textures(file, |host, set, slots| {
+        triangle_means_of(file, host, set, &slots, count)
+    });
+}
+
+fn triangle_means_of(
+    file: &str,
+    host: &HostTextures,
+    set: &TextureSet,
+    slots: &[TextureBinding],
+    count: usize,
+) {
     let mut rng = common::Rng::new(11);
     let (mut bindings, mut triangles) = (Vec::new(), Vec::new());
-    for m in &table.materials {
-        for slot in Slot::SHADED {
-            let b = set.slot_binding(m, slot);
-            if b.is_none() {
-                continue;
-            }
-            for i in 0..count {
-                let scale = [1.0f32, 1e-3, 4.0][i % 3];
-                let base = [rng.f32(), rng.f32()];
-                let mut corner = || std::array::from_fn(|a| base[a] + scale * (rng.f32() - 0.5));
-                let tri: ([[f32; 2]; 3], [[f32; 2]; 3]) = (
-                    [corner(), corner(), corner()],
-                    [corner(), corner(), corner()],
-                );
-                bindings.push(b);
-                triangles.push(tri);
-            }
+    for &b in slots {
+        for i in 0..count {
+            let scale = [1.0f32, 1e-3, 4.0][i % 3];
+            let base = [rng.f32(), rng.f32()];
+            let mut corner = || std::array::from_fn(|a| base[a] + scale * (rng.f32() - 0.5));
+            let tri: ([[f32; 2]; 3], [[f32; 2]; 3]) = (
+                [corner(), corner(), corner()],
+                [corner(), corner(), corner()],
+            );
+            bindings.push(b);
+            triangles.push(tri);
         }
     }
     assert!(!bindings.is_empty(), "{file} has no texture");
@@ -343,7 +356,7 @@ fn triangle_means(file: &str, count: usize) {
     let mut worst = 0.0f32;
     for i in 0..bindings.len() {
         let want = soupray::trace::texture_mean::texture_triangle_mean_ref(
-            &host,
+            host,
             &bindings[i],
             &triangles[i],
         );

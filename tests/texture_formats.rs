@@ -9,6 +9,7 @@
 mod common;
 
 use common::scene::ktx2::uastc_ktx2;
+use common::scene::png;
 use common::shared::khronos;
 use serde_json::{json, Value};
 use soupray::scene::material::DecodedImage;
@@ -76,15 +77,6 @@ pub fn webp(w: u32, h: u32, rgba: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     image::codecs::webp::WebPEncoder::new_lossless(&mut out)
         .encode(rgba, w, h, image::ExtendedColorType::Rgba8)
-        .unwrap();
-    out
-}
-
-fn png(w: u32, h: u32, rgba: &[u8]) -> Vec<u8> {
-    let mut out = Vec::new();
-    image::RgbaImage::from_raw(w, h, rgba.to_vec())
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
         .unwrap();
     out
 }

@@ -42,6 +42,16 @@ pub use reference::{assert_soup_matches, bounds_of, instance_triangles, load, Ra
 // ---------------------------------------------------------------------------
 // Synthetic files
 
+/// A `w` x `h` RGBA8 image (rows top to bottom) encoded as PNG.
+pub fn png(w: u32, h: u32, rgba: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    image::RgbaImage::from_raw(w, h, rgba.to_vec())
+        .expect("w * h * 4 bytes")
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .unwrap();
+    out
+}
+
 pub fn base64(bytes: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
