@@ -6,29 +6,47 @@
 //!
 //! Flags (defaults in brackets): `--size WxH` [384x256], `--spp LIST`
 //! [16,64,256], `--ref-spp N` [4096], `--meshes LIST` [beast,nefertiti],
-//! `--lightings LIST` [sky,sun], `--samplers LIST` [sobol,random] (soupray's
-//! `--sampler`; a soupray without that flag gets one variant, `default`),
-//! `--max-depth N` [8], `--threads N` [all cores] (Cycles' threads; soupray
-//! uses the whole OpenCL device), `--out DIR` [out/bench-cycles],
-//! `--fresh-refs` (render the references again), `--scenes-only` (write the
-//! scenes and stop). `BLENDER=PATH` picks the Blender binary (default:
-//! `blender` on PATH; without one the bench says so and exits 0). Blender's
-//! glTF importer needs numpy in Blender's Python, which Debian's `blender`
-//! package does not pull in: `apt-get install blender python3-numpy`.
+//! `--lightings LIST` [sky,sun,interior], `--samplers LIST` [sobol,random]
+//! (soupray's `--sampler`; a soupray without that flag gets one variant,
+//! `default`), `--cycles LIST` [3.4,5,5-guided], `--runs N` [1] (timed
+//! renders per scene, every renderer in turn in each run; the report gives
+//! medians), `--max-depth N` [8] (the interior's is 64), `--threads N`
+//! [all cores] (Cycles' threads; soupray uses the whole OpenCL device),
+//! `--out DIR` [out/bench-cycles], `--fresh-refs` (render the references
+//! again), `--scenes-only` (write the scenes and stop).
 //!
-//! What it does: writes glTF 2.0 scenes from the scanned meshes
-//! (the shared folder's meshes/*.ply, read in place) standing on a ground quad, a camera framing
-//! each, every material a 0.8 grey Lambertian, in two lightings: `sky`
-//! (constant white sky of radiance 1, no lights) and `sun` (a 3 lux
-//! KHR_lights_punctual directional light, oblique so the mesh casts a
-//! shadow, plus a sky of radiance 0.1). Each scene is rendered by soupray
-//! (`soupray render --clay --env-color …`, once per sampler) and by Cycles
-//! (`blender -b -P benches/cycles/render_cycles.py`, which translates the
-//! scene like for like: Diffuse BSDF 0.8, constant world, sun strength =
-//! lux, angle 0, no clamping/denoising/adaptive sampling, bounces = depth -
-//! 1, Blackman-Harris 1.5 px like soupray) at every `--spp`, and each is
+//! The Cycles it runs, each skipped with a message where it is absent:
+//! * `3.4`: a Blender binary, `BLENDER=PATH` or `blender` on PATH
+//!   (Debian's is 3.4; its glTF importer needs numpy, which the package
+//!   does not pull in: `apt-get install blender python3-numpy`);
+//! * `5` and `5-guided`: Blender 5 as a Python module (`pip install
+//!   bpy==5.0.1`, Python 3.11; `SOUPRAY_BPY_PATH=DIR` for a `pip install
+//!   --target DIR`), with its defaults (light tree, tabulated Sobol), path
+//!   guiding off and on. The report compares soupray with the better of
+//!   the two at each sample count, and with Cycles 3.4.
+//!
+//! What it does: writes glTF 2.0 scenes from the scanned meshes (the
+//! shared folder's meshes/*.ply, read in place), in three lightings:
+//! * `sky` and `sun`: the mesh standing on a ground quad, a camera framing
+//!   it, every material a 0.8 grey Lambertian (soupray `--clay`, Cycles a
+//!   Diffuse BSDF 0.8), under a constant white sky of radiance 1, or a 3
+//!   lux KHR_lights_punctual sun, oblique so the mesh casts a shadow, and
+//!   a sky of radiance 0.1;
+//! * `interior`: the mesh as a rough gold metal figure (roughness 0.4) in
+//!   a closed white room (glTF's dielectric, base 0.8, roughness 1), lit by
+//!   the same sun and sky through a window, 64 bounces for both: indirect
+//!   light dominates. Both renderers render the file's materials (Cycles:
+//!   the Principled BSDFs of Blender's importer).
+//!
+//! Each scene is rendered by soupray (`soupray render --env-color …`, once
+//! per sampler) and by each Cycles (`benches/cycles/render_cycles.py`,
+//! which translates the scene like for like: constant world, sun strength
+//! = lux, angle 0, no clamping/denoising/adaptive sampling, bounces = depth
+//! - 1, Blackman-Harris 1.5 px like soupray) at every `--spp`, and each is
 //! compared with its own renderer's reference at `--ref-spp` (another
-//! seed) by relative MSE (`soupray::compare::relative_mse`). The two
+//! seed) by relative MSE (`soupray::compare::relative_mse`); a Blender
+//! version's guided and unguided renders share its unguided reference
+//! (guiding changes the noise, not the expectation). The
 //! references must agree on the mean brightness within 3% (printed), or the
 //! translation is wrong. References are cached under `OUT/refs/`, keyed by
 //! every setting and a hash of the scene (and, for Cycles, of the script
@@ -51,16 +69,17 @@
 //!   0.1 s here), but not Blender's start-up, the glTF import or the EXR
 //!   write. One untimed 1-spp render runs first in each Blender process
 //!   so that one-time initialisation is not counted. `sampling` is Cycles'
-//!   path tracing alone, from its first sample to `Finished` in Blender's
-//!   status lines (10 ms resolution, so meaningless on tiny images); for
-//!   soupray it is the trace time again.
+//!   path tracing alone, from its first sample to `Finished` in Cycles'
+//!   status messages (the script's render_stats handler); for soupray it
+//!   is the trace time again.
 //! * The product rel. MSE x time is inverse efficiency (lower is better);
 //!   the ratio column is soupray's product over Cycles' at the same spp
 //!   (below 1: soupray reaches a given error sooner). Each renderer is
 //!   measured against its own reference, so a bias of one renderer against
 //!   the other is not in the MSE (the reference check above covers it).
 //!   Cycles 3.4 samples with its default pattern (progressive
-//!   multi-jitter); soupray with each of `--samplers`.
+//!   multi-jitter), Cycles 5 with its default (tabulated Sobol); soupray
+//!   with each of `--samplers`.
 //! * Both run on the same CPU: soupray through PoCL on every core, Cycles
 //!   with `--threads` threads. Run it on a quiet machine: with anything
 //!   else running, the times (not the errors) mean little.
@@ -76,7 +95,7 @@ mod scenes;
 
 use opts::{parse_opts, Opts, USAGE};
 use references::{cached_reference, mean_rgb, source_hash};
-use renderers::{find_on_path, run_logged, Cycles, Job, Soupray};
+use renderers::{find_on_path, run_logged, Cycles, Job, Launcher, Soupray};
 use report::{date, fmt_sci, machine, Row};
 use scenes::{fnv1a, mesh_spec, write_scenes, SceneFile, FNV_START};
 use soupray::film::Image;
@@ -93,6 +112,9 @@ const REF_SEED: u64 = 1000;
 /// The sun: irradiance (lux, as soupray reads it) and the constant sky under it.
 const SUN_LUX: f32 = 3.0;
 const SUN_SKY: f32 = 0.1;
+/// The interior's path depth, for both renderers: light that comes in
+/// through a window bounces long.
+const INTERIOR_DEPTH: u32 = 64;
 /// How far the two references' mean brightness may differ.
 const MEAN_TOLERANCE: f64 = 0.03;
 /// Bump when the scene generation or the cache layout changes.
@@ -131,19 +153,15 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
         return Ok(());
     }
 
-    let blender = match std::env::var_os("BLENDER") {
-        Some(b) => Some(PathBuf::from(b)),
-        None => find_on_path("blender"),
-    };
-    let Some(blender) = blender else {
+    let (cycles, script_hash) = cycles_renderers(o, root)?;
+    if cycles.is_empty() {
         println!(
-            "cycles bench: skipped: Blender (`blender`) is not on PATH, and the bench compares \
-             soupray with Blender's Cycles.\nInstall it (Debian/Ubuntu: `apt-get install blender python3-numpy`) \
-             or point BLENDER=/path/to/blender at one, then run `cargo bench --bench cycles` again."
+            "cycles bench: skipped: none of the Cycles asked for ({}) is installed, and the bench \
+             compares soupray with Cycles. Install one (see above), then run `cargo bench --bench cycles` again.",
+            o.cycles.join(", ")
         );
         return Ok(());
-    };
-    let (cycles, script_hash) = cycles_renderer(root, blender)?;
+    }
     let (soupray, samplers) = soupray_renderer(o)?;
     let code_hash = source_hash(&[
         root.join("kernels"),
@@ -159,8 +177,17 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
         .collect::<Vec<_>>()
         .join(",");
     eprintln!(
-        "soupray vs {}: {}x{}, spp {spp_list}, references {} spp, depth {}, {} Cycles threads",
-        cycles.version, o.width, o.height, o.ref_spp, o.max_depth, o.threads
+        "soupray vs {}: {}x{}, spp {spp_list}, references {} spp, depth {} (interior {INTERIOR_DEPTH}), {} Cycles threads",
+        cycles
+            .iter()
+            .map(|c| format!("Cycles {}", c.label))
+            .collect::<Vec<_>>()
+            .join(", "),
+        o.width,
+        o.height,
+        o.ref_spp,
+        o.max_depth,
+        o.threads
     );
 
     let previews = o.out.join("previews");
@@ -179,7 +206,7 @@ fn run(o: &Opts, args: &[String]) -> Result<(), String> {
         rows: Vec::new(),
         ref_lines: Vec::new(),
         ref_csv: String::from(
-            "mesh,lighting,soupray_mean,cycles_mean,difference,cross_rel_mse,soupray_ref_time_s,cycles_ref_time_s\n",
+            "mesh,lighting,cycles,soupray_mean,cycles_mean,difference,cross_rel_mse,soupray_ref_time_s,cycles_ref_time_s\n",
         ),
         mismatches: Vec::new(),
         device: None,
@@ -211,29 +238,67 @@ fn write_all_scenes(
     Ok(scenes)
 }
 
-/// Cycles through `blender`, and the hash of its script (part of the
-/// references' cache key).
-fn cycles_renderer(root: &Path, blender: PathBuf) -> Result<(Cycles, u64), String> {
-    let version = run_logged(
-        Command::new(&blender).args(["-b", "--factory-startup", "--version"]),
-        "blender --version",
-    )?
-    .lines()
-    .find(|l| l.starts_with("Blender "))
-    .unwrap_or("Blender (unknown version)")
-    .trim()
-    .to_owned();
+/// The Cycles of `--cycles` that are installed (each missing one skipped
+/// with a message), and the hash of their script (part of the references'
+/// cache key).
+fn cycles_renderers(o: &Opts, root: &Path) -> Result<(Vec<Cycles>, u64), String> {
     let script = root.join("benches/cycles/render_cycles.py");
     let script_hash = fnv1a(
         FNV_START,
         &std::fs::read(&script).map_err(|e| format!("{}: {e}", script.display()))?,
     );
-    let cycles = Cycles {
-        blender,
-        script,
-        version,
-    };
-    Ok((cycles, script_hash))
+    let mut found = Vec::new();
+    for want in &o.cycles {
+        let (launcher, guiding, install) = if want == "3.4" {
+            let blender = std::env::var_os("BLENDER")
+                .map(PathBuf::from)
+                .or_else(|| find_on_path("blender"));
+            let Some(blender) = blender else {
+                println!(
+                    "cycles bench: Cycles 3.4 skipped: no `blender` on PATH. Install it \
+                     (Debian/Ubuntu: `apt-get install blender python3-numpy`) or point \
+                     BLENDER=/path/to/blender at one."
+                );
+                continue;
+            };
+            (Launcher::Binary(blender), false, "BLENDER")
+        } else {
+            let pythonpath = std::env::var_os("SOUPRAY_BPY_PATH");
+            (
+                Launcher::Module { pythonpath },
+                want == "5-guided",
+                "`pip install bpy==5.0.1` (Python 3.11; SOUPRAY_BPY_PATH=DIR for a \
+                 `pip install --target DIR`)",
+            )
+        };
+        let Some(version) = launcher.version() else {
+            println!(
+                "cycles bench: Cycles {want} skipped: no Blender starts; install it: {install}"
+            );
+            continue;
+        };
+        // `Blender 5.0.1` -> `5.0`.
+        let anchor = version
+            .trim_start_matches("Blender ")
+            .split('.')
+            .take(2)
+            .collect::<Vec<_>>()
+            .join(".");
+        let label = if guiding {
+            format!("{anchor} guided")
+        } else {
+            anchor.clone()
+        };
+        found.push(Cycles {
+            launcher,
+            script: script.clone(),
+            version,
+            anchor,
+            label,
+            guiding,
+        });
+    }
+    Ok((found, script_hash))
 }
 
 /// This build's soupray binary, and the sampler variants it is run with
@@ -277,7 +342,7 @@ fn bench_command(args: &[String]) -> String {
 struct Bench<'a> {
     o: &'a Opts,
     soupray: Soupray,
-    cycles: Cycles,
+    cycles: Vec<Cycles>,
     samplers: Vec<String>,
     code_hash: u64,
     script_hash: u64,
@@ -308,43 +373,76 @@ impl Bench<'_> {
         results: &mut Results,
     ) -> Result<(), String> {
         let o = self.o;
-        let env = if lighting == "sun" { SUN_SKY } else { 1.0 };
         let tag = format!("{mesh}-{lighting}");
         eprintln!("{tag} ({} triangles): references…", scene.triangles);
 
         let ref_job = Job {
             scene: &scene.path,
-            env,
+            env: scene.env,
+            max_depth: scene.max_depth,
+            materials: scene.materials,
             seed: REF_SEED,
         };
         let job = Job {
             seed: TEST_SEED,
             ..ref_job
         };
-        let (s_ref, c_ref) = self.references(mesh, lighting, scene, &ref_job, results)?;
-        self.soupray_renders(mesh, lighting, &job, &s_ref, results)?;
-        eprintln!("  Cycles {} spp…", self.spp_list);
-        let dir = o.out.join("renders").join(&tag).join("cycles");
-        let renders = self.cycles.render(o, &job, &o.spp, &dir)?;
-        for (&spp, r) in o.spp.iter().zip(renders) {
-            results.rows.push(Row {
-                mesh: mesh.clone(),
-                lighting: lighting.clone(),
-                spp,
-                renderer: "cycles",
-                variant: "cycles".into(),
-                rel_mse: soupray::compare::relative_mse(&r.image, &c_ref)
-                    .map_err(|e| e.to_string())?,
-                time: r.time,
-                total: r.total,
-                sampling: r.sampling,
-            });
+        let (s_ref, c_refs) = self.references(mesh, lighting, scene, &ref_job, results)?;
+        let start = results.rows.len();
+        for run in 1..=o.runs {
+            if o.runs > 1 {
+                eprintln!("  run {run} of {}", o.runs);
+            }
+            self.timed_renders(mesh, lighting, &job, (&s_ref, &c_refs), results)?;
+        }
+        let runs = results.rows.split_off(start);
+        results.rows.extend(median_rows(runs));
+        Ok(())
+    }
+
+    /// One run of the timed renders: soupray's, then each Cycles', each
+    /// against its own reference.
+    fn timed_renders(
+        &self,
+        mesh: &String,
+        lighting: &String,
+        job: &Job,
+        (s_ref, c_refs): (&Image, &BTreeMap<String, Image>),
+        results: &mut Results,
+    ) -> Result<(), String> {
+        let o = self.o;
+        let tag = format!("{mesh}-{lighting}");
+        self.soupray_renders(mesh, lighting, job, s_ref, results)?;
+        for cycles in &self.cycles {
+            eprintln!("  Cycles {} {} spp…", cycles.label, self.spp_list);
+            let dir = o
+                .out
+                .join("renders")
+                .join(&tag)
+                .join(format!("cycles-{}", cycles.label.replace(' ', "-")));
+            let renders = cycles.render(o, job, &o.spp, &dir)?;
+            for (&spp, r) in o.spp.iter().zip(renders) {
+                results.rows.push(Row {
+                    mesh: mesh.clone(),
+                    lighting: lighting.clone(),
+                    spp,
+                    renderer: "cycles",
+                    variant: cycles.label.clone(),
+                    anchor: cycles.anchor.clone(),
+                    rel_mse: soupray::compare::relative_mse(&r.image, &c_refs[&cycles.anchor])
+                        .map_err(|e| e.to_string())?,
+                    time: r.time,
+                    total: r.total,
+                    sampling: r.sampling,
+                });
+            }
         }
         Ok(())
     }
 
-    /// soupray's and Cycles' references of the scene (cached), their
-    /// previews, and how far they agree.
+    /// soupray's reference of the scene and each Blender version's (cached;
+    /// a version's is rendered with guiding off), their previews, and how
+    /// far they agree.
     fn references(
         &self,
         mesh: &String,
@@ -352,13 +450,13 @@ impl Bench<'_> {
         scene: &SceneFile,
         ref_job: &Job,
         results: &mut Results,
-    ) -> Result<(Image, Image), String> {
-        let (o, soupray, cycles) = (self.o, &self.soupray, &self.cycles);
+    ) -> Result<(Image, BTreeMap<String, Image>), String> {
+        let (o, soupray) = (self.o, &self.soupray);
         let (code_hash, script_hash) = (self.code_hash, self.script_hash);
         let tag = format!("{mesh}-{lighting}");
         let common = format!(
             "{tag}-{}x{}-spp{}-seed{REF_SEED}-depth{}-scene{:016x}",
-            o.width, o.height, o.ref_spp, o.max_depth, scene.hash
+            o.width, o.height, o.ref_spp, scene.max_depth, scene.hash
         );
         // soupray's reference: the first sampler variant.
         let ref_variant = self.samplers[0].clone();
@@ -378,57 +476,77 @@ impl Bench<'_> {
                 format!("{:.1} s", t.elapsed().as_secs_f64())
             }
         );
-        let t = Instant::now();
-        let (c_ref, c_ref_time, c_cached) = cached_reference(
-            o,
-            &o.out.join("refs").join(format!(
-                "cycles-{common}-threads{}-script{script_hash:016x}-{:016x}",
-                o.threads,
-                fnv1a(FNV_START, cycles.version.as_bytes())
-            )),
-            |dir| {
-                cycles
-                    .render(o, ref_job, &[o.ref_spp], dir)
-                    .map(|mut v| v.remove(0))
-            },
-        )?;
-        eprintln!(
-            "  Cycles reference: {}",
-            if c_cached {
-                "cached".to_owned()
-            } else {
-                format!("{:.1} s", t.elapsed().as_secs_f64())
+        let p = self.previews.join(format!("{tag}-soupray.png"));
+        soupray::output::write_png_preview(&p, &s_ref, 0.0, false)
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+        let mut c_refs = BTreeMap::new();
+        for cycles in &self.cycles {
+            if c_refs.contains_key(&cycles.anchor) {
+                continue;
             }
-        );
-        for (name, img) in [("soupray", &s_ref), ("cycles", &c_ref)] {
-            let p = self.previews.join(format!("{tag}-{name}.png"));
-            soupray::output::write_png_preview(&p, img, 0.0, false)
+            let unguided = Cycles {
+                guiding: false,
+                ..cycles.clone()
+            };
+            let t = Instant::now();
+            let (c_ref, c_ref_time, c_cached) = cached_reference(
+                o,
+                &o.out.join("refs").join(format!(
+                    "cycles-{}-{common}-threads{}-script{script_hash:016x}-{:016x}",
+                    cycles.anchor,
+                    o.threads,
+                    fnv1a(FNV_START, cycles.version.as_bytes())
+                )),
+                |dir| {
+                    unguided
+                        .render(o, ref_job, &[o.ref_spp], dir)
+                        .map(|mut v| v.remove(0))
+                },
+            )?;
+            eprintln!(
+                "  Cycles {} reference: {}",
+                cycles.anchor,
+                if c_cached {
+                    "cached".to_owned()
+                } else {
+                    format!("{:.1} s", t.elapsed().as_secs_f64())
+                }
+            );
+            let p = self
+                .previews
+                .join(format!("{tag}-cycles-{}.png", cycles.anchor));
+            soupray::output::write_png_preview(&p, &c_ref, 0.0, false)
                 .map_err(|e| format!("{}: {e}", p.display()))?;
-        }
-        if (s_ref.width, s_ref.height) != (c_ref.width, c_ref.height) {
-            return Err(format!(
-                "{tag}: soupray's reference is {}x{}, Cycles' {}x{}",
-                s_ref.width, s_ref.height, c_ref.width, c_ref.height
+            if (s_ref.width, s_ref.height) != (c_ref.width, c_ref.height) {
+                return Err(format!(
+                    "{tag}: soupray's reference is {}x{}, Cycles {}' {}x{}",
+                    s_ref.width, s_ref.height, cycles.anchor, c_ref.width, c_ref.height
+                ));
+            }
+            let (sm, cm) = (mean_rgb(&s_ref), mean_rgb(&c_ref));
+            let diff = sm / cm - 1.0;
+            let cross =
+                soupray::compare::relative_mse(&s_ref, &c_ref).map_err(|e| e.to_string())?;
+            if diff.abs() > MEAN_TOLERANCE {
+                results.mismatches.push(format!(
+                    "{tag}: soupray {sm:.4} vs Cycles {} {cm:.4}",
+                    cycles.anchor
+                ));
+            }
+            results.ref_lines.push(format!(
+                "| {mesh} | {lighting} | {} | {sm:.4} | {cm:.4} | {:+.2}% | {} |",
+                cycles.anchor,
+                diff * 100.0,
+                fmt_sci(cross)
             ));
+            let _ = writeln!(
+                results.ref_csv,
+                "{mesh},{lighting},{},{sm},{cm},{diff},{cross},{s_ref_time},{c_ref_time}",
+                cycles.anchor
+            );
+            c_refs.insert(cycles.anchor.clone(), c_ref);
         }
-        let (sm, cm) = (mean_rgb(&s_ref), mean_rgb(&c_ref));
-        let diff = sm / cm - 1.0;
-        let cross = soupray::compare::relative_mse(&s_ref, &c_ref).map_err(|e| e.to_string())?;
-        if diff.abs() > MEAN_TOLERANCE {
-            results
-                .mismatches
-                .push(format!("{tag}: soupray {sm:.4} vs Cycles {cm:.4}"));
-        }
-        results.ref_lines.push(format!(
-            "| {mesh} | {lighting} | {sm:.4} | {cm:.4} | {:+.2}% | {} |",
-            diff * 100.0,
-            fmt_sci(cross)
-        ));
-        let _ = writeln!(
-            results.ref_csv,
-            "{mesh},{lighting},{sm},{cm},{diff},{cross},{s_ref_time},{c_ref_time}"
-        );
-        Ok((s_ref, c_ref))
+        Ok((s_ref, c_refs))
     }
 
     /// The timed soupray renders of the scene, each sampler variant after an
@@ -467,6 +585,7 @@ impl Bench<'_> {
                     spp,
                     renderer: "soupray",
                     variant: variant.clone(),
+                    anchor: String::new(),
                     rel_mse: soupray::compare::relative_mse(&r.image, s_ref)
                         .map_err(|e| e.to_string())?,
                     time: r.time,
@@ -511,23 +630,26 @@ impl Bench<'_> {
         Ok(())
     }
 
-    /// The report's header: the machine and settings, the references'
-    /// table, and the heading of the renders' table.
+    /// The report's header: the machine and settings, and the references'
+    /// table.
     fn report_header(&self, command: &str, results: &Results) -> String {
         let o = self.o;
         let mut md = String::new();
+        let mut versions: Vec<&str> = self.cycles.iter().map(|c| c.version.as_str()).collect();
+        versions.dedup();
         let _ = writeln!(
             md,
             "\nsoupray vs Cycles — machine: {}; soupray device: {}; {}; {}\ncommand: `{command}`\n",
             machine(),
             results.device.as_deref().unwrap_or("?"),
-            self.cycles.version,
+            versions.join(", "),
             date()
         );
         let _ = writeln!(
             md,
-            "{}x{}, max depth {} (Cycles: {} bounces), references {} spp (seed {REF_SEED}; \
-             soupray's with the `{}` sampler), renders seed {TEST_SEED}, Cycles on {} threads.\n",
+            "{}x{}, max depth {} (Cycles: {} bounces; the interior {INTERIOR_DEPTH}), references {} spp (seed {REF_SEED}; \
+             soupray's with the `{}` sampler, Cycles' with guiding off), renders seed {TEST_SEED}, \
+             Cycles on {} threads.\n",
             o.width,
             o.height,
             o.max_depth,
@@ -542,37 +664,106 @@ impl Bench<'_> {
         );
         let _ = writeln!(
             md,
-            "| mesh | lighting | soupray mean | Cycles mean | difference | rel. MSE between them |"
+            "| mesh | lighting | Cycles | soupray mean | Cycles mean | difference | rel. MSE between them |"
         );
-        let _ = writeln!(md, "|---|---|---:|---:|---:|---:|");
+        let _ = writeln!(md, "|---|---|---|---:|---:|---:|---:|");
         for l in &results.ref_lines {
             let _ = writeln!(md, "{l}");
         }
-        let _ = writeln!(
-            md,
-            "\nEach render against its own renderer's reference (rel. MSE). time: soupray = \
-             trace (frame log `timings_ms.trace`), Cycles = bpy.ops.render.render (scene sync, \
-             BVH build and path tracing). ratio: soupray's MSE x time over Cycles' at the same \
-             spp (below 1: soupray is more efficient). total: soupray's whole frame (evaluate, \
-             build, trace, write). sampling: path tracing alone (soupray: trace; Cycles: first \
-             sample to finished, from Blender's log, 10 ms resolution), and the ratio on it.\n"
-        );
-        let _ = writeln!(
-            md,
-            "| mesh | lighting | spp | renderer | rel. MSE | time (s) | MSE x time | ratio to Cycles \
-             | total (s) | sampling (s) | ratio, sampling only |"
-        );
-        let _ = writeln!(md, "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|");
         md
     }
 }
 
-/// The renders' table: its Markdown rows added to `md`; returns the CSV.
+/// One row per renderer, variant and sample count of several runs' rows
+/// (in the order of the first run): the median of each measure.
+fn median_rows(rows: Vec<Row>) -> Vec<Row> {
+    let mut groups: Vec<Vec<Row>> = Vec::new();
+    for r in rows {
+        let same = |g: &Vec<Row>| {
+            let f = &g[0];
+            (f.renderer, &f.variant, f.spp) == (r.renderer, &r.variant, r.spp)
+        };
+        match groups.iter_mut().find(|g| same(g)) {
+            Some(g) => g.push(r),
+            None => groups.push(vec![r]),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|g| {
+            let median = |f: fn(&Row) -> f64| {
+                let mut v: Vec<f64> = g.iter().map(f).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            Row {
+                rel_mse: median(|r| r.rel_mse),
+                time: median(|r| r.time),
+                total: median(|r| r.total),
+                sampling: median(|r| r.sampling),
+                ..g.into_iter().next().expect("a group has a row")
+            }
+        })
+        .collect()
+}
+
+/// The best (lowest MSE x time) Cycles row of `anchor` for the same scene
+/// and sample count as `r`.
+fn best_cycles<'a>(rows: &'a [Row], r: &Row, anchor: &str) -> Option<&'a Row> {
+    rows.iter()
+        .filter(|c| {
+            c.renderer == "cycles"
+                && c.anchor == anchor
+                && c.mesh == r.mesh
+                && c.lighting == r.lighting
+                && c.spp == r.spp
+        })
+        .min_by(|a, b| a.product().total_cmp(&b.product()))
+}
+
+/// The renders' table, its explanation and heading added to `md`; returns
+/// the CSV. soupray's rows carry a ratio to each Blender version's better
+/// setting, newest first.
 fn result_table(rows: &[Row], md: &mut String) -> String {
-    let mut csv = String::from(
-        "mesh,lighting,spp,renderer,variant,rel_mse,time_s,total_s,sampling_s,mse_x_time,\
-         ratio_to_cycles,sampling_ratio_to_cycles\n",
+    let mut anchors: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.renderer == "cycles")
+        .map(|r| r.anchor.as_str())
+        .collect();
+    anchors.sort_by(|a, b| b.cmp(a));
+    anchors.dedup();
+    let newest = anchors.first().copied().unwrap_or("");
+    let _ = writeln!(
+        md,
+        "\nEach render against its own renderer's reference (rel. MSE). time: soupray = \
+         trace (frame log `timings_ms.trace`), Cycles = bpy.ops.render.render (scene sync, \
+         BVH build and path tracing). ratio to Cycles V: soupray's MSE x time over that of \
+         Cycles V's better setting at the same spp (below 1: soupray is more efficient). \
+         total: soupray's whole frame (evaluate, build, trace, write). sampling: path tracing \
+         alone (soupray: trace; Cycles: first sample to finished, from its status messages), \
+         and the ratio on it to Cycles {newest}'s better setting.\n"
     );
+    let ratio_heads: String = anchors
+        .iter()
+        .map(|a| format!(" ratio to Cycles {a} |"))
+        .collect();
+    let _ = writeln!(
+        md,
+        "| mesh | lighting | spp | renderer | rel. MSE | time (s) | MSE x time |{ratio_heads} \
+         total (s) | sampling (s) | ratio, sampling only |"
+    );
+    let _ = writeln!(
+        md,
+        "|---|---|---:|---|---:|---:|---:|{}---:|---:|---:|",
+        "---:|".repeat(anchors.len())
+    );
+    let mut csv = String::from(
+        "mesh,lighting,spp,renderer,variant,rel_mse,time_s,total_s,sampling_s,mse_x_time",
+    );
+    for a in &anchors {
+        let _ = write!(csv, ",ratio_to_cycles_{a}");
+    }
+    csv.push_str(",sampling_ratio_to_cycles\n");
     let num = |v: f64, digits: usize| {
         if v.is_finite() {
             format!("{v:.digits$}")
@@ -581,29 +772,30 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         }
     };
     for r in rows {
-        let cycles = rows.iter().find(|c| {
-            c.renderer == "cycles" && c.mesh == r.mesh && c.lighting == r.lighting && c.spp == r.spp
-        });
-        let ratio = |f: fn(&Row) -> f64| match cycles {
+        let ratio = |anchor: &str, f: fn(&Row) -> f64| match best_cycles(rows, r, anchor) {
             Some(c) if r.renderer == "soupray" && f(c) > 0.0 => f(r) / f(c),
             _ => f64::NAN,
         };
-        let (ratio, sampling_ratio) = (ratio(Row::product), ratio(Row::sampling_product));
+        let ratios: Vec<f64> = anchors.iter().map(|a| ratio(a, Row::product)).collect();
+        let sampling_ratio = ratio(newest, Row::sampling_product);
         let name = if r.renderer == "cycles" {
-            "Cycles".to_owned()
+            format!("Cycles {}", r.variant)
         } else {
             format!("soupray {}", r.variant)
         };
+        let ratio_cells: String = ratios
+            .iter()
+            .map(|&v| format!(" {} |", num(v, 2)))
+            .collect();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {name} | {} | {:.3} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {name} | {} | {:.3} | {} |{ratio_cells} {} | {} | {} |",
             r.mesh,
             r.lighting,
             r.spp,
             fmt_sci(r.rel_mse),
             r.time,
             fmt_sci(r.product()),
-            num(ratio, 2),
             if r.renderer == "soupray" {
                 num(r.total, 3)
             } else {
@@ -612,9 +804,9 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
             num(r.sampling, 3),
             num(sampling_ratio, 2),
         );
-        let _ = writeln!(
+        let _ = write!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             r.mesh,
             r.lighting,
             r.spp,
@@ -625,17 +817,19 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
             r.total,
             r.sampling,
             r.product(),
-            if ratio.is_finite() {
-                ratio.to_string()
-            } else {
-                String::new()
-            },
-            if sampling_ratio.is_finite() {
-                sampling_ratio.to_string()
-            } else {
-                String::new()
-            },
         );
+        for v in ratios.iter().chain([&sampling_ratio]) {
+            let _ = write!(
+                csv,
+                ",{}",
+                if v.is_finite() {
+                    v.to_string()
+                } else {
+                    String::new()
+                }
+            );
+        }
+        csv.push('\n');
     }
     csv
 }

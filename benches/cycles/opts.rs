@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 
 pub const USAGE: &str = "\
 usage: cargo bench --bench cycles -- [--size WxH] [--spp LIST] [--ref-spp N]
-       [--meshes beast,nefertiti] [--lightings sky,sun] [--samplers sobol,random]
-       [--max-depth N] [--threads N] [--out DIR] [--fresh-refs] [--scenes-only]";
+       [--meshes beast,nefertiti] [--lightings sky,sun,interior] [--samplers sobol,random]
+       [--cycles 3.4,5,5-guided] [--runs N] [--max-depth N] [--threads N] [--out DIR]
+       [--fresh-refs] [--scenes-only]";
 
 #[derive(Debug, Clone)]
 pub struct Opts {
@@ -17,6 +18,11 @@ pub struct Opts {
     pub meshes: Vec<String>,
     pub lightings: Vec<String>,
     pub samplers: Vec<String>,
+    /// The Cycles to run: `3.4` (a Blender binary), `5` and `5-guided`
+    /// (Blender 5's `bpy` module, path guiding off and on).
+    pub cycles: Vec<String>,
+    /// Timed renders per scene, interleaved; the report takes medians.
+    pub runs: u32,
     pub max_depth: u32,
     pub threads: u32,
     pub out: PathBuf,
@@ -40,8 +46,10 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
         spp: vec![16, 64, 256],
         ref_spp: 4096,
         meshes: list("beast,nefertiti"),
-        lightings: list("sky,sun"),
+        lightings: list("sky,sun,interior"),
         samplers: list("sobol,random"),
+        cycles: list("3.4,5,5-guided"),
+        runs: 1,
         max_depth: 8,
         threads: std::thread::available_parallelism().map_or(2, |n| n.get() as u32),
         out: root.join("out/bench-cycles"),
@@ -68,7 +76,7 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
             }
             "-h" | "--help" => return Err(String::new()),
             "--size" | "--spp" | "--ref-spp" | "--meshes" | "--lightings" | "--samplers"
-            | "--max-depth" | "--threads" | "--out" => {}
+            | "--cycles" | "--runs" | "--max-depth" | "--threads" | "--out" => {}
             _ => return Err(format!("unknown flag {flag}")),
         }
         let value = match inline {
@@ -107,6 +115,8 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
             "--meshes" => o.meshes = list(&value),
             "--lightings" => o.lightings = list(&value),
             "--samplers" => o.samplers = list(&value),
+            "--cycles" => o.cycles = list(&value),
+            "--runs" => o.runs = num(&value)?,
             "--max-depth" => o.max_depth = num(&value)?,
             "--threads" => o.threads = num(&value)?,
             "--out" => o.out = root.join(value),
@@ -119,8 +129,17 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
         }
     }
     for l in &o.lightings {
-        if !matches!(l.as_str(), "sky" | "sun") {
-            return Err(format!("--lightings: unknown lighting {l:?} (sky, sun)"));
+        if !matches!(l.as_str(), "sky" | "sun" | "interior") {
+            return Err(format!(
+                "--lightings: unknown lighting {l:?} (sky, sun, interior)"
+            ));
+        }
+    }
+    for c in &o.cycles {
+        if !matches!(c.as_str(), "3.4" | "5" | "5-guided") {
+            return Err(format!(
+                "--cycles: unknown Cycles {c:?} (3.4: a Blender binary; 5, 5-guided: the bpy module)"
+            ));
         }
     }
     if o.spp.is_empty() || o.meshes.is_empty() || o.lightings.is_empty() || o.samplers.is_empty() {

@@ -1,11 +1,15 @@
 """Renders a glTF scene with Blender Cycles the way soupray renders it.
 
-Run by `cargo bench --bench cycles` (benches/cycles.rs), one Blender process
-per scene and seed:
+Run by `cargo bench --bench cycles` (benches/cycles/), one Blender process
+per scene and seed, either in a Blender binary:
 
     blender -b -noaudio --factory-startup -P benches/cycles/render_cycles.py -- \
         --scene S.gltf --width 384 --height 256 --spp 16,64,256 --seed 1 \
         --max-bounces 7 --threads 2 --env 1,1,1 --out-dir DIR [--warmup]
+
+or in Python with Blender as a module (`pip install bpy==5.0.1`):
+
+    python3 benches/cycles/render_cycles.py -- --scene S.gltf ...
 
 The translation, so that both renderers solve the same light transport:
 
@@ -25,6 +29,10 @@ The translation, so that both renderers solve the same light transport:
   bounces after the first hit: 0 bounces is direct light only, which is
   soupray's depth 1);
 * Blackman-Harris pixel filter of width 1.5 px (both renderers' default);
+* otherwise Cycles' defaults: its sampling pattern (3.4: progressive
+  multi-jitter; 5.0: tabulated Sobol) and, from 3.5, its light tree;
+  `--guiding` turns on path guiding on surfaces and in volumes (Cycles'
+  CPU path guiding, deterministic, its default training samples);
 * output: linear OpenEXR, float, RGBA, film not transparent.
 
 For the feature comparisons (`cargo bench --bench cycles_features`):
@@ -41,11 +49,12 @@ For the feature comparisons (`cargo bench --bench cycles_features`):
 
 For each sample count it prints one line
 
-    CYCLES_RENDER spp=16 seconds=1.234 out=DIR/cycles-spp16.exr
+    CYCLES_RENDER spp=16 seconds=1.234 sampling=1.200 out=DIR/cycles-spp16.exr
 
 where seconds is the wall time of bpy.ops.render.render alone (Cycles'
 scene sync, its BVH build and the path tracing; not Blender's start-up, the
-import or writing the file). `--warmup` first renders one untimed sample
+import or writing the file) and sampling the path tracing alone, from the
+first sample to the end. `--warmup` first renders one untimed sample
 so that one-time initialisation does not land in the first timed render.
 """
 
@@ -78,6 +87,7 @@ def parse_args():
     p.add_argument("--shutter-position", default="CENTER", choices=["START", "CENTER", "END"])
     p.add_argument("--motion-steps", type=int, default=1)
     p.add_argument("--keep-materials", action="store_true")
+    p.add_argument("--guiding", action="store_true", help="path guiding on (CPU only)")
     return p.parse_args(argv)
 
 
@@ -211,7 +221,8 @@ def main():
 
     c = scene.cycles
     c.device = "CPU"
-    c.feature_set = "SUPPORTED"
+    if hasattr(c, "feature_set"):  # gone in Blender 5: no experimental set
+        c.feature_set = "SUPPORTED"
     c.use_adaptive_sampling = False
     c.use_denoising = False
     c.sample_clamp_direct = 0.0
@@ -233,14 +244,37 @@ def main():
     c.filter_width = 1.5
     c.use_animated_seed = False
     c.seed = args.seed
+    if args.guiding:
+        if not hasattr(c, "use_guiding"):
+            raise SystemExit(f"--guiding: Blender {bpy.app.version_string} has no path guiding")
+        c.use_guiding = True
+        c.use_surface_guiding = True
+        c.use_volume_guiding = True
 
     cam = scene.camera.data
     print(
         f"CYCLES_INFO blender={bpy.app.version_string} triangles={triangles} "
         f"camera={scene.camera.name!r} angle_y_deg={cam.angle_y * 57.29577951308232:.4f} "
         f"sensor_fit={cam.sensor_fit} clip={cam.clip_start},{cam.clip_end} "
-        f"pattern={getattr(c, 'sampling_pattern', '?')} threads={r.threads}"
+        f"pattern={getattr(c, 'sampling_pattern', '?')} "
+        f"light_tree={getattr(c, 'use_light_tree', '-')} guiding={getattr(c, 'use_guiding', '-')} "
+        f"threads={r.threads}"
     )
+
+    # Path tracing alone: from Cycles' first sample to `Finished`, as its
+    # status messages (the render_stats handler, called by the render
+    # thread) report them; both Blender 3.4 and 5.0 end them with
+    # `Sample 0/N` and `Finished`.
+    marks = {}
+
+    def on_stats(*stats):
+        text = stats[0] if stats and isinstance(stats[0], str) else ""
+        if "Sample 0/" in text and "first" not in marks:
+            marks["first"] = time.perf_counter()
+        elif text.endswith("Finished"):
+            marks["finished"] = time.perf_counter()
+
+    bpy.app.handlers.render_stats.append(on_stats)
 
     os.makedirs(args.out_dir, exist_ok=True)
     if args.warmup:
@@ -248,14 +282,19 @@ def main():
         bpy.ops.render.render(write_still=False)
     for spp in [int(v) for v in args.spp.split(",") if v]:
         c.samples = spp
+        marks.clear()
         t0 = time.perf_counter()
         bpy.ops.render.render(write_still=False)
         seconds = time.perf_counter() - t0
+        sampling = marks.get("finished", float("nan")) - marks.get("first", float("nan"))
         path = os.path.join(os.path.abspath(args.out_dir), f"cycles-spp{spp}.exr")
         tmp = path + ".tmp.exr"
         bpy.data.images["Render Result"].save_render(filepath=tmp, scene=scene)
         os.replace(tmp, path)
-        print(f"CYCLES_RENDER spp={spp} seconds={seconds:.6f} out={path}", flush=True)
+        print(
+            f"CYCLES_RENDER spp={spp} seconds={seconds:.6f} sampling={sampling:.6f} out={path}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -1,12 +1,14 @@
-//! The two renderers, run as processes: `soupray render` and Blender with
-//! `benches/cycles/render_cycles.py`, each returning the image and its
-//! times; and finding Blender.
+//! The renderers, run as processes: `soupray render`, and Cycles through
+//! `benches/cycles/render_cycles.py` in a Blender binary or in Python with
+//! Blender 5's `bpy` module, each returning the image and its times; and
+//! finding them.
 
 use crate::opts::Opts;
 use soupray::film::Image;
 use std::collections::BTreeMap;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 /// One render's image and times.
 pub struct Render {
@@ -16,7 +18,8 @@ pub struct Render {
     /// soupray's frame total; for Cycles the same as `time`.
     pub total: f64,
     /// Path tracing alone: soupray's trace time (`time`); Cycles' from its
-    /// first sample to the end, from Blender's log (10 ms resolution).
+    /// first sample to the end, from its status messages (Blender 3.4's
+    /// status lines: 10 ms resolution).
     pub sampling: f64,
     /// soupray: the OpenCL device from the frame log.
     pub device: Option<String>,
@@ -47,10 +50,13 @@ pub fn run_logged(cmd: &mut Command, what: &str) -> Result<String, String> {
     Ok(stdout)
 }
 
-/// What a render is of: the scene, its sky radiance and the seed.
+/// What a render is of: the scene, its sky radiance, path depth, whether
+/// it keeps the file's materials (otherwise clay), and the seed.
 pub struct Job<'a> {
     pub scene: &'a Path,
     pub env: f32,
+    pub max_depth: u32,
+    pub materials: bool,
     pub seed: u64,
 }
 
@@ -75,16 +81,19 @@ impl Soupray {
         let mut cmd = Command::new(&self.exe);
         cmd.arg("render")
             .arg(scene)
-            .args(["--frame", "0", "--quiet", "--clay"])
+            .args(["--frame", "0", "--quiet"])
             .args(["--spp", &spp.to_string()])
             .args(["--width", &o.width.to_string()])
             .args(["--height", &o.height.to_string()])
-            .args(["--max-depth", &o.max_depth.to_string()])
+            .args(["--max-depth", &job.max_depth.to_string()])
             .args(["--seed", &seed.to_string()])
             .args(["--env-color", &format!("{env},{env},{env}")])
             .args(["--name", "img.####.exr"])
             .arg("--out")
             .arg(dir);
+        if !job.materials {
+            cmd.arg("--clay");
+        }
         if self.has_sampler {
             cmd.args(["--sampler", variant]);
         }
@@ -107,10 +116,85 @@ impl Soupray {
     }
 }
 
+/// How a Cycles is started.
+#[derive(Clone)]
+pub enum Launcher {
+    /// A Blender binary (Debian's `blender` is 3.4): `blender -b -P script`.
+    Binary(PathBuf),
+    /// `python3 script` with Blender as a module (`pip install bpy==5.0.1`;
+    /// Python 3.11), `PYTHONPATH` set where it was installed with `--target`.
+    Module { pythonpath: Option<OsString> },
+}
+
+impl Launcher {
+    /// The command that runs `script` with the arguments that follow.
+    fn command(&self, script: &Path) -> Command {
+        match self {
+            Launcher::Binary(blender) => {
+                let mut cmd = Command::new(blender);
+                cmd.args([
+                    "-b",
+                    "-noaudio",
+                    "--factory-startup",
+                    "--python-exit-code",
+                    "1",
+                ])
+                .arg("-P")
+                .arg(script);
+                cmd
+            }
+            Launcher::Module { pythonpath } => {
+                let mut cmd = python(pythonpath);
+                cmd.arg(script);
+                cmd
+            }
+        }
+    }
+
+    /// Blender's version line (`Blender 3.4.1`), or `None` where this
+    /// launcher finds no Blender.
+    pub fn version(&self) -> Option<String> {
+        let out = match self {
+            Launcher::Binary(blender) => Command::new(blender)
+                .args(["-b", "--factory-startup", "--version"])
+                .stderr(Stdio::null())
+                .output(),
+            Launcher::Module { pythonpath } => python(pythonpath)
+                .args(["-c", "import bpy; print('Blender', bpy.app.version_string)"])
+                .stderr(Stdio::null())
+                .output(),
+        }
+        .ok()
+        .filter(|o| o.status.success())?;
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .find(|l| l.starts_with("Blender "))
+            .map(|l| l.trim().to_owned())
+    }
+}
+
+fn python(pythonpath: &Option<OsString>) -> Command {
+    let mut cmd = Command::new("python3");
+    if let Some(p) = pythonpath {
+        cmd.env("PYTHONPATH", p);
+    }
+    cmd
+}
+
+/// One Cycles configuration: a Blender, and whether path guiding is on.
+#[derive(Clone)]
 pub struct Cycles {
-    pub blender: PathBuf,
+    pub launcher: Launcher,
     pub script: PathBuf,
+    /// Blender's version line, e.g. `Blender 5.0.1`.
     pub version: String,
+    /// Blender's major and minor version (`5.0`): the configurations of
+    /// one version share its reference, and the better one is compared.
+    pub anchor: String,
+    /// The report's name for it: `3.4`, `5.0`, `5.0 guided`.
+    pub label: String,
+    /// Path guiding on surfaces and volumes (Cycles' CPU-only guiding).
+    pub guiding: bool,
 }
 
 impl Cycles {
@@ -130,36 +214,34 @@ impl Cycles {
             .map(u32::to_string)
             .collect::<Vec<_>>()
             .join(",");
-        let mut cmd = Command::new(&self.blender);
-        cmd.args([
-            "-b",
-            "-noaudio",
-            "--factory-startup",
-            "--python-exit-code",
-            "1",
-        ])
-        .arg("-P")
-        .arg(&self.script)
-        .arg("--")
-        .arg("--scene")
-        .arg(scene)
-        .args(["--width", &o.width.to_string()])
-        .args(["--height", &o.height.to_string()])
-        .args(["--spp", &spp_list])
-        .args(["--seed", &seed.to_string()])
-        .args(["--max-bounces", &(o.max_depth.max(1) - 1).to_string()])
-        .args(["--threads", &o.threads.to_string()])
-        .args(["--env", &format!("{env},{env},{env}")])
-        .arg("--warmup")
-        .arg("--out-dir")
-        .arg(dir);
+        let mut cmd = self.launcher.command(&self.script);
+        cmd.arg("--")
+            .arg("--scene")
+            .arg(scene)
+            .args(["--width", &o.width.to_string()])
+            .args(["--height", &o.height.to_string()])
+            .args(["--spp", &spp_list])
+            .args(["--seed", &seed.to_string()])
+            .args(["--max-bounces", &(job.max_depth.max(1) - 1).to_string()])
+            .args(["--threads", &o.threads.to_string()])
+            .args(["--env", &format!("{env},{env},{env}")])
+            .arg("--warmup")
+            .arg("--out-dir")
+            .arg(dir);
+        if self.guiding {
+            cmd.arg("--guiding");
+        }
+        if job.materials {
+            cmd.arg("--keep-materials");
+        }
         let stdout = run_logged(
             &mut cmd,
-            &format!("blender {} ({spp_list} spp)", scene.display()),
+            &format!("Cycles {} {} ({spp_list} spp)", self.label, scene.display()),
         )?;
         let mut seconds = BTreeMap::new();
-        // Blender's status lines of the render in progress: the elapsed
-        // time when the first sample starts and when it finishes.
+        // Blender 3.4 hands its render_stats handler nothing, but prints
+        // its status lines: the elapsed time when the first sample starts
+        // and when it finishes (10 ms resolution).
         let (mut first_sample, mut finished) = (None, None);
         for line in stdout.lines() {
             if line.starts_with("CYCLES_INFO") {
@@ -178,17 +260,17 @@ impl Cycles {
             let field = |k: &str| {
                 rest.split_whitespace()
                     .find_map(|f| f.strip_prefix(k).and_then(|v| v.strip_prefix('=')))
+                    .and_then(|v| v.parse::<f64>().ok())
             };
             if let (Some(spp), Some(s)) = (field("spp"), field("seconds")) {
-                if let (Ok(spp), Ok(s)) = (spp.parse::<u32>(), s.parse::<f64>()) {
-                    let sampling = match (first_sample, finished) {
-                        (Some(a), Some(b)) if b >= a => b - a,
-                        _ => f64::NAN,
-                    };
-                    seconds.insert(spp, (s, sampling));
-                }
-                (first_sample, finished) = (None, None);
+                let sampling = match (field("sampling"), first_sample, finished) {
+                    (Some(t), _, _) if t.is_finite() => t,
+                    (_, Some(a), Some(b)) if b >= a => b - a,
+                    _ => f64::NAN,
+                };
+                seconds.insert(spp as u32, (s, sampling));
             }
+            (first_sample, finished) = (None, None);
         }
         spps.iter()
             .map(|&spp| {

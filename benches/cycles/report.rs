@@ -7,7 +7,11 @@ pub struct Row {
     pub lighting: String,
     pub spp: u32,
     pub renderer: &'static str,
+    /// soupray's sampler, or the Cycles' label (`5.0 guided`).
     pub variant: String,
+    /// For Cycles: its Blender version (`5.0`), the anchor its rows
+    /// stand for; the better of a version's settings is the one compared.
+    pub anchor: String,
     pub rel_mse: f64,
     pub time: f64,
     pub total: f64,

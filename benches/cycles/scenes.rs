@@ -1,9 +1,12 @@
-//! The scenes: each scanned mesh stood on a ground quad, framed by a
-//! camera, under the sky alone or a sun and a dim sky, written as glTF.
+//! The scenes, written as glTF: each scanned mesh stood on a ground quad,
+//! framed by a camera, under the sky alone or a sun and a dim sky (clay:
+//! every surface a 0.8 Lambertian); and each mesh as a rough gold figure in
+//! a white room lit by the sun through a window (the file's materials,
+//! where indirect light dominates).
 
 use crate::opts::Opts;
 use crate::support;
-use crate::{SCENE_VERSION, SUN_LUX};
+use crate::{INTERIOR_DEPTH, SCENE_VERSION, SUN_LUX, SUN_SKY};
 use glam::{Mat3, Quat, Vec3};
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -78,10 +81,124 @@ pub struct SceneFile {
     /// Hash of the glTF and its buffer.
     pub hash: u64,
     pub triangles: usize,
+    /// The sky's radiance.
+    pub env: f32,
+    /// Path depth (soupray's `--max-depth`; Cycles' bounces are one less).
+    pub max_depth: u32,
+    /// Render the file's materials (Cycles: the importer's Principled
+    /// BSDFs); otherwise clay.
+    pub materials: bool,
+}
+
+/// One mesh of a scene: its node's and its own name, its vertices in the
+/// scene's buffer (first, count), their bounds and its material.
+struct Part<'a> {
+    node: &'a str,
+    mesh: &'a str,
+    first: usize,
+    count: usize,
+    bounds: (Vec3, Vec3),
+    material: u32,
+}
+
+/// The glTF document of a scene: its nodes, materials and meshes over one
+/// buffer of positions, each mesh one accessor; the sun when `sun`.
+fn scene_doc(
+    name: &str,
+    bin: (&str, usize),
+    camera: (Vec3, Quat, f32, f32),
+    materials: serde_json::Value,
+    meshes: &[Part],
+    sun: Option<Quat>,
+) -> serde_json::Value {
+    let (eye, cam_rot, yfov, aspect) = camera;
+    let mut nodes: Vec<serde_json::Value> = meshes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| json!({"name": m.node, "mesh": i}))
+        .collect();
+    nodes.push(json!({"name": "camera", "camera": 0,
+                      "translation": eye.to_array(), "rotation": cam_rot.to_array()}));
+    let mut doc = json!({
+        "asset": {"version": "2.0", "generator": "soupray benches/cycles.rs"},
+        "scene": 0,
+        "cameras": [{"type": "perspective", "name": "camera", "perspective": {
+            "yfov": yfov, "aspectRatio": aspect, "znear": 0.01, "zfar": 1000.0}}],
+        "materials": materials,
+        "meshes": meshes.iter().enumerate().map(|(i, m)| json!(
+            {"name": m.mesh, "primitives": [{"attributes": {"POSITION": i}, "material": m.material}]}
+        )).collect::<Vec<_>>(),
+        "accessors": meshes.iter().enumerate().map(|(i, m)| json!(
+            {"bufferView": i, "componentType": 5126, "count": m.count, "type": "VEC3",
+             "min": m.bounds.0.to_array(), "max": m.bounds.1.to_array()}
+        )).collect::<Vec<_>>(),
+        "bufferViews": meshes.iter().map(|m| json!(
+            {"buffer": 0, "byteOffset": m.first * 12, "byteLength": m.count * 12, "target": 34962}
+        )).collect::<Vec<_>>(),
+        "buffers": [{"uri": bin.0, "byteLength": bin.1}],
+    });
+    if let Some(sun_rot) = sun {
+        nodes.push(json!({"name": "sun", "rotation": sun_rot.to_array(),
+                          "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+        doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+            {"name": "sun", "type": "directional", "color": [1.0, 1.0, 1.0],
+             "intensity": SUN_LUX}]}});
+    }
+    doc["scenes"] = json!([{"name": name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}]);
+    doc["nodes"] = json!(nodes);
+    doc
+}
+
+fn bounds(pts: &[Vec3]) -> (Vec3, Vec3) {
+    pts.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    )
+}
+
+/// Two triangles of the quad `a b c d` (counter-clockwise seen from where
+/// it faces).
+fn quad(out: &mut Vec<Vec3>, [a, b, c, d]: [Vec3; 4]) {
+    out.extend([a, b, c, a, c, d]);
+}
+
+/// The room of the interior around a figure one unit tall at the origin:
+/// 3 x 2.2 x 3 m, floor at y = 0, facing in, with a 1.2 x 1 m window in
+/// the wall at x = -1.5.
+fn room() -> Vec<Vec3> {
+    let (x, y, z) = (1.5f32, 2.2f32, 1.5f32);
+    let (wy0, wy1, wz) = (0.6f32, 1.6f32, 0.6f32);
+    let v = Vec3::new;
+    let mut t = Vec::new();
+    quad(
+        &mut t,
+        [v(-x, 0., -z), v(-x, 0., z), v(x, 0., z), v(x, 0., -z)],
+    ); // floor
+    quad(&mut t, [v(-x, y, -z), v(x, y, -z), v(x, y, z), v(-x, y, z)]); // ceiling
+    quad(&mut t, [v(x, 0., -z), v(x, 0., z), v(x, y, z), v(x, y, -z)]); // +x wall
+    quad(
+        &mut t,
+        [v(-x, 0., -z), v(x, 0., -z), v(x, y, -z), v(-x, y, -z)],
+    ); // -z wall
+    quad(&mut t, [v(-x, 0., z), v(-x, y, z), v(x, y, z), v(x, 0., z)]); // +z wall
+                                                                        // The window wall, around its opening.
+    let wall = |t: &mut Vec<Vec3>, (y0, y1): (f32, f32), (z0, z1): (f32, f32)| {
+        quad(
+            t,
+            [v(-x, y0, z0), v(-x, y0, z1), v(-x, y1, z1), v(-x, y1, z0)],
+        );
+    };
+    wall(&mut t, (0., wy0), (-z, z));
+    wall(&mut t, (wy1, y), (-z, z));
+    wall(&mut t, (wy0, wy1), (-z, -wz));
+    wall(&mut t, (wy0, wy1), (wz, z));
+    t
 }
 
 /// Writes `DIR/MESH.bin` (mesh then ground positions) and
-/// `DIR/MESH-LIGHTING.gltf` for each lighting.
+/// `DIR/MESH-LIGHTING.gltf` for each lighting; the interior has its own
+/// buffer, `DIR/MESH-interior.bin`.
 pub fn write_scenes(
     o: &Opts,
     mesh: &str,
@@ -95,10 +212,7 @@ pub fn write_scenes(
         .iter()
         .map(|p| rot * Vec3::new(p[0], p[1], p[2]))
         .collect();
-    let (lo, hi) = pts.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
+    let (lo, hi) = bounds(&pts);
     // One unit tall, standing on y = 0, centred over the origin.
     let scale = 1.0 / (hi.y - lo.y);
     let shift = Vec3::new(-0.5 * (lo.x + hi.x), -lo.y, -0.5 * (lo.z + hi.z));
@@ -108,29 +222,44 @@ pub fn write_scenes(
     let (lo, hi) = ((lo + shift) * scale, (hi + shift) * scale);
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
+    let aspect = o.width as f32 / o.height as f32;
+    let write = |name: &str, doc: &serde_json::Value, bin: &[u8]| {
+        let text = serde_json::to_string_pretty(doc).expect("json");
+        let path = dir.join(format!("{name}.gltf"));
+        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let hash = fnv1a(
+            fnv1a(fnv1a(FNV_START, text.as_bytes()), bin),
+            &[SCENE_VERSION as u8],
+        );
+        Ok::<_, String>((path, hash))
+    };
+    let write_bin = |name: &str, pts: &[Vec3]| {
+        let bin: Vec<u8> = pts
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        std::fs::write(dir.join(name), &bin).map_err(|e| format!("{}: {e}", dir.display()))?;
+        Ok::<_, String>(bin)
+    };
 
     // The ground: a 40 x 40 quad at y = 0, facing up.
     let g = 20.0f32;
-    let ground = [
-        Vec3::new(-g, 0.0, -g),
-        Vec3::new(-g, 0.0, g),
-        Vec3::new(g, 0.0, g),
-        Vec3::new(-g, 0.0, -g),
-        Vec3::new(g, 0.0, g),
-        Vec3::new(g, 0.0, -g),
-    ];
-    let mut bin = Vec::with_capacity((pts.len() + ground.len()) * 12);
-    for p in pts.iter().chain(&ground) {
-        for c in p.to_array() {
-            bin.extend_from_slice(&c.to_le_bytes());
-        }
-    }
+    let mut ground = Vec::new();
+    quad(
+        &mut ground,
+        [
+            Vec3::new(-g, 0.0, -g),
+            Vec3::new(-g, 0.0, g),
+            Vec3::new(g, 0.0, g),
+            Vec3::new(g, 0.0, -g),
+        ],
+    );
     let bin_name = format!("{mesh}.bin");
-    std::fs::write(dir.join(&bin_name), &bin).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let bin = write_bin(&bin_name, &[pts.as_slice(), &ground].concat())?;
 
     // The camera: on the view direction, far enough that the mesh's
     // bounding sphere fits the narrower field of view.
-    let aspect = o.width as f32 / o.height as f32;
     let yfov = 35f32.to_radians();
     let half = (0.5 * yfov).min(((0.5 * yfov).tan() * aspect).atan());
     let distance = radius / half.sin() * 0.95;
@@ -138,66 +267,103 @@ pub fn write_scenes(
     let eye = centre + view * distance;
     let cam_rot = look_rotation(centre - eye);
     let sun_rot = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
+    let white = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}}]);
+    let figure = |material| Part {
+        node: "mesh",
+        mesh,
+        first: 0,
+        count: pts.len(),
+        bounds: (lo, hi),
+        material,
+    };
+    let meshes = [
+        figure(0),
+        Part {
+            node: "ground",
+            mesh: "ground",
+            first: pts.len(),
+            count: ground.len(),
+            bounds: (Vec3::new(-g, 0.0, -g), Vec3::new(g, 0.0, g)),
+            material: 0,
+        },
+    ];
 
     let mut out = BTreeMap::new();
-    for lighting in ["sky", "sun"] {
-        let mut nodes = vec![
-            json!({"name": "mesh", "mesh": 0}),
-            json!({"name": "ground", "mesh": 1}),
-            json!({"name": "camera", "camera": 0,
-                   "translation": eye.to_array(), "rotation": cam_rot.to_array()}),
-        ];
-        let mut doc = json!({
-            "asset": {"version": "2.0", "generator": "soupray benches/cycles.rs"},
-            "scene": 0,
-            "scenes": [{"name": format!("{mesh}-{lighting}"), "nodes": [0, 1, 2]}],
-            "cameras": [{"type": "perspective", "name": "camera", "perspective": {
-                "yfov": yfov, "aspectRatio": aspect, "znear": 0.01, "zfar": 1000.0}}],
-            "materials": [{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-                "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-                "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
-            "meshes": [
-                {"name": mesh, "primitives": [{"attributes": {"POSITION": 0}, "material": 0}]},
-                {"name": "ground", "primitives": [{"attributes": {"POSITION": 1}, "material": 0}]}
-            ],
-            "accessors": [
-                {"bufferView": 0, "componentType": 5126, "count": pts.len(), "type": "VEC3",
-                 "min": lo.to_array(), "max": hi.to_array()},
-                {"bufferView": 1, "componentType": 5126, "count": ground.len(), "type": "VEC3",
-                 "min": [-g, 0.0, -g], "max": [g, 0.0, g]}
-            ],
-            "bufferViews": [
-                {"buffer": 0, "byteOffset": 0, "byteLength": pts.len() * 12, "target": 34962},
-                {"buffer": 0, "byteOffset": pts.len() * 12, "byteLength": ground.len() * 12,
-                 "target": 34962}
-            ],
-            "buffers": [{"uri": bin_name, "byteLength": bin.len()}],
-        });
-        if lighting == "sun" {
-            nodes.push(json!({"name": "sun", "rotation": sun_rot.to_array(),
-                              "extensions": {"KHR_lights_punctual": {"light": 0}}}));
-            doc["scenes"][0]["nodes"] = json!([0, 1, 2, 3]);
-            doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
-            doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
-                {"name": "sun", "type": "directional", "color": [1.0, 1.0, 1.0],
-                 "intensity": SUN_LUX}]}});
-        }
-        doc["nodes"] = json!(nodes);
-        let text = serde_json::to_string_pretty(&doc).expect("json");
-        let path = dir.join(format!("{mesh}-{lighting}.gltf"));
-        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
-        let hash = fnv1a(
-            fnv1a(fnv1a(FNV_START, text.as_bytes()), &bin),
-            &[SCENE_VERSION as u8],
+    for (lighting, env) in [("sky", 1.0), ("sun", SUN_SKY)] {
+        let name = format!("{mesh}-{lighting}");
+        let doc = scene_doc(
+            &name,
+            (&bin_name, bin.len()),
+            (eye, cam_rot, yfov, aspect),
+            white.clone(),
+            &meshes,
+            (lighting == "sun").then_some(sun_rot),
         );
+        let (path, hash) = write(&name, &doc, &bin)?;
         out.insert(
             lighting.to_owned(),
             SceneFile {
                 path,
                 hash,
                 triangles: soup.triangle_count() + 2,
+                env,
+                max_depth: o.max_depth,
+                materials: false,
             },
         );
     }
+
+    // The interior: the figure in rough gold, the room white (glTF's
+    // dielectric at roughness 1, its specular layer included), the sun
+    // through the window onto the floor beside the figure, and the camera
+    // in the far corner looking back at both.
+    let walls = room();
+    let bin_name = format!("{mesh}-interior.bin");
+    let bin = write_bin(&bin_name, &[pts.as_slice(), &walls].concat())?;
+    let materials = json!([
+        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "gold", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 0.766, 0.336, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 0.4}}
+    ]);
+    let meshes = [
+        figure(1),
+        Part {
+            node: "room",
+            mesh: "room",
+            first: pts.len(),
+            count: walls.len(),
+            bounds: bounds(&walls),
+            material: 0,
+        },
+    ];
+    let eye = Vec3::new(1.3, 1.3, 1.3);
+    let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
+    let sun_rot = look_rotation(Vec3::new(1.0, -0.7, 0.25));
+    let name = format!("{mesh}-interior");
+    let doc = scene_doc(
+        &name,
+        (&bin_name, bin.len()),
+        (eye, cam_rot, 60f32.to_radians(), aspect),
+        materials,
+        &meshes,
+        Some(sun_rot),
+    );
+    let (path, hash) = write(&name, &doc, &bin)?;
+    out.insert(
+        "interior".to_owned(),
+        SceneFile {
+            path,
+            hash,
+            triangles: soup.triangle_count() + walls.len() / 3,
+            env: SUN_SKY,
+            max_depth: INTERIOR_DEPTH,
+            materials: true,
+        },
+    );
     Ok(out)
 }
