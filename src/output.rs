@@ -244,6 +244,59 @@ pub fn write_exr_denoised(
             message: format!("denoised image holds a different number of pixels than {n}"),
         });
     }
+    let channels = exr_channels(image, denoised, half);
+    let attrs = exr_attributes(image, meta);
+
+    let size = (image.width as usize, image.height as usize);
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let layer = Layer::new(
+        size,
+        attrs,
+        encoding,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let mut exr_image = exr::image::Image::from_layer(layer);
+    exr_image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
+        red: Vec2(0.64, 0.33),
+        green: Vec2(0.30, 0.60),
+        blue: Vec2(0.15, 0.06),
+        white: Vec2(0.3127, 0.3290),
+    });
+    // Encoded in memory first: the exr crate writes the custom attributes
+    // (frame, time, spp, seed) in its hash map's order, which changes from
+    // run to run; `canonical_attribute_order` sorts them, so the same frame
+    // is the same file byte for byte (for checksums and `cmp`).
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    exr_image
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|e| OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "EXR",
+            message: e.to_string(),
+        })?;
+    let mut bytes = bytes.into_inner();
+    canonical_attribute_order(&mut bytes);
+    write_atomic(path, |out| {
+        out.write_all(&bytes).map_err(|source| OutputError::Io {
+            path: path.to_path_buf(),
+            action: "write",
+            source,
+        })
+    })
+}
+
+/// The EXR's channels: the beauty (denoised in `R`, `G`, `B` when given,
+/// the raw one in the `noisy` layer), then each pass the image holds.
+fn exr_channels(
+    image: &Image,
+    denoised: Option<&[[f32; 3]]>,
+    half: bool,
+) -> Vec<AnyChannel<FlatSamples>> {
     let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(14);
     for (c, name) in ["R", "G", "B", "A"].into_iter().enumerate() {
         let v = match denoised {
@@ -326,7 +379,12 @@ pub fn write_exr_denoised(
             }
         }
     }
+    channels
+}
 
+/// The EXR's header attributes: the frame, its time, spp and seed, and the
+/// Cryptomatte manifests.
+fn exr_attributes(image: &Image, meta: &FrameMetadata) -> LayerAttributes {
     let mut attrs = LayerAttributes {
         software_name: Some(Text::from(format!("soupray {VERSION}").as_str())),
         ..LayerAttributes::default()
@@ -358,48 +416,7 @@ pub fn write_exr_denoised(
         "seed",
         AttributeValue::Text(Text::from(meta.seed.to_string().as_str())),
     );
-
-    let size = (image.width as usize, image.height as usize);
-    let encoding = Encoding {
-        compression: Compression::ZIP16,
-        blocks: Blocks::ScanLines,
-        line_order: LineOrder::Increasing,
-    };
-    let layer = Layer::new(
-        size,
-        attrs,
-        encoding,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    );
-    let mut exr_image = exr::image::Image::from_layer(layer);
-    exr_image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
-        red: Vec2(0.64, 0.33),
-        green: Vec2(0.30, 0.60),
-        blue: Vec2(0.15, 0.06),
-        white: Vec2(0.3127, 0.3290),
-    });
-    // Encoded in memory first: the exr crate writes the custom attributes
-    // (frame, time, spp, seed) in its hash map's order, which changes from
-    // run to run; `canonical_attribute_order` sorts them, so the same frame
-    // is the same file byte for byte (for checksums and `cmp`).
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    exr_image
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|e| OutputError::Encode {
-            path: path.to_path_buf(),
-            format: "EXR",
-            message: e.to_string(),
-        })?;
-    let mut bytes = bytes.into_inner();
-    canonical_attribute_order(&mut bytes);
-    write_atomic(path, |out| {
-        out.write_all(&bytes).map_err(|source| OutputError::Io {
-            path: path.to_path_buf(),
-            action: "write",
-            source,
-        })
-    })
+    attrs
 }
 
 /// A channel's samples, f16 with `half`.

@@ -1,9 +1,10 @@
 // Part of pathtrace.cl, after direct_light.h: one camera sample's results
-// (PtSample) and the steps of its path that pt_path strings together: the
-// camera ray, the film's first-hit values, light found by the path
-// (environment, emitters) and by next-event estimation, the light-path
-// passes' bookkeeping, shadow catchers and holdouts, dielectric interfaces
-// and Russian roulette.
+// (PtSample), what its path carries from vertex to vertex (PtPath), and the
+// steps of the path that pt_path strings together: the camera ray, the
+// film's first-hit values, light found by the path (environment, emitters)
+// and by next-event estimation, the light-path passes' bookkeeping, shadow
+// catchers and holdouts, dielectric interfaces, and the BSDF sample that
+// continues the path, with Russian roulette.
 #ifndef SOUPRAY_PATH_SAMPLE_H
 #define SOUPRAY_PATH_SAMPLE_H
 
@@ -54,6 +55,51 @@ typedef struct {
     float3 share_transmit;
 #endif
 } PtSample;
+
+// What a path carries from one vertex to the next.
+typedef struct {
+    Ray ray;
+    float3 dir; // the ray's direction, unit length
+    float3 beta; // throughput
+    // The last scattering vertex's BSDF pdf, and whether it took a delta
+    // lobe: light sampling cannot reach that direction, so an emitter found
+    // along it counts in full (MIS weight 1).
+    float prev_pdf;
+    bool prev_delta;
+    uint depth; // scattering vertices so far
+#ifdef HAS_TRANSMISSION
+    // The volumes the path is in (media.h) and the innermost one's
+    // attenuation coefficient (0: none).
+    PtMedia media;
+    int channel; // the colour channel carried alone (pt_dielectric_params)
+    float3 sigma;
+    // The distance from the last scattering vertex to this segment's start
+    // (null crossings), for the pdf of light sampling an emitter found.
+    float carried;
+#endif
+} PtPath;
+
+inline PtPath pt_path_new(void) {
+    PtPath p;
+    p.beta = (float3)(1.0f);
+    p.prev_pdf = 0.0f;
+    p.prev_delta = false;
+    p.depth = 0u;
+#ifdef HAS_TRANSMISSION
+    p.media = media_empty();
+    p.channel = -1;
+    p.sigma = (float3)(0.0f);
+    p.carried = 0.0f;
+#endif
+    return p;
+}
+
+// Starts `ray` again from `org`, along its direction, unbounded.
+inline void ray_restart(Ray* ray, float3 org) {
+    ray->org[0] = org.x; ray->org[1] = org.y; ray->org[2] = org.z;
+    ray->tmin = 0.0f;
+    ray->tmax = INFINITY;
+}
 
 #ifdef FILM_LIGHT
 // At the path's first scattering vertex, the sampled direction wi (BSDF
@@ -379,10 +425,7 @@ inline int pt_through_catchers(PtScene* s, PtSample* out, Ray* ray, float3 dir, 
             pt_catcher_light(s, p, facing, h->prim, rng, &out->catcher_lit,
                              &out->catcher_unshadowed TEX_PASS);
         }
-        float3 o = offset_ray_origin_scaled(p, -facing, offset_scale(SGEOM(s), h->prim));
-        ray->org[0] = o.x; ray->org[1] = o.y; ray->org[2] = o.z;
-        ray->tmin = 0.0f;
-        ray->tmax = INFINITY;
+        ray_restart(ray, offset_ray_origin_scaled(p, -facing, offset_scale(SGEOM(s), h->prim)));
         float before = *travelled;
         found = pt_find_surface(s, *ray, rng, 0u, 0u, h, travelled, blocked,
                                 crossings TEX_PASS);
@@ -424,5 +467,69 @@ inline void pt_interface(PtScene* s, PtMaterialExt mx, uint mat, bool volume, Pt
     sf->channel = *channel;
 }
 #endif
+
+// The BSDF sample at a vertex that continues path `p` (above: the ray
+// origin on the surface's front; sf.below its back), with Russian
+// roulette; false ends the path. A volume's interface enters or leaves it.
+#ifdef HAS_TRANSMISSION
+#define SCATTER_VOLUME , volume, mat
+#define SCATTER_VOLUME_DECL , bool volume, uint mat
+#else
+#define SCATTER_VOLUME
+#define SCATTER_VOLUME_DECL
+#endif
+inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, float3 wo, float3 t,
+                       float3 b, PtSurface sf, float3 above, SampleRng rng, uint bounce,
+                       bool last, float reach SCATTER_VOLUME_DECL) {
+    float3 wi, f;
+    float pdf;
+    bool delta;
+    float4 ub = rng_4d(rng, set_bounce(bounce, SET_BSDF));
+    if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf, &delta)) return false;
+    float3 wi_w = to_world(wi, t, b, sf.ns);
+    float wl = length(wi_w);
+    wi_w = wi_w / wl;
+#ifdef HAS_TRANSMISSION
+    bool transmitted = wi.z < 0.0f;
+    if (transmitted ? dot(wi_w, sf.ng) >= 0.0f : dot(wi_w, sf.ng) <= 0.0f) return false;
+    p->beta = p->beta * f * (fabs(wi.z) / pdf);
+    if (transmitted) {
+        above = sf.below;
+        if (volume) {
+            if (sf.front)
+                media_enter(&p->media, mat);
+            else
+                media_leave(&p->media, mat);
+            p->sigma = pt_medium_sigma(s, media_innermost(&p->media));
+        }
+    }
+    // Smooth thin glass's straight-through lobe is a null crossing: the
+    // shadow rays of the vertex before it cross such glass
+    // (pt_shadow_transmittance), so a light found beyond it is weighed by
+    // MIS against that vertex's light sample (its pdf, its distance), not
+    // counted in full as after a delta bounce.
+    bool scattered = !(delta && transmitted && bp.thin != 0.0f);
+    if (last && scattered) return false;
+    p->carried = scattered ? 0.0f : reach;
+    if (!scattered && bounce - p->depth >= MAX_CROSSINGS) return false;
+#else
+    if (dot(wi_w, sf.ng) <= 0.0f) return false;
+    p->beta = p->beta * f * (wi.z / pdf);
+    bool scattered = true;
+#endif
+    if (scattered) {
+#ifdef FILM_LIGHT
+        if (p->depth == 0u) pt_first_lobes(out, bp, wo, wi, f, pdf, delta);
+#endif
+        p->prev_pdf = pdf;
+        p->prev_delta = delta;
+        if (p->depth >= RR_FIRST_BOUNCE && !pt_roulette(&p->beta, ub.w)) return false;
+        p->depth += 1u;
+    }
+    p->dir = wi_w;
+    p->ray.dir[0] = wi_w.x; p->ray.dir[1] = wi_w.y; p->ray.dir[2] = wi_w.z;
+    ray_restart(&p->ray, above);
+    return true;
+}
 
 #endif

@@ -89,49 +89,30 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
     uint pixel = py * s->frame.width + px;
     SampleRng rng = rng_for_sample(s->frame.seed_lo, s->frame.seed_hi, s->frame.frame_lo,
                                    s->frame.frame_hi, pixel, sample);
-
-    float3 dir;
-    Ray ray = pt_camera_ray(s, cam, filter, px, py, rng, &dir);
-
-    float3 beta = (float3)(1.0f);
-    float prev_pdf = 0.0f;
-    // The last bounce took a delta lobe: light sampling cannot reach its
-    // direction, so an emitter found along it counts in full (MIS weight 1).
-    bool prev_delta = false;
+    PtPath p = pt_path_new();
+    p.ray = pt_camera_ray(s, cam, filter, px, py, rng, &p.dir);
     uint max_depth = s->frame.max_depth;
-    // Scattering vertices so far: `bounce` also counts null crossings (false
-    // interfaces, thin glass's straight-through lobe), which keep the MIS
-    // state of the vertex before them and count towards no limit but
-    // MAX_CROSSINGS.
-    uint depth = 0u;
-#ifdef HAS_TRANSMISSION
-    // The volumes the path is in (media.h) and the innermost one's
-    // attenuation coefficient (0: none).
-    PtMedia media = media_empty();
-    int channel = -1; // the colour channel carried alone (pt_dielectric_params)
-    float3 sigma = (float3)(0.0f);
-    // The distance from the last scattering vertex to this segment's start
-    // (null crossings), for the pdf of light sampling an emitter found.
-    float carried = 0.0f;
-#endif
+    // `bounce` counts every surface the path meets, null crossings (false
+    // interfaces, thin glass's straight-through lobe) included; p.depth
+    // only the scattering vertices.
     for (uint bounce = 0u;; ++bounce) {
         Hit h;
         float travelled;
         bool blocked;
         uint crossings = 0u;
-        bool found = pt_find_surface(s, ray, rng, bounce, 0u, &h, &travelled, &blocked,
+        bool found = pt_find_surface(s, p.ray, rng, bounce, 0u, &h, &travelled, &blocked,
                                      &crossings TEX_PASS);
 #ifdef FILM_CATCHER
         if (bounce == 0u && found) {
-            int seen = pt_through_catchers(s, &out, &ray, dir, rng, &h, &travelled, &blocked,
-                                           &crossings TEX_PASS);
+            int seen = pt_through_catchers(s, &out, &p.ray, p.dir, rng, &h, &travelled,
+                                           &blocked, &crossings TEX_PASS);
             if (seen < 0) return out;
             found = seen > 0;
         }
 #endif
 #ifdef HAS_TRANSMISSION
-        beta = beta * pt_attenuation(sigma, found ? travelled : INFINITY);
-        float reach = carried + travelled;
+        p.beta = p.beta * pt_attenuation(p.sigma, found ? travelled : INFINITY);
+        float reach = p.carried + travelled;
 #else
         float reach = travelled;
 #endif
@@ -142,27 +123,25 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
             if (bounce == 0u) break;
 #endif
             if (!blocked && s->env.kind != ENV_NONE)
-                pt_env_found(s, &out, dir, beta, depth, prev_delta, prev_pdf);
+                pt_env_found(s, &out, p.dir, p.beta, p.depth, p.prev_delta, p.prev_pdf);
             break;
         }
         PtMaterial m = pt_material(s, h.prim);
-        PtSurface sf = pt_surface(s, m, h, dir TEX_PASS);
+        PtSurface sf = pt_surface(s, m, h, p.dir TEX_PASS);
 #ifdef HAS_MATERIAL_EXT
         uint mat = pt_material_index(s, h.prim);
         PtMaterialExt mx = s->material_exts[mat];
 #endif
 #ifdef HAS_TRANSMISSION
         bool volume = mx.volume != 0.0f;
-        if (volume && !sf.front && media_false_interface(&media, mat)) {
+        if (volume && !sf.front && media_false_interface(&p.media, mat)) {
             // A false interface (media.h): cross it unchanged.
-            media_leave(&media, mat);
-            sigma = pt_medium_sigma(s, media_innermost(&media));
-            carried = reach;
-            if (bounce - depth >= MAX_CROSSINGS) break;
-            float3 o = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
-            ray.org[0] = o.x; ray.org[1] = o.y; ray.org[2] = o.z;
-            ray.tmin = 0.0f;
-            ray.tmax = INFINITY;
+            media_leave(&p.media, mat);
+            p.sigma = pt_medium_sigma(s, media_innermost(&p.media));
+            p.carried = reach;
+            if (bounce - p.depth >= MAX_CROSSINGS) break;
+            ray_restart(&p.ray,
+                        offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim)));
             continue;
         }
 #endif
@@ -172,13 +151,13 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // A single-sided emitter emits from its front only (the light
         // sampler's pdf is 0 behind it too).
         if ((m.flags & MAT_EMISSIVE) != 0u && (sf.front || (m.flags & MAT_DOUBLE_SIDED) != 0u))
-            pt_emitter_found(s, &out, m, sf, h.prim, dir, beta, reach, depth, prev_delta,
-                             prev_pdf TEX_PASS);
+            pt_emitter_found(s, &out, m, sf, h.prim, p.dir, p.beta, reach, p.depth,
+                             p.prev_delta, p.prev_pdf TEX_PASS);
 #ifdef HAS_UNLIT
         if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
-            out.radiance += beta * albedo;
+            out.radiance += p.beta * albedo;
 #ifdef FILM_LIGHT
-            light_pass_found(&out, beta * albedo, depth, false);
+            light_pass_found(&out, p.beta * albedo, p.depth, false);
 #endif
             break;
         }
@@ -186,21 +165,22 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
 #ifdef HAS_TRANSMISSION
         // At the depth limit only thin glass's straight-through lobe may
         // go on (a null crossing, which the vertex before counted on).
-        bool last = depth >= max_depth;
+        bool last = p.depth >= max_depth;
         if (last && !(mx.volume == 0.0f && mx.transmission > 0.0f)) break;
 #else
         bool last = false;
-        if (depth >= max_depth) break;
+        if (p.depth >= max_depth) break;
 #endif
 
-        float3 wo_w = -dir;
+        float3 wo_w = -p.dir;
         float3 t, b;
         onb(sf.ns, &t, &b);
         float3 wo = to_local(wo_w, t, b, sf.ns);
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
 #ifdef HAS_TRANSMISSION
         sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));
-        pt_interface(s, mx, mat, volume, &media, rng, bounce, &sf, &channel, &beta, &bp TEX_PASS);
+        pt_interface(s, mx, mat, volume, &p.media, rng, bounce, &sf, &p.channel, &p.beta,
+                     &bp TEX_PASS);
 #endif
 #ifdef HAS_ANISOTROPY
         if (pt_anisotropy_frame(s, sf, h.prim, bp, &t, &b)) wo = to_local(wo_w, t, b, sf.ns);
@@ -209,67 +189,15 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         pt_layer_params(s, mx, sf, wo_w, t, b, &bp TEX_PASS);
 #endif
 
-        pt_next_event(s, &out, sf, bp, wo, t, b, above, beta, rng, bounce, depth, last TEX_PASS);
-
-        // Continue the path by sampling the BSDF.
-        float3 wi, f;
-        float pdf;
-        bool delta;
-        float4 ub = rng_4d(rng, set_bounce(bounce, SET_BSDF));
-        if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf, &delta))
+        pt_next_event(s, &out, sf, bp, wo, t, b, above, p.beta, rng, bounce, p.depth,
+                      last TEX_PASS);
+        if (!pt_scatter(s, &out, &p, bp, wo, t, b, sf, above, rng, bounce, last,
+                        reach SCATTER_VOLUME))
             break;
-        float3 wi_w = to_world(wi, t, b, sf.ns);
-        float wl = length(wi_w);
-        wi_w = wi_w / wl;
-#ifdef HAS_TRANSMISSION
-        bool transmitted = wi.z < 0.0f;
-        if (transmitted ? dot(wi_w, sf.ng) >= 0.0f : dot(wi_w, sf.ng) <= 0.0f) break;
-        beta = beta * f * (fabs(wi.z) / pdf);
-        if (transmitted) {
-            above = sf.below;
-            if (volume) {
-                if (sf.front)
-                    media_enter(&media, mat);
-                else
-                    media_leave(&media, mat);
-                sigma = pt_medium_sigma(s, media_innermost(&media));
-            }
-        }
-        // Smooth thin glass's straight-through lobe is a null crossing: the
-        // shadow rays of the vertex before it cross such glass
-        // (pt_shadow_transmittance), so a light found beyond it is weighed
-        // by MIS against that vertex's light sample (its pdf, its
-        // distance), not counted in full as after a delta bounce.
-        bool scattered = !(delta && transmitted && bp.thin != 0.0f);
-        if (last && scattered) break;
-        carried = scattered ? 0.0f : reach;
-        if (!scattered && bounce - depth >= MAX_CROSSINGS) break;
-#else
-        if (dot(wi_w, sf.ng) <= 0.0f) break;
-        beta = beta * f * (wi.z / pdf);
-        bool scattered = true;
-#endif
-        if (scattered) {
-#ifdef FILM_LIGHT
-            if (depth == 0u)
-                pt_first_lobes(&out, bp, wo, wi, f, pdf, delta);
-#endif
-            prev_pdf = pdf;
-            prev_delta = delta;
-            if (depth >= RR_FIRST_BOUNCE && !pt_roulette(&beta, ub.w)) break;
-            depth += 1u;
-        }
-        dir = wi_w;
-        ray.org[0] = above.x; ray.org[1] = above.y; ray.org[2] = above.z;
-        ray.dir[0] = dir.x; ray.dir[1] = dir.y; ray.dir[2] = dir.z;
-        ray.tmin = 0.0f;
-        ray.tmax = INFINITY;
     }
     return out;
 }
 
-// One sample pass over one tile: samples [sample_begin, sample_end) of
-// every pixel of the tile, added to the pixel's sums in sample order.
 #ifdef FILM_MATTES
 // Counts a sample under matte pair `key` (+ 1) in a pixel's slots, which
 // fill in order: the first slot that holds the key, or the first empty one.
@@ -289,6 +217,83 @@ inline void matte_count(uint2* slots, uint key) {
 }
 #endif
 
+// One pixel's running sums (film::resolve reads them): loaded before the
+// pixel's samples of a pass, added to per sample, stored after.
+typedef struct {
+    float4 color;
+    float4 nrm;
+    float4 alb;
+    float4 aux;
+#ifdef FILM_VECTORS
+    float4 motion;
+#endif
+#ifdef FILM_GEOMETRY
+    float4 geometry_p;
+    float4 geometry_uv;
+#endif
+#ifdef FILM_CATCHER
+    float4 catcher_lit;
+    float4 catcher_unshadowed;
+    float4 catcher_behind;
+#endif
+#ifdef FILM_MATTES
+    uint2 mattes[MATTE_SLOTS];
+#endif
+#ifdef FILM_LIGHT
+    float3 light[LIGHT_PASSES];
+#endif
+} PtPixelSums;
+
+// Adds one sample to a pixel's sums.
+inline void pixel_sums_add(PtPixelSums* p, PtSample r) {
+    bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
+                  isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
+                  isfinite(r.normal.y) && isfinite(r.normal.z);
+    if (!finite) {
+        // Counted and dropped as a whole, as the film does.
+        p->aux.z += 1.0f;
+        return;
+    }
+    p->color += (float4)(r.radiance, r.alpha);
+    p->nrm += (float4)(r.normal, 0.0f);
+    p->alb += (float4)(r.albedo, 0.0f);
+    if (r.alpha > 0.0f) {
+        p->aux.x += r.depth;
+        p->aux.y += 1.0f;
+    }
+#ifdef FILM_MATTES
+    if (r.matte != 0u) matte_count(p->mattes, r.matte);
+#endif
+#ifdef FILM_LIGHT
+    light_sums_add(p->light, r);
+#endif
+#ifdef FILM_GEOMETRY
+    // Summed over the samples that hit, as depth is (film::resolve).
+    if (r.alpha > 0.0f) {
+        p->geometry_p += (float4)(r.position, 0.0f);
+        p->geometry_uv += (float4)(r.uv, 0.0f, 0.0f);
+    }
+#endif
+#ifdef FILM_CATCHER
+    if (r.catcher && isfinite(r.catcher_lit.x) && isfinite(r.catcher_lit.y) &&
+        isfinite(r.catcher_lit.z) && isfinite(r.catcher_unshadowed.x) &&
+        isfinite(r.catcher_unshadowed.y) && isfinite(r.catcher_unshadowed.z)) {
+        p->catcher_lit += (float4)(r.catcher_lit, 1.0f);
+        p->catcher_unshadowed += (float4)(r.catcher_unshadowed, 0.0f);
+        p->catcher_behind += (float4)(r.radiance, r.alpha);
+    }
+#endif
+#ifdef FILM_VECTORS
+    // Summed over the samples that hit, as depth is (film::resolve).
+    if (r.alpha > 0.0f && isfinite(r.motion.x) && isfinite(r.motion.y) &&
+        isfinite(r.motion.z) && isfinite(r.motion.w)) {
+        p->motion += r.motion;
+    }
+#endif
+}
+
+// One sample pass over one tile: samples [sample_begin, sample_end) of
+// every pixel of the tile, added to the pixel's sums in sample order.
 // accum_color: rgb, alpha; accum_normal / accum_albedo: rgb; accum_aux:
 // depth sum over hits, hit count, dropped samples, samples taken;
 // accum_snapshots: two per pixel, the running sums at the last two powers
@@ -377,110 +382,65 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
     // first part, pt_noise_estimate): S(2^j) in snapshot j % 2.
     float4 snap0 = accum_snapshots[2u * i];
     float4 snap1 = accum_snapshots[2u * i + 1u];
-    float4 color = accum_color[i];
-    float4 nrm = accum_normal[i];
-    float4 alb = accum_albedo[i];
-    float4 aux = accum_aux[i];
+    PtPixelSums p;
+    p.color = accum_color[i];
+    p.nrm = accum_normal[i];
+    p.alb = accum_albedo[i];
+    p.aux = accum_aux[i];
 #ifdef FILM_VECTORS
-    float4 motion = accum_motion[i];
+    p.motion = accum_motion[i];
 #endif
 #ifdef FILM_GEOMETRY
-    float4 geometry_p = accum_geometry[2u * i];
-    float4 geometry_uv = accum_geometry[2u * i + 1u];
+    p.geometry_p = accum_geometry[2u * i];
+    p.geometry_uv = accum_geometry[2u * i + 1u];
 #endif
 #ifdef FILM_CATCHER
-    float4 catcher_lit = accum_catcher[3u * i];
-    float4 catcher_unshadowed = accum_catcher[3u * i + 1u];
-    float4 catcher_behind = accum_catcher[3u * i + 2u];
+    p.catcher_lit = accum_catcher[3u * i];
+    p.catcher_unshadowed = accum_catcher[3u * i + 1u];
+    p.catcher_behind = accum_catcher[3u * i + 2u];
 #endif
 #ifdef FILM_MATTES
-    uint2 mattes[MATTE_SLOTS];
-    for (uint j = 0u; j < MATTE_SLOTS; ++j) mattes[j] = matte_slots[i * MATTE_SLOTS + j];
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) p.mattes[j] = matte_slots[i * MATTE_SLOTS + j];
 #endif
 #ifdef FILM_LIGHT
-    float3 light[LIGHT_PASSES];
     __global float* light_at = accum_light + (size_t)i * (3u * LIGHT_PASSES);
-    for (uint j = 0u; j < LIGHT_PASSES; ++j) light[j] = vload3(j, light_at);
+    for (uint j = 0u; j < LIGHT_PASSES; ++j) p.light[j] = vload3(j, light_at);
 #endif
     for (uint k = sample_begin; k < sample_end; ++k) {
         if (k != 0u && (k & (k - 1u)) == 0u) {
             if (((31u - clz(k)) & 1u) == 0u) {
-                snap0 = color;
+                snap0 = p.color;
             } else {
-                snap1 = color;
+                snap1 = p.color;
             }
         }
-        PtSample r = pt_path(&s, camera, filter, px, py, k TEX_PASS);
-        bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
-                      isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
-                      isfinite(r.normal.y) && isfinite(r.normal.z);
-        if (!finite) {
-            // Counted and dropped as a whole, as the film does.
-            aux.z += 1.0f;
-            continue;
-        }
-        color += (float4)(r.radiance, r.alpha);
-        nrm += (float4)(r.normal, 0.0f);
-        alb += (float4)(r.albedo, 0.0f);
-        if (r.alpha > 0.0f) {
-            aux.x += r.depth;
-            aux.y += 1.0f;
-        }
-#ifdef FILM_MATTES
-        if (r.matte != 0u) matte_count(mattes, r.matte);
-#endif
-#ifdef FILM_LIGHT
-        light_sums_add(light, r);
-#endif
-#ifdef FILM_GEOMETRY
-        // Summed over the samples that hit, as depth is (film::resolve).
-        if (r.alpha > 0.0f) {
-            geometry_p += (float4)(r.position, 0.0f);
-            geometry_uv += (float4)(r.uv, 0.0f, 0.0f);
-        }
-#endif
-#ifdef FILM_CATCHER
-        if (r.catcher && isfinite(r.catcher_lit.x) && isfinite(r.catcher_lit.y) &&
-            isfinite(r.catcher_lit.z) && isfinite(r.catcher_unshadowed.x) &&
-            isfinite(r.catcher_unshadowed.y) && isfinite(r.catcher_unshadowed.z)) {
-            catcher_lit += (float4)(r.catcher_lit, 1.0f);
-            catcher_unshadowed += (float4)(r.catcher_unshadowed, 0.0f);
-            catcher_behind += (float4)(r.radiance, r.alpha);
-        }
-#endif
-#ifdef FILM_VECTORS
-        // Summed over the samples that hit, as depth is (film::resolve).
-        if (r.alpha > 0.0f && isfinite(r.motion.x) && isfinite(r.motion.y) &&
-            isfinite(r.motion.z) && isfinite(r.motion.w)) {
-            motion += r.motion;
-        }
-#endif
+        pixel_sums_add(&p, pt_path(&s, camera, filter, px, py, k TEX_PASS));
     }
-    aux.w += (float)(sample_end - sample_begin);
-    accum_color[i] = color;
+    p.aux.w += (float)(sample_end - sample_begin);
+    accum_color[i] = p.color;
     accum_snapshots[2u * i] = snap0;
     accum_snapshots[2u * i + 1u] = snap1;
-    accum_normal[i] = nrm;
-    accum_albedo[i] = alb;
-    accum_aux[i] = aux;
+    accum_normal[i] = p.nrm;
+    accum_albedo[i] = p.alb;
+    accum_aux[i] = p.aux;
     ray_counts[i] += s.rays;
 #ifdef FILM_MATTES
-    for (uint j = 0u; j < MATTE_SLOTS; ++j) matte_slots[i * MATTE_SLOTS + j] = mattes[j];
+    for (uint j = 0u; j < MATTE_SLOTS; ++j) matte_slots[i * MATTE_SLOTS + j] = p.mattes[j];
 #endif
 #ifdef FILM_LIGHT
-    for (uint j = 0u; j < LIGHT_PASSES; ++j) vstore3(light[j], j, light_at);
+    for (uint j = 0u; j < LIGHT_PASSES; ++j) vstore3(p.light[j], j, light_at);
 #endif
 #ifdef FILM_VECTORS
-    accum_motion[i] = motion;
+    accum_motion[i] = p.motion;
 #endif
 #ifdef FILM_GEOMETRY
-    accum_geometry[2u * i] = geometry_p;
-    accum_geometry[2u * i + 1u] = geometry_uv;
+    accum_geometry[2u * i] = p.geometry_p;
+    accum_geometry[2u * i + 1u] = p.geometry_uv;
 #endif
 #ifdef FILM_CATCHER
-    accum_catcher[3u * i] = catcher_lit;
-    accum_catcher[3u * i + 1u] = catcher_unshadowed;
-    accum_catcher[3u * i + 2u] = catcher_behind;
+    accum_catcher[3u * i] = p.catcher_lit;
+    accum_catcher[3u * i + 1u] = p.catcher_unshadowed;
+    accum_catcher[3u * i + 2u] = p.catcher_behind;
 #endif
 }
 
