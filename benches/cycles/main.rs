@@ -6,11 +6,11 @@
 //!
 //! Flags (defaults in brackets): `--size WxH` [384x256], `--spp LIST`
 //! [16,64,256], `--ref-spp N` [4096], `--meshes LIST` [beast,nefertiti],
-//! `--lightings LIST` [sky,sun,interior], `--samplers LIST` [sobol,random]
+//! `--lightings LIST` [sky,sun,interior,glossy,glass], `--samplers LIST` [sobol,random]
 //! (soupray's `--sampler`; a soupray without that flag gets one variant,
 //! `default`), `--cycles LIST` [3.4,5,5-guided], `--runs N` [1] (timed
-//! renders per scene, every renderer in turn in each run; the report gives
-//! medians), `--max-depth N` [8] (the interior's is 64), `--threads N`
+//! renders per scene, every renderer in turn in each run, run k with seed
+//! k; the report gives the mean error and the median times), `--max-depth N` [8] (the interior's is 64), `--threads N`
 //! [all cores] (Cycles' threads; soupray uses the whole OpenCL device),
 //! `--out DIR` [out/bench-cycles], `--fresh-refs` (render the references
 //! again), `--scenes-only` (write the scenes and stop).
@@ -26,7 +26,7 @@
 //!   the two at each sample count, and with Cycles 3.4.
 //!
 //! What it does: writes glTF 2.0 scenes from the scanned meshes (the
-//! shared folder's meshes/*.ply, read in place), in three lightings:
+//! shared folder's meshes/*.ply, read in place), in five setups:
 //! * `sky` and `sun`: the mesh standing on a ground quad, a camera framing
 //!   it, every material a 0.8 grey Lambertian (soupray `--clay`, Cycles a
 //!   Diffuse BSDF 0.8), under a constant white sky of radiance 1, or a 3
@@ -36,15 +36,22 @@
 //!   a closed white room (glTF's dielectric, base 0.8, roughness 1), lit by
 //!   the same sun and sky through a window, 64 bounces for both: indirect
 //!   light dominates. Both renderers render the file's materials (Cycles:
-//!   the Principled BSDFs of Blender's importer).
+//!   the Principled BSDFs of Blender's importer);
+//! * `glossy`: the mesh in polished silver (metal, roughness 0.2) on a
+//!   ground of three grey dielectric strips (base 0.5) at roughness 0.05,
+//!   0.25 and 0.6, under the sun and sky; the file's materials, as in the
+//!   interior;
+//! * `glass`: the mesh in clear glass (KHR_materials_transmission with a
+//!   volume: a refracting solid of IOR 1.5) on a white ground (base 0.8,
+//!   roughness 1) under the sun and sky; the file's materials.
 //!
 //! Each scene is rendered by soupray (`soupray render --env-color …`, once
 //! per sampler) and by each Cycles (`benches/cycles/render_cycles.py`,
 //! which translates the scene like for like: constant world, sun strength
-//! = lux, angle 0, no clamping/denoising/adaptive sampling, bounces = depth
-//! - 1, Blackman-Harris 1.5 px like soupray) at every `--spp`, and each is
-//! compared with its own renderer's reference at `--ref-spp` (another
-//! seed) by relative MSE (`soupray::compare::relative_mse`); a Blender
+//! = lux, angle 0, no clamping/denoising/adaptive sampling, bounces one
+//! fewer than the depth, Blackman-Harris 1.5 px like soupray) at every
+//! `--spp`, and each is compared with its own renderer's reference at
+//! `--ref-spp` (another seed) by relative MSE (`soupray::compare::relative_mse`); a Blender
 //! version's guided and unguided renders share its unguided reference
 //! (guiding changes the noise, not the expectation). The
 //! references must agree on the mean brightness within 3% (printed), or the
@@ -383,16 +390,19 @@ impl Bench<'_> {
             materials: scene.materials,
             seed: REF_SEED,
         };
-        let job = Job {
-            seed: TEST_SEED,
-            ..ref_job
-        };
         let (s_ref, c_refs) = self.references(mesh, lighting, scene, &ref_job, results)?;
         let start = results.rows.len();
         for run in 1..=o.runs {
             if o.runs > 1 {
                 eprintln!("  run {run} of {}", o.runs);
             }
+            // Each run its own seed: one image's error is one draw, and on
+            // scenes with caustics a few pixels decide it; the mean over
+            // the runs estimates the expected error.
+            let job = Job {
+                seed: TEST_SEED + u64::from(run) - 1,
+                ..ref_job
+            };
             self.timed_renders(mesh, lighting, &job, (&s_ref, &c_refs), results)?;
         }
         let runs = results.rows.split_off(start);
@@ -434,6 +444,8 @@ impl Bench<'_> {
                     time: r.time,
                     total: r.total,
                     sampling: r.sampling,
+                    setup: r.setup,
+                    rays_per_sample: r.rays_per_sample,
                 });
             }
         }
@@ -591,6 +603,8 @@ impl Bench<'_> {
                     time: r.time,
                     total: r.total,
                     sampling: r.sampling,
+                    setup: r.setup,
+                    rays_per_sample: r.rays_per_sample,
                 });
             }
         }
@@ -604,6 +618,7 @@ impl Bench<'_> {
         let o = self.o;
         let mut md = self.report_header(command, results);
         let csv = result_table(&results.rows, &mut md);
+        time_split_table(&results.rows, o, &mut md);
         print!("{md}");
         let csv_path = o.out.join("results.csv");
         std::fs::write(&csv_path, csv).map_err(|e| format!("{}: {e}", csv_path.display()))?;
@@ -648,7 +663,7 @@ impl Bench<'_> {
         let _ = writeln!(
             md,
             "{}x{}, max depth {} (Cycles: {} bounces; the interior {INTERIOR_DEPTH}), references {} spp (seed {REF_SEED}; \
-             soupray's with the `{}` sampler, Cycles' with guiding off), renders seed {TEST_SEED}, \
+             soupray's with the `{}` sampler, Cycles' with guiding off), renders seeds {TEST_SEED} to {} (one per run; rel. MSE is their mean, times the median), \
              Cycles on {} threads.\n",
             o.width,
             o.height,
@@ -656,6 +671,7 @@ impl Bench<'_> {
             o.max_depth.max(1) - 1,
             o.ref_spp,
             self.samplers[0],
+            TEST_SEED + u64::from(o.runs) - 1,
             o.threads
         );
         let _ = writeln!(
@@ -675,7 +691,8 @@ impl Bench<'_> {
 }
 
 /// One row per renderer, variant and sample count of several runs' rows
-/// (in the order of the first run): the median of each measure.
+/// (in the order of the first run): the mean error (each run has its own
+/// seed) and the median of each time.
 fn median_rows(rows: Vec<Row>) -> Vec<Row> {
     let mut groups: Vec<Vec<Row>> = Vec::new();
     for r in rows {
@@ -697,14 +714,72 @@ fn median_rows(rows: Vec<Row>) -> Vec<Row> {
                 v[v.len() / 2]
             };
             Row {
-                rel_mse: median(|r| r.rel_mse),
+                rel_mse: g.iter().map(|r| r.rel_mse).sum::<f64>() / g.len() as f64,
                 time: median(|r| r.time),
                 total: median(|r| r.total),
                 sampling: median(|r| r.sampling),
+                setup: median(|r| r.setup),
+                rays_per_sample: median(|r| r.rays_per_sample),
                 ..g.into_iter().next().expect("a group has a row")
             }
         })
         .collect()
+}
+
+/// Where the time goes at the largest sample count: soupray's setup
+/// (evaluate and build) and trace with its rays per sample and ray rate,
+/// beside the better setting of the newest Cycles: its scene sync and BVH
+/// build, and its path tracing.
+fn time_split_table(rows: &[Row], o: &Opts, md: &mut String) {
+    let Some(&spp) = o.spp.iter().max() else {
+        return;
+    };
+    let newest = rows
+        .iter()
+        .filter(|r| r.renderer == "cycles")
+        .map(|r| r.anchor.as_str())
+        .max()
+        .unwrap_or("");
+    let _ = writeln!(
+        md,
+        "\nWhere the time goes at {spp} spp: soupray's setup (scene evaluation and BVH \
+         build, from the frame log) and trace, its rays per sample (camera, bounce and \
+         shadow) and rate; Cycles {newest}'s better setting: setup (scene sync and BVH \
+         build) and path tracing.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| mesh | lighting | soupray | setup (s) | trace (s) | rays per sample | Mrays/s | \
+         Cycles setup (s) | Cycles path tracing (s) | trace / Cycles' |"
+    );
+    let _ = writeln!(md, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows
+        .iter()
+        .filter(|r| r.renderer == "soupray" && r.spp == spp)
+    {
+        let cycles = best_cycles(rows, r, newest);
+        let mrays = r.rays_per_sample * f64::from(o.width) * f64::from(o.height) * f64::from(spp)
+            / r.sampling
+            / 1e6;
+        let cell = |v: Option<f64>, digits: usize| match v {
+            Some(v) if v.is_finite() => format!("{v:.digits$}"),
+            _ => String::new(),
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} | {} | {} | {} |",
+            r.mesh,
+            r.lighting,
+            r.variant,
+            r.setup,
+            r.sampling,
+            r.rays_per_sample,
+            mrays,
+            cell(cycles.map(|c| c.setup), 3),
+            cell(cycles.map(|c| c.sampling), 3),
+            cell(cycles.map(|c| r.sampling / c.sampling), 2),
+        );
+    }
 }
 
 /// The best (lowest MSE x time) Cycles row of `anchor` for the same scene

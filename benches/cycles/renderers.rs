@@ -21,6 +21,12 @@ pub struct Render {
     /// first sample to the end, from its status messages (Blender 3.4's
     /// status lines: 10 ms resolution).
     pub sampling: f64,
+    /// What comes before path tracing: soupray's scene evaluation and BVH
+    /// build; Cycles' scene sync and BVH build (`time - sampling`).
+    pub setup: f64,
+    /// soupray's rays (camera, bounce and shadow) per sample, from the
+    /// frame log; NaN for Cycles, which does not count them.
+    pub rays_per_sample: f64,
     /// soupray: the OpenCL device from the frame log.
     pub device: Option<String>,
 }
@@ -111,6 +117,9 @@ impl Soupray {
             time: log.timings_ms.trace / 1e3,
             total: log.timings_ms.total / 1e3,
             sampling: log.timings_ms.trace / 1e3,
+            setup: (log.timings_ms.evaluate + log.timings_ms.build) / 1e3,
+            rays_per_sample: log.render.rays as f64
+                / (f64::from(o.width) * f64::from(o.height) * f64::from(spp)),
             device: Some(log.device),
         })
     }
@@ -282,6 +291,8 @@ impl Cycles {
                     time,
                     total: time,
                     sampling,
+                    setup: time - sampling,
+                    rays_per_sample: f64::NAN,
                     device: None,
                 })
             })

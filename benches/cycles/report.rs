@@ -16,6 +16,9 @@ pub struct Row {
     pub time: f64,
     pub total: f64,
     pub sampling: f64,
+    /// Before path tracing (see `Render::setup`).
+    pub setup: f64,
+    pub rays_per_sample: f64,
 }
 
 impl Row {

@@ -137,13 +137,26 @@ fn scene_doc(
         )).collect::<Vec<_>>(),
         "buffers": [{"uri": bin.0, "byteLength": bin.1}],
     });
+    // The materials' extensions, then the sun's.
+    let mut used: Vec<String> = doc["materials"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|m| m["extensions"].as_object())
+        .flat_map(|e| e.keys().cloned())
+        .collect();
+    used.sort();
+    used.dedup();
     if let Some(sun_rot) = sun {
         nodes.push(json!({"name": "sun", "rotation": sun_rot.to_array(),
                           "extensions": {"KHR_lights_punctual": {"light": 0}}}));
-        doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        used.push("KHR_lights_punctual".to_owned());
         doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
             {"name": "sun", "type": "directional", "color": [1.0, 1.0, 1.0],
              "intensity": SUN_LUX}]}});
+    }
+    if !used.is_empty() {
+        doc["extensionsUsed"] = json!(used);
     }
     doc["scenes"] = json!([{"name": name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}]);
     doc["nodes"] = json!(nodes);
@@ -182,7 +195,8 @@ fn room() -> Vec<Vec3> {
         [v(-x, 0., -z), v(x, 0., -z), v(x, y, -z), v(-x, y, -z)],
     ); // -z wall
     quad(&mut t, [v(-x, 0., z), v(-x, y, z), v(x, y, z), v(x, 0., z)]); // +z wall
-                                                                        // The window wall, around its opening.
+
+    // The window wall, around its opening.
     let wall = |t: &mut Vec<Vec3>, (y0, y1): (f32, f32), (z0, z1): (f32, f32)| {
         quad(
             t,
@@ -196,6 +210,86 @@ fn room() -> Vec<Vec3> {
     t
 }
 
+/// A scanned mesh in the bench's frame: one unit tall, standing on y = 0,
+/// centred over the origin.
+struct Figure {
+    pts: Vec<Vec3>,
+    bounds: (Vec3, Vec3),
+    triangles: usize,
+}
+
+impl Figure {
+    fn load(spec: &MeshSpec) -> Result<Figure, String> {
+        let soup = support::mesh(spec.file)?;
+        let rot = (spec.to_gltf)();
+        let mut pts: Vec<Vec3> = soup
+            .positions
+            .iter()
+            .map(|p| rot * Vec3::new(p[0], p[1], p[2]))
+            .collect();
+        let (lo, hi) = bounds(&pts);
+        let scale = 1.0 / (hi.y - lo.y);
+        let shift = Vec3::new(-0.5 * (lo.x + hi.x), -lo.y, -0.5 * (lo.z + hi.z));
+        for p in &mut pts {
+            *p = (*p + shift) * scale;
+        }
+        Ok(Figure {
+            pts,
+            bounds: ((lo + shift) * scale, (hi + shift) * scale),
+            triangles: soup.triangle_count(),
+        })
+    }
+
+    /// The figure as the scene's first mesh, in `material`.
+    fn part<'a>(&self, mesh: &'a str, material: u32) -> Part<'a> {
+        Part {
+            node: "mesh",
+            mesh,
+            first: 0,
+            count: self.pts.len(),
+            bounds: self.bounds,
+            material,
+        }
+    }
+}
+
+/// Writes a scene's buffer and glTF into one folder.
+struct SceneWriter<'a> {
+    dir: &'a Path,
+}
+
+impl SceneWriter<'_> {
+    /// `DIR/NAME`: the positions, little-endian f32; returns its bytes.
+    fn bin(&self, name: &str, pts: &[Vec3]) -> Result<Vec<u8>, String> {
+        let bin: Vec<u8> = pts
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        std::fs::write(self.dir.join(name), &bin)
+            .map_err(|e| format!("{}: {e}", self.dir.display()))?;
+        Ok(bin)
+    }
+
+    /// `DIR/NAME.gltf`; returns its path and the hash of the scene (text,
+    /// buffer and scene version), which keys the cached references.
+    fn gltf(
+        &self,
+        name: &str,
+        doc: &serde_json::Value,
+        bin: &[u8],
+    ) -> Result<(PathBuf, u64), String> {
+        let text = serde_json::to_string_pretty(doc).expect("json");
+        let path = self.dir.join(format!("{name}.gltf"));
+        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let hash = fnv1a(
+            fnv1a(fnv1a(FNV_START, text.as_bytes()), bin),
+            &[SCENE_VERSION as u8],
+        );
+        Ok((path, hash))
+    }
+}
+
 /// Writes `DIR/MESH.bin` (mesh then ground positions) and
 /// `DIR/MESH-LIGHTING.gltf` for each lighting; the interior has its own
 /// buffer, `DIR/MESH-interior.bin`.
@@ -205,85 +299,48 @@ pub fn write_scenes(
     dir: &Path,
 ) -> Result<BTreeMap<String, SceneFile>, String> {
     let spec = mesh_spec(mesh).expect("checked");
-    let soup = support::mesh(spec.file)?;
-    let rot = (spec.to_gltf)();
-    let mut pts: Vec<Vec3> = soup
-        .positions
-        .iter()
-        .map(|p| rot * Vec3::new(p[0], p[1], p[2]))
-        .collect();
-    let (lo, hi) = bounds(&pts);
-    // One unit tall, standing on y = 0, centred over the origin.
-    let scale = 1.0 / (hi.y - lo.y);
-    let shift = Vec3::new(-0.5 * (lo.x + hi.x), -lo.y, -0.5 * (lo.z + hi.z));
-    for p in &mut pts {
-        *p = (*p + shift) * scale;
-    }
-    let (lo, hi) = ((lo + shift) * scale, (hi + shift) * scale);
-    let centre = 0.5 * (lo + hi);
-    let radius = 0.5 * (hi - lo).length();
-    let aspect = o.width as f32 / o.height as f32;
-    let write = |name: &str, doc: &serde_json::Value, bin: &[u8]| {
-        let text = serde_json::to_string_pretty(doc).expect("json");
-        let path = dir.join(format!("{name}.gltf"));
-        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
-        let hash = fnv1a(
-            fnv1a(fnv1a(FNV_START, text.as_bytes()), bin),
-            &[SCENE_VERSION as u8],
-        );
-        Ok::<_, String>((path, hash))
-    };
-    let write_bin = |name: &str, pts: &[Vec3]| {
-        let bin: Vec<u8> = pts
-            .iter()
-            .flat_map(|p| p.to_array())
-            .flat_map(f32::to_le_bytes)
-            .collect();
-        std::fs::write(dir.join(name), &bin).map_err(|e| format!("{}: {e}", dir.display()))?;
-        Ok::<_, String>(bin)
-    };
-
-    // The ground: a 40 x 40 quad at y = 0, facing up.
-    let g = 20.0f32;
-    let mut ground = Vec::new();
-    quad(
-        &mut ground,
-        [
-            Vec3::new(-g, 0.0, -g),
-            Vec3::new(-g, 0.0, g),
-            Vec3::new(g, 0.0, g),
-            Vec3::new(g, 0.0, -g),
-        ],
+    let figure = Figure::load(&spec)?;
+    let writer = SceneWriter { dir };
+    let mut out = outdoor_scenes(o, mesh, &spec, &figure, &writer)?;
+    out.insert(
+        "interior".to_owned(),
+        interior_scene(o, mesh, &figure, &writer)?,
     );
-    let bin_name = format!("{mesh}.bin");
-    let bin = write_bin(&bin_name, &[pts.as_slice(), &ground].concat())?;
+    out.insert(
+        "glossy".to_owned(),
+        glossy_scene(o, mesh, &spec, &figure, &writer)?,
+    );
+    out.insert(
+        "glass".to_owned(),
+        glass_scene(o, mesh, &spec, &figure, &writer)?,
+    );
+    Ok(out)
+}
 
-    // The camera: on the view direction, far enough that the mesh's
-    // bounding sphere fits the narrower field of view.
-    let yfov = 35f32.to_radians();
-    let half = (0.5 * yfov).min(((0.5 * yfov).tan() * aspect).atan());
-    let distance = radius / half.sin() * 0.95;
-    let view = dir_from(spec.azimuth, spec.elevation);
-    let eye = centre + view * distance;
-    let cam_rot = look_rotation(centre - eye);
+/// The figure on a ground quad in clay, under the sky and under the sun.
+fn outdoor_scenes(
+    o: &Opts,
+    mesh: &str,
+    spec: &MeshSpec,
+    figure: &Figure,
+    writer: &SceneWriter,
+) -> Result<BTreeMap<String, SceneFile>, String> {
+    let g = GROUND_HALF;
+    let ground = ground_strips(&[]).remove(0);
+    let bin_name = format!("{mesh}.bin");
+    let bin = writer.bin(&bin_name, &[figure.pts.as_slice(), &ground].concat())?;
+
+    let (eye, cam_rot, yfov, aspect) = outdoor_camera(o, spec, figure);
     let sun_rot = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
     let white = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
         "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
         "metallicFactor": 0.0, "roughnessFactor": 1.0}}]);
-    let figure = |material| Part {
-        node: "mesh",
-        mesh,
-        first: 0,
-        count: pts.len(),
-        bounds: (lo, hi),
-        material,
-    };
     let meshes = [
-        figure(0),
+        figure.part(mesh, 0),
         Part {
             node: "ground",
             mesh: "ground",
-            first: pts.len(),
+            first: figure.pts.len(),
             count: ground.len(),
             bounds: (Vec3::new(-g, 0.0, -g), Vec3::new(g, 0.0, g)),
             material: 0,
@@ -301,27 +358,109 @@ pub fn write_scenes(
             &meshes,
             (lighting == "sun").then_some(sun_rot),
         );
-        let (path, hash) = write(&name, &doc, &bin)?;
+        let (path, hash) = writer.gltf(&name, &doc, &bin)?;
         out.insert(
             lighting.to_owned(),
             SceneFile {
                 path,
                 hash,
-                triangles: soup.triangle_count() + 2,
+                triangles: figure.triangles + 2,
                 env,
                 max_depth: o.max_depth,
                 materials: false,
             },
         );
     }
+    Ok(out)
+}
 
-    // The interior: the figure in rough gold, the room white (glTF's
-    // dielectric at roughness 1, its specular layer included), the sun
-    // through the window onto the floor beside the figure, and the camera
-    // in the far corner looking back at both.
-    let walls = room();
-    let bin_name = format!("{mesh}-interior.bin");
-    let bin = write_bin(&bin_name, &[pts.as_slice(), &walls].concat())?;
+/// The camera of the outdoor scenes: on the mesh's view direction, far
+/// enough that its bounding sphere fits the narrower field of view. Eye,
+/// rotation, vertical field of view and aspect.
+fn outdoor_camera(o: &Opts, spec: &MeshSpec, figure: &Figure) -> (Vec3, Quat, f32, f32) {
+    let (lo, hi) = figure.bounds;
+    let centre = 0.5 * (lo + hi);
+    let radius = 0.5 * (hi - lo).length();
+    let aspect = o.width as f32 / o.height as f32;
+    let yfov = 35f32.to_radians();
+    let half = (0.5 * yfov).min(((0.5 * yfov).tan() * aspect).atan());
+    let distance = radius / half.sin() * 0.95;
+    let eye = centre + dir_from(spec.azimuth, spec.elevation) * distance;
+    (eye, look_rotation(centre - eye), yfov, aspect)
+}
+
+/// A scene that renders its glTF materials, lit by the sun and sky: its
+/// meshes, the figure first, over one buffer.
+struct LitScene<'a> {
+    pts: Vec<Vec3>,
+    parts: Vec<Part<'a>>,
+}
+
+impl<'a> LitScene<'a> {
+    fn new(figure: &Figure, mesh: &'a str, material: u32) -> LitScene<'a> {
+        LitScene {
+            pts: figure.pts.clone(),
+            parts: vec![figure.part(mesh, material)],
+        }
+    }
+
+    /// Adds mesh `name`, the triangles `tris`, in `material`.
+    fn add(&mut self, name: &'a str, tris: &[Vec3], material: u32) {
+        self.parts.push(Part {
+            node: name,
+            mesh: name,
+            first: self.pts.len(),
+            count: tris.len(),
+            bounds: bounds(tris),
+            material,
+        });
+        self.pts.extend_from_slice(tris);
+    }
+
+    /// Writes `DIR/NAME.bin` and `DIR/NAME.gltf`.
+    fn write(
+        self,
+        writer: &SceneWriter,
+        name: &str,
+        materials: serde_json::Value,
+        camera: (Vec3, Quat, f32, f32),
+        sun_rot: Quat,
+        max_depth: u32,
+    ) -> Result<SceneFile, String> {
+        let bin_name = format!("{name}.bin");
+        let bin = writer.bin(&bin_name, &self.pts)?;
+        let doc = scene_doc(
+            name,
+            (&bin_name, bin.len()),
+            camera,
+            materials,
+            &self.parts,
+            Some(sun_rot),
+        );
+        let (path, hash) = writer.gltf(name, &doc, &bin)?;
+        Ok(SceneFile {
+            path,
+            hash,
+            triangles: self.pts.len() / 3,
+            env: SUN_SKY,
+            max_depth,
+            materials: true,
+        })
+    }
+}
+
+/// The interior: the figure in rough gold, the room white (glTF's
+/// dielectric at roughness 1, its specular layer included), the sun
+/// through the window onto the floor beside the figure, and the camera in
+/// the far corner looking back at both.
+fn interior_scene(
+    o: &Opts,
+    mesh: &str,
+    figure: &Figure,
+    writer: &SceneWriter,
+) -> Result<SceneFile, String> {
+    let mut scene = LitScene::new(figure, mesh, 1);
+    scene.add("room", &room(), 0);
     let materials = json!([
         {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
             "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
@@ -330,40 +469,121 @@ pub fn write_scenes(
             "baseColorFactor": [1.0, 0.766, 0.336, 1.0],
             "metallicFactor": 1.0, "roughnessFactor": 0.4}}
     ]);
-    let meshes = [
-        figure(1),
-        Part {
-            node: "room",
-            mesh: "room",
-            first: pts.len(),
-            count: walls.len(),
-            bounds: bounds(&walls),
-            material: 0,
-        },
-    ];
     let eye = Vec3::new(1.3, 1.3, 1.3);
     let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
-    let sun_rot = look_rotation(Vec3::new(1.0, -0.7, 0.25));
-    let name = format!("{mesh}-interior");
-    let doc = scene_doc(
-        &name,
-        (&bin_name, bin.len()),
-        (eye, cam_rot, 60f32.to_radians(), aspect),
+    let aspect = o.width as f32 / o.height as f32;
+    scene.write(
+        writer,
+        &format!("{mesh}-interior"),
         materials,
-        &meshes,
-        Some(sun_rot),
-    );
-    let (path, hash) = write(&name, &doc, &bin)?;
-    out.insert(
-        "interior".to_owned(),
-        SceneFile {
-            path,
-            hash,
-            triangles: soup.triangle_count() + walls.len() / 3,
-            env: SUN_SKY,
-            max_depth: INTERIOR_DEPTH,
-            materials: true,
-        },
-    );
-    Ok(out)
+        (eye, cam_rot, 60f32.to_radians(), aspect),
+        look_rotation(Vec3::new(1.0, -0.7, 0.25)),
+        INTERIOR_DEPTH,
+    )
+}
+
+/// Half the side of the outdoor scenes' ground.
+const GROUND_HALF: f32 = 20.0;
+
+/// The ground of the outdoor scenes, split into strips at these x: a 40 x
+/// 40 quad at y = 0 facing up, one strip per pair.
+fn ground_strips(cuts: &[f32]) -> Vec<Vec<Vec3>> {
+    let g = GROUND_HALF;
+    let xs: Vec<f32> = [-g]
+        .into_iter()
+        .chain(cuts.iter().copied())
+        .chain([g])
+        .collect();
+    xs.windows(2)
+        .map(|x| {
+            let mut t = Vec::new();
+            quad(
+                &mut t,
+                [
+                    Vec3::new(x[0], 0.0, -g),
+                    Vec3::new(x[0], 0.0, g),
+                    Vec3::new(x[1], 0.0, g),
+                    Vec3::new(x[1], 0.0, -g),
+                ],
+            );
+            t
+        })
+        .collect()
+}
+
+/// Glossy surfaces at several roughnesses under the sun: the figure in
+/// polished silver (roughness 0.2) on a ground of three grey dielectric
+/// strips (glTF's specular layer over a 0.5 base) at roughness 0.05, 0.25
+/// and 0.6, the figure on the middle one.
+fn glossy_scene(
+    o: &Opts,
+    mesh: &str,
+    spec: &MeshSpec,
+    figure: &Figure,
+    writer: &SceneWriter,
+) -> Result<SceneFile, String> {
+    let mut scene = LitScene::new(figure, mesh, 0);
+    let strips = ground_strips(&[-0.5, 0.5]);
+    for (k, (strip, name)) in strips
+        .iter()
+        .zip(["strip-a", "strip-b", "strip-c"])
+        .enumerate()
+    {
+        scene.add(name, strip, k as u32 + 1);
+    }
+    let grey = |name: &str, roughness: f32| {
+        json!({"name": name, "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": roughness}})
+    };
+    let materials = json!([
+        {"name": "silver", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.97, 0.96, 0.91, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 0.2}},
+        grey("grey-0.05", 0.05),
+        grey("grey-0.25", 0.25),
+        grey("grey-0.6", 0.6)
+    ]);
+    scene.write(
+        writer,
+        &format!("{mesh}-glossy"),
+        materials,
+        outdoor_camera(o, spec, figure),
+        look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
+        o.max_depth,
+    )
+}
+
+/// Glass over diffuse: the figure in clear glass (KHR_materials_transmission
+/// with a volume, so both renderers refract through a solid, IOR 1.5,
+/// smooth) on the white ground (glTF's dielectric, base 0.8, roughness 1),
+/// under the sun and sky.
+fn glass_scene(
+    o: &Opts,
+    mesh: &str,
+    spec: &MeshSpec,
+    figure: &Figure,
+    writer: &SceneWriter,
+) -> Result<SceneFile, String> {
+    let mut scene = LitScene::new(figure, mesh, 1);
+    scene.add("ground", &ground_strips(&[])[0], 0);
+    let materials = json!([
+        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "glass", "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 0.0},
+         "extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 1.0},
+            "KHR_materials_volume": {"thicknessFactor": 0.1}}}
+    ]);
+    scene.write(
+        writer,
+        &format!("{mesh}-glass"),
+        materials,
+        outdoor_camera(o, spec, figure),
+        look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
+        o.max_depth,
+    )
 }
