@@ -432,21 +432,14 @@ impl Bench<'_> {
                 .join(format!("cycles-{}", cycles.label.replace(' ', "-")));
             let renders = cycles.render(o, job, &o.spp, &dir)?;
             for (&spp, r) in o.spp.iter().zip(renders) {
-                results.rows.push(Row {
-                    mesh: mesh.clone(),
-                    lighting: lighting.clone(),
-                    spp,
-                    renderer: "cycles",
-                    variant: cycles.label.clone(),
-                    anchor: cycles.anchor.clone(),
-                    rel_mse: soupray::compare::relative_mse(&r.image, &c_refs[&cycles.anchor])
-                        .map_err(|e| e.to_string())?,
-                    time: r.time,
-                    total: r.total,
-                    sampling: r.sampling,
-                    setup: r.setup,
-                    rays_per_sample: r.rays_per_sample,
-                });
+                let rel_mse = soupray::compare::relative_mse(&r.image, &c_refs[&cycles.anchor])
+                    .map_err(|e| e.to_string())?;
+                results.rows.push(Row::measured(
+                    (mesh, lighting, spp),
+                    ("cycles", &cycles.label, &cycles.anchor),
+                    rel_mse,
+                    &r,
+                ));
             }
         }
         Ok(())
@@ -591,21 +584,14 @@ impl Bench<'_> {
                     .join(format!("soupray-{variant}-spp{spp}"));
                 let r = self.soupray.render(o, job, variant, spp, &dir)?;
                 results.device = results.device.take().or(r.device.clone());
-                results.rows.push(Row {
-                    mesh: mesh.clone(),
-                    lighting: lighting.clone(),
-                    spp,
-                    renderer: "soupray",
-                    variant: variant.clone(),
-                    anchor: String::new(),
-                    rel_mse: soupray::compare::relative_mse(&r.image, s_ref)
-                        .map_err(|e| e.to_string())?,
-                    time: r.time,
-                    total: r.total,
-                    sampling: r.sampling,
-                    setup: r.setup,
-                    rays_per_sample: r.rays_per_sample,
-                });
+                let rel_mse =
+                    soupray::compare::relative_mse(&r.image, s_ref).map_err(|e| e.to_string())?;
+                results.rows.push(Row::measured(
+                    (mesh, lighting, spp),
+                    ("soupray", variant, ""),
+                    rel_mse,
+                    &r,
+                ));
             }
         }
         Ok(())

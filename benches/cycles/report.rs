@@ -22,6 +22,30 @@ pub struct Row {
 }
 
 impl Row {
+    /// The row of render `r` of scene (mesh, lighting, spp) by (renderer,
+    /// variant, anchor), with its error against its reference.
+    pub fn measured(
+        (mesh, lighting, spp): (&str, &str, u32),
+        (renderer, variant, anchor): (&'static str, &str, &str),
+        rel_mse: f64,
+        r: &crate::renderers::Render,
+    ) -> Row {
+        Row {
+            mesh: mesh.to_owned(),
+            lighting: lighting.to_owned(),
+            spp,
+            renderer,
+            variant: variant.to_owned(),
+            anchor: anchor.to_owned(),
+            rel_mse,
+            time: r.time,
+            total: r.total,
+            sampling: r.sampling,
+            setup: r.setup,
+            rays_per_sample: r.rays_per_sample,
+        }
+    }
+
     pub fn product(&self) -> f64 {
         self.rel_mse * self.time
     }

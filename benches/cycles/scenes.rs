@@ -290,6 +290,16 @@ impl SceneWriter<'_> {
     }
 }
 
+/// What every scene of a mesh is written from.
+#[derive(Clone, Copy)]
+struct SceneInputs<'a> {
+    o: &'a Opts,
+    mesh: &'a str,
+    spec: &'a MeshSpec,
+    figure: &'a Figure,
+    writer: &'a SceneWriter<'a>,
+}
+
 /// Writes `DIR/MESH.bin` (mesh then ground positions) and
 /// `DIR/MESH-LIGHTING.gltf` for each lighting; the interior has its own
 /// buffer, `DIR/MESH-interior.bin`.
@@ -301,30 +311,29 @@ pub fn write_scenes(
     let spec = mesh_spec(mesh).expect("checked");
     let figure = Figure::load(&spec)?;
     let writer = SceneWriter { dir };
-    let mut out = outdoor_scenes(o, mesh, &spec, &figure, &writer)?;
-    out.insert(
-        "interior".to_owned(),
-        interior_scene(o, mesh, &figure, &writer)?,
-    );
-    out.insert(
-        "glossy".to_owned(),
-        glossy_scene(o, mesh, &spec, &figure, &writer)?,
-    );
-    out.insert(
-        "glass".to_owned(),
-        glass_scene(o, mesh, &spec, &figure, &writer)?,
-    );
+    let inputs = SceneInputs {
+        o,
+        mesh,
+        spec: &spec,
+        figure: &figure,
+        writer: &writer,
+    };
+    let mut out = outdoor_scenes(&inputs)?;
+    out.insert("interior".to_owned(), interior_scene(&inputs)?);
+    out.insert("glossy".to_owned(), glossy_scene(&inputs)?);
+    out.insert("glass".to_owned(), glass_scene(&inputs)?);
     Ok(out)
 }
 
 /// The figure on a ground quad in clay, under the sky and under the sun.
-fn outdoor_scenes(
-    o: &Opts,
-    mesh: &str,
-    spec: &MeshSpec,
-    figure: &Figure,
-    writer: &SceneWriter,
-) -> Result<BTreeMap<String, SceneFile>, String> {
+fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, String> {
+    let SceneInputs {
+        o,
+        mesh,
+        spec,
+        figure,
+        writer,
+    } = *inputs;
     let g = GROUND_HALF;
     let ground = ground_strips(&[]).remove(0);
     let bin_name = format!("{mesh}.bin");
@@ -417,6 +426,27 @@ impl<'a> LitScene<'a> {
         self.pts.extend_from_slice(tris);
     }
 
+    /// `write` with the outdoor scenes' camera and sun, at depth
+    /// `--max-depth`.
+    fn write_outdoor(
+        self,
+        inputs: &SceneInputs,
+        name: &str,
+        materials: serde_json::Value,
+    ) -> Result<SceneFile, String> {
+        let SceneInputs {
+            o, spec, figure, ..
+        } = *inputs;
+        self.write(
+            inputs.writer,
+            name,
+            materials,
+            outdoor_camera(o, spec, figure),
+            look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
+            o.max_depth,
+        )
+    }
+
     /// Writes `DIR/NAME.bin` and `DIR/NAME.gltf`.
     fn write(
         self,
@@ -453,12 +483,14 @@ impl<'a> LitScene<'a> {
 /// dielectric at roughness 1, its specular layer included), the sun
 /// through the window onto the floor beside the figure, and the camera in
 /// the far corner looking back at both.
-fn interior_scene(
-    o: &Opts,
-    mesh: &str,
-    figure: &Figure,
-    writer: &SceneWriter,
-) -> Result<SceneFile, String> {
+fn interior_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let SceneInputs {
+        o,
+        mesh,
+        figure,
+        writer,
+        ..
+    } = *inputs;
     let mut scene = LitScene::new(figure, mesh, 1);
     scene.add("room", &room(), 0);
     let materials = json!([
@@ -515,14 +547,9 @@ fn ground_strips(cuts: &[f32]) -> Vec<Vec<Vec3>> {
 /// polished silver (roughness 0.2) on a ground of three grey dielectric
 /// strips (glTF's specular layer over a 0.5 base) at roughness 0.05, 0.25
 /// and 0.6, the figure on the middle one.
-fn glossy_scene(
-    o: &Opts,
-    mesh: &str,
-    spec: &MeshSpec,
-    figure: &Figure,
-    writer: &SceneWriter,
-) -> Result<SceneFile, String> {
-    let mut scene = LitScene::new(figure, mesh, 0);
+fn glossy_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let mesh = inputs.mesh;
+    let mut scene = LitScene::new(inputs.figure, mesh, 0);
     let strips = ground_strips(&[-0.5, 0.5]);
     for (k, (strip, name)) in strips
         .iter()
@@ -544,28 +571,16 @@ fn glossy_scene(
         grey("grey-0.25", 0.25),
         grey("grey-0.6", 0.6)
     ]);
-    scene.write(
-        writer,
-        &format!("{mesh}-glossy"),
-        materials,
-        outdoor_camera(o, spec, figure),
-        look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
-        o.max_depth,
-    )
+    scene.write_outdoor(inputs, &format!("{mesh}-glossy"), materials)
 }
 
 /// Glass over diffuse: the figure in clear glass (KHR_materials_transmission
 /// with a volume, so both renderers refract through a solid, IOR 1.5,
 /// smooth) on the white ground (glTF's dielectric, base 0.8, roughness 1),
 /// under the sun and sky.
-fn glass_scene(
-    o: &Opts,
-    mesh: &str,
-    spec: &MeshSpec,
-    figure: &Figure,
-    writer: &SceneWriter,
-) -> Result<SceneFile, String> {
-    let mut scene = LitScene::new(figure, mesh, 1);
+fn glass_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let mesh = inputs.mesh;
+    let mut scene = LitScene::new(inputs.figure, mesh, 1);
     scene.add("ground", &ground_strips(&[])[0], 0);
     let materials = json!([
         {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
@@ -578,12 +593,5 @@ fn glass_scene(
             "KHR_materials_transmission": {"transmissionFactor": 1.0},
             "KHR_materials_volume": {"thicknessFactor": 0.1}}}
     ]);
-    scene.write(
-        writer,
-        &format!("{mesh}-glass"),
-        materials,
-        outdoor_camera(o, spec, figure),
-        look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
-        o.max_depth,
-    )
+    scene.write_outdoor(inputs, &format!("{mesh}-glass"), materials)
 }

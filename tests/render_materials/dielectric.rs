@@ -124,24 +124,7 @@ fn roulette_does_not_cut_paths_inside_glass() {
     // furnace every sample through a clear ball then carries about 1 (or 0,
     // where a path ends for other reasons): at 1 spp, no pixel is 2.25x
     // bright.
-    let d = common::device();
-    let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
-    let mut st = settings(64, 1);
-    st.max_depth = 24;
-    st.environment = Environment::Color([1.0, 1.0, 1.0]);
-    let mut s = Soup::default();
-    sphere(&mut s, Vec3::ZERO, 1.0, 16, 32, 0);
-    let img = render_soup(
-        &d,
-        &s,
-        &table(vec![glass(1.0, 1.5, true)]),
-        &cam,
-        &[],
-        &st,
-        0,
-    )
-    .unwrap()
-    .image;
+    let img = ball_in_white_furnace_sized(glass(1.0, 1.5, true), 64, 1);
     let v = covered(&img);
     let bright = v.iter().filter(|&&x| x > 1.5).count();
     eprintln!(

@@ -113,9 +113,14 @@ fn ball_in_white_furnace(m: Material) -> (f64, f64) {
 
 /// The image `ball_in_white_furnace` measures.
 fn ball_in_white_furnace_image(m: Material) -> soupray::film::Image {
+    ball_in_white_furnace_sized(m, 24, 64)
+}
+
+/// `ball_in_white_furnace_image` at `size` x `size` pixels and `spp`.
+fn ball_in_white_furnace_sized(m: Material, size: u32, spp: u32) -> soupray::film::Image {
     let d = common::device();
     let cam = perspective(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, Vec3::Y, 40.0);
-    let mut st = settings(24, 64);
+    let mut st = settings(size, spp);
     st.max_depth = 24;
     st.environment = Environment::Color([1.0, 1.0, 1.0]);
     let mut s = Soup::default();
