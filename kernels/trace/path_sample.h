@@ -76,11 +76,6 @@ typedef struct {
     // The distance from the last scattering vertex to this segment's start
     // (null crossings), for the pdf of light sampling an emitter found.
     float carried;
-    // The product of eta^2 over the refractions so far: refraction scales
-    // radiance by 1 / eta^2, which Russian roulette must not see, or a path
-    // inside glass (throughput 1 / 1.5^2) would be cut more than half the
-    // time and come back 2.25x brighter (pbrt-v4's etaScale).
-    float eta_scale;
 #endif
 } PtPath;
 
@@ -95,7 +90,6 @@ inline PtPath pt_path_new(void) {
     p.channel = -1;
     p.sigma = (float3)(0.0f);
     p.carried = 0.0f;
-    p.eta_scale = 1.0f;
 #endif
     return p;
 }
@@ -393,7 +387,8 @@ inline void pt_emitter_found(PtScene* s, PtSample* out, PtMaterial m, PtSurface 
 }
 
 // Russian roulette with the path's random number `u`: false ends the path,
-// true keeps it with its throughput raised to stay unbiased. Applied from
+// true keeps it with its throughput raised to stay unbiased; `eta_scale`
+// undoes refraction's radiance scaling in the survival probability. Applied from
 // the sixth vertex on (after the fifth bounce's sample), keeping throughput
 // near 1 where it survives. Started at the fourth vertex it was the largest
 // source of noise on the clay scan under a sky: a path ground -> mesh ->
@@ -501,11 +496,6 @@ inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, floa
     p->beta = p->beta * f * (fabs(wi.z) / pdf);
     if (transmitted) {
         above = sf.below;
-        // The lobe bsdf_sample took: a refraction (not thin-walled, not the
-        // diffuse transmission) scaled the throughput by 1 / eta^2.
-        float3 pr = lobe_probabilities(bp, wo.z);
-        if (bp.thin == 0.0f && ub.z >= pr.x && ub.z < pr.x + pr.y)
-            p->eta_scale *= bp.eta * bp.eta;
         if (volume) {
             if (sf.front)
                 media_enter(&p->media, mat);
@@ -535,7 +525,13 @@ inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, floa
         p->prev_pdf = pdf;
         p->prev_delta = delta;
 #ifdef HAS_TRANSMISSION
-        float eta_scale = p->eta_scale;
+        // Each refraction scales radiance by 1 / eta^2, which roulette must
+        // not see, or a path inside glass (throughput 1 / 1.5^2) would be
+        // cut more than half the time and come back 2.25x bright (pbrt-v4's
+        // etaScale). The ratios telescope: the scale is the innermost
+        // medium's index squared, the camera being in air.
+        float n = pt_medium_ior(s, media_innermost(&p->media), p->channel);
+        float eta_scale = n * n;
 #else
         float eta_scale = 1.0f;
 #endif
