@@ -102,7 +102,7 @@ mod scenes;
 
 use opts::{parse_opts, Opts, USAGE};
 use references::{cached_reference, mean_rgb, source_hash};
-use renderers::{find_on_path, run_logged, Cycles, Job, Launcher, Soupray};
+use renderers::{find_on_path, run_logged, Cycles, Job, Launcher, Soupray, Times};
 use report::{date, fmt_sci, machine, Row};
 use scenes::{fnv1a, mesh_spec, write_scenes, SceneFile, FNV_START};
 use soupray::film::Image;
@@ -406,7 +406,7 @@ impl Bench<'_> {
             self.timed_renders(mesh, lighting, &job, (&s_ref, &c_refs), results)?;
         }
         let runs = results.rows.split_off(start);
-        results.rows.extend(median_rows(runs));
+        results.rows.extend(combine_runs(runs));
         Ok(())
     }
 
@@ -679,7 +679,7 @@ impl Bench<'_> {
 /// One row per renderer, variant and sample count of several runs' rows
 /// (in the order of the first run): the mean error (each run has its own
 /// seed) and the median of each time.
-fn median_rows(rows: Vec<Row>) -> Vec<Row> {
+fn combine_runs(rows: Vec<Row>) -> Vec<Row> {
     let mut groups: Vec<Vec<Row>> = Vec::new();
     for r in rows {
         let same = |g: &Vec<Row>| {
@@ -701,11 +701,13 @@ fn median_rows(rows: Vec<Row>) -> Vec<Row> {
             };
             Row {
                 rel_mse: g.iter().map(|r| r.rel_mse).sum::<f64>() / g.len() as f64,
-                time: median(|r| r.time),
-                total: median(|r| r.total),
-                sampling: median(|r| r.sampling),
-                setup: median(|r| r.setup),
-                rays_per_sample: median(|r| r.rays_per_sample),
+                times: Times {
+                    time: median(|r| r.times.time),
+                    total: median(|r| r.times.total),
+                    sampling: median(|r| r.times.sampling),
+                    setup: median(|r| r.times.setup),
+                    rays_per_sample: median(|r| r.times.rays_per_sample),
+                },
                 ..g.into_iter().next().expect("a group has a row")
             }
         })
@@ -720,12 +722,7 @@ fn time_split_table(rows: &[Row], o: &Opts, md: &mut String) {
     let Some(&spp) = o.spp.iter().max() else {
         return;
     };
-    let newest = rows
-        .iter()
-        .filter(|r| r.renderer == "cycles")
-        .map(|r| r.anchor.as_str())
-        .max()
-        .unwrap_or("");
+    let newest = anchors(rows).first().copied().unwrap_or("");
     let _ = writeln!(
         md,
         "\nWhere the time goes at {spp} spp: soupray's setup (scene evaluation and BVH \
@@ -744,27 +741,46 @@ fn time_split_table(rows: &[Row], o: &Opts, md: &mut String) {
         .filter(|r| r.renderer == "soupray" && r.spp == spp)
     {
         let cycles = best_cycles(rows, r, newest);
-        let mrays = r.rays_per_sample * f64::from(o.width) * f64::from(o.height) * f64::from(spp)
-            / r.sampling
+        let t = &r.times;
+        let mrays = t.rays_per_sample * f64::from(o.width) * f64::from(o.height) * f64::from(spp)
+            / t.sampling
             / 1e6;
-        let cell = |v: Option<f64>, digits: usize| match v {
-            Some(v) if v.is_finite() => format!("{v:.digits$}"),
-            _ => String::new(),
-        };
+        let of_cycles = |f: fn(&Times) -> f64| cycles.map_or(f64::NAN, |c| f(&c.times));
         let _ = writeln!(
             md,
             "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} | {} | {} | {} |",
             r.mesh,
             r.lighting,
             r.variant,
-            r.setup,
-            r.sampling,
-            r.rays_per_sample,
+            t.setup,
+            t.sampling,
+            t.rays_per_sample,
             mrays,
-            cell(cycles.map(|c| c.setup), 3),
-            cell(cycles.map(|c| c.sampling), 3),
-            cell(cycles.map(|c| r.sampling / c.sampling), 2),
+            cell(of_cycles(|c| c.setup), 3),
+            cell(of_cycles(|c| c.sampling), 3),
+            cell(t.sampling / of_cycles(|c| c.sampling), 2),
         );
+    }
+}
+
+/// The Blender versions of the Cycles rows, newest first.
+fn anchors(rows: &[Row]) -> Vec<&str> {
+    let mut anchors: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.renderer == "cycles")
+        .map(|r| r.anchor.as_str())
+        .collect();
+    anchors.sort_by(|a, b| b.cmp(a));
+    anchors.dedup();
+    anchors
+}
+
+/// A table cell: `v` with `digits` decimals, empty where it is not a number.
+fn cell(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else {
+        String::new()
     }
 }
 
@@ -786,13 +802,7 @@ fn best_cycles<'a>(rows: &'a [Row], r: &Row, anchor: &str) -> Option<&'a Row> {
 /// the CSV. soupray's rows carry a ratio to each Blender version's better
 /// setting, newest first.
 fn result_table(rows: &[Row], md: &mut String) -> String {
-    let mut anchors: Vec<&str> = rows
-        .iter()
-        .filter(|r| r.renderer == "cycles")
-        .map(|r| r.anchor.as_str())
-        .collect();
-    anchors.sort_by(|a, b| b.cmp(a));
-    anchors.dedup();
+    let anchors = anchors(rows);
     let newest = anchors.first().copied().unwrap_or("");
     let _ = writeln!(
         md,
@@ -825,13 +835,6 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         let _ = write!(csv, ",ratio_to_cycles_{a}");
     }
     csv.push_str(",sampling_ratio_to_cycles\n");
-    let num = |v: f64, digits: usize| {
-        if v.is_finite() {
-            format!("{v:.digits$}")
-        } else {
-            String::new()
-        }
-    };
     for r in rows {
         let ratio = |anchor: &str, f: fn(&Row) -> f64| match best_cycles(rows, r, anchor) {
             Some(c) if r.renderer == "soupray" && f(c) > 0.0 => f(r) / f(c),
@@ -846,7 +849,7 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         };
         let ratio_cells: String = ratios
             .iter()
-            .map(|&v| format!(" {} |", num(v, 2)))
+            .map(|&v| format!(" {} |", cell(v, 2)))
             .collect();
         let _ = writeln!(
             md,
@@ -855,15 +858,15 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
             r.lighting,
             r.spp,
             fmt_sci(r.rel_mse),
-            r.time,
+            r.times.time,
             fmt_sci(r.product()),
             if r.renderer == "soupray" {
-                num(r.total, 3)
+                cell(r.times.total, 3)
             } else {
                 String::new()
             },
-            num(r.sampling, 3),
-            num(sampling_ratio, 2),
+            cell(r.times.sampling, 3),
+            cell(sampling_ratio, 2),
         );
         let _ = write!(
             csv,
@@ -874,12 +877,12 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
             r.renderer,
             r.variant,
             r.rel_mse,
-            r.time,
-            r.total,
-            r.sampling,
+            r.times.time,
+            r.times.total,
+            r.times.sampling,
             r.product(),
         );
-        for v in ratios.iter().chain([&sampling_ratio]) {
+        for &v in ratios.iter().chain([&sampling_ratio]) {
             let _ = write!(
                 csv,
                 ",{}",

@@ -47,10 +47,11 @@ pub fn cached_reference(
     let _ = std::fs::remove_dir_all(&work);
     std::fs::write(
         &meta,
-        serde_json::to_string_pretty(&json!({"time_s": r.time, "total_s": r.total})).expect("json"),
+        serde_json::to_string_pretty(&json!({"time_s": r.times.time, "total_s": r.times.total}))
+            .expect("json"),
     )
     .map_err(|e| format!("{}: {e}", meta.display()))?;
-    Ok((r.image, r.time, false))
+    Ok((r.image, r.times.time, false))
 }
 
 /// A hash of the files at `paths` (files, or directories read recursively),

@@ -10,9 +10,9 @@ use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-/// One render's image and times.
-pub struct Render {
-    pub image: Image,
+/// One render's times.
+#[derive(Clone, Copy)]
+pub struct Times {
     /// The measured time (see the module documentation), seconds.
     pub time: f64,
     /// soupray's frame total; for Cycles the same as `time`.
@@ -27,6 +27,12 @@ pub struct Render {
     /// soupray's rays (camera, bounce and shadow) per sample, from the
     /// frame log; NaN for Cycles, which does not count them.
     pub rays_per_sample: f64,
+}
+
+/// One render's image and times.
+pub struct Render {
+    pub image: Image,
+    pub times: Times,
     /// soupray: the OpenCL device from the frame log.
     pub device: Option<String>,
 }
@@ -114,12 +120,14 @@ impl Soupray {
             serde_json::from_str(&text).map_err(|e| format!("{}: {e}", log_path.display()))?;
         Ok(Render {
             image: read_exr(&dir.join("img.0000.exr"))?,
-            time: log.timings_ms.trace / 1e3,
-            total: log.timings_ms.total / 1e3,
-            sampling: log.timings_ms.trace / 1e3,
-            setup: (log.timings_ms.evaluate + log.timings_ms.build) / 1e3,
-            rays_per_sample: log.render.rays as f64
-                / (f64::from(o.width) * f64::from(o.height) * f64::from(spp)),
+            times: Times {
+                time: log.timings_ms.trace / 1e3,
+                total: log.timings_ms.total / 1e3,
+                sampling: log.timings_ms.trace / 1e3,
+                setup: (log.timings_ms.evaluate + log.timings_ms.build) / 1e3,
+                rays_per_sample: log.render.rays as f64
+                    / (f64::from(o.width) * f64::from(o.height) * f64::from(spp)),
+            },
             device: Some(log.device),
         })
     }
@@ -288,11 +296,13 @@ impl Cycles {
                 })?;
                 Ok(Render {
                     image: read_exr(&dir.join(format!("cycles-spp{spp}.exr")))?,
-                    time,
-                    total: time,
-                    sampling,
-                    setup: time - sampling,
-                    rays_per_sample: f64::NAN,
+                    times: Times {
+                        time,
+                        total: time,
+                        sampling,
+                        setup: time - sampling,
+                        rays_per_sample: f64::NAN,
+                    },
                     device: None,
                 })
             })

@@ -1,5 +1,6 @@
 //! The report's rows and what it says about the machine and the run.
 
+use crate::renderers::{Render, Times};
 use std::process::Command;
 
 pub struct Row {
@@ -13,12 +14,7 @@ pub struct Row {
     /// stand for; the better of a version's settings is the one compared.
     pub anchor: String,
     pub rel_mse: f64,
-    pub time: f64,
-    pub total: f64,
-    pub sampling: f64,
-    /// Before path tracing (see `Render::setup`).
-    pub setup: f64,
-    pub rays_per_sample: f64,
+    pub times: Times,
 }
 
 impl Row {
@@ -28,7 +24,7 @@ impl Row {
         (mesh, lighting, spp): (&str, &str, u32),
         (renderer, variant, anchor): (&'static str, &str, &str),
         rel_mse: f64,
-        r: &crate::renderers::Render,
+        r: &Render,
     ) -> Row {
         Row {
             mesh: mesh.to_owned(),
@@ -38,19 +34,15 @@ impl Row {
             variant: variant.to_owned(),
             anchor: anchor.to_owned(),
             rel_mse,
-            time: r.time,
-            total: r.total,
-            sampling: r.sampling,
-            setup: r.setup,
-            rays_per_sample: r.rays_per_sample,
+            times: r.times,
         }
     }
 
     pub fn product(&self) -> f64 {
-        self.rel_mse * self.time
+        self.rel_mse * self.times.time
     }
     pub fn sampling_product(&self) -> f64 {
-        self.rel_mse * self.sampling
+        self.rel_mse * self.times.sampling
     }
 }
 
