@@ -60,7 +60,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
 /// them and probes every field's layout on the device.
 pub fn generated_headers() -> Vec<GeneratedHeader> {
     use bvh::layout as b;
-    use trace::{camera, escape, lights, material, render, texture, wide};
+    use trace::{camera, escape, light_tree, lights, material, render, texture, wide};
     vec![
         GeneratedHeader {
             file: "bvh_types.h",
@@ -112,6 +112,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 render::frame_consts(),
                 material::material_consts(),
                 lights::light_consts(),
+                light_tree::light_tree_consts(),
                 crate::scene::compositing::compositing_consts(),
                 crate::film::light::light_pass_consts(),
             ]
@@ -123,6 +124,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 material::DeviceMaterialExt::layout(),
                 lights::DeviceLight::layout(),
                 lights::DeviceEnv::layout(),
+                light_tree::DeviceLightNode::layout(),
             ],
         },
     ]

@@ -191,9 +191,21 @@ fn plane_under(
     spp: u32,
     half: f32,
 ) -> soupray::film::Image {
+    plane_under_chosen(lights, size, spp, half, true)
+}
+
+/// `plane_under`, many lights chosen through the light tree or by power.
+fn plane_under_chosen(
+    lights: &[soupray::scene::FrameLight],
+    size: u32,
+    spp: u32,
+    half: f32,
+    light_tree: bool,
+) -> soupray::film::Image {
     let d = common::device();
     let s = ground_plane();
     let mut st = settings(size, spp);
+    st.light_tree = light_tree;
     st.clay = true;
     st.max_depth = 1;
     render_soup(&d, &s, &table(vec![]), &top_down(half), lights, &st, 0)
@@ -549,11 +561,56 @@ fn sun_over_a_sky_lights_a_plane_without_noise() {
     }
 }
 
+/// The plane's radiance under point lights `lights` (albedo 0.8), through
+/// the pixel filter.
+fn plane_radiance(
+    lights: &[soupray::scene::FrameLight],
+    half: f32,
+    size: u32,
+    x: u32,
+    y: u32,
+) -> f64 {
+    filtered(half, size, x, y, |p| {
+        let e: f64 = lights
+            .iter()
+            .map(|l| {
+                let to = l.position - p;
+                (l.intensity * to.normalize().y / to.length_squared()) as f64
+            })
+            .sum();
+        0.8 / PI * e
+    })
+}
+
+/// Each pixel's relative error against `plane_radiance`: their mean (the
+/// bias) and root mean square (the noise).
+fn plane_errors(
+    img: &soupray::film::Image,
+    lights: &[soupray::scene::FrameLight],
+    half: f32,
+    size: u32,
+    tolerance: f64,
+) -> (f64, f64) {
+    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let want = plane_radiance(lights, half, size, x, y);
+            let got = img.rgba[(y * size + x) as usize][1] as f64;
+            let rel = (got - want) / want;
+            assert!(rel.abs() < tolerance, "pixel ({x},{y}): {got} vs {want}");
+            sum += rel;
+            sum2 += rel * rel;
+            n += 1;
+        }
+    }
+    (sum / n as f64, (sum2 / n as f64).sqrt())
+}
+
 #[test]
-fn many_point_lights_are_chosen_by_power_without_bias() {
-    // More punctual lights than are looped over: one is chosen per vertex
-    // in proportion to its power. The sum of their inverse-square
-    // irradiances must come out on average.
+fn many_point_lights_are_chosen_without_bias() {
+    // More punctual lights than are looped over: one is chosen per vertex,
+    // through the light tree or in proportion to its power. The sum of
+    // their inverse-square irradiances must come out on average.
     let (size, half) = (16u32, 2.0f32);
     let lights: Vec<_> = (0..LOOPED_PUNCTUAL_MAX + 4)
         .map(|i| {
@@ -568,30 +625,45 @@ fn many_point_lights_are_chosen_by_power_without_bias() {
             )
         })
         .collect();
-    let img = plane_under(&lights, size, 256, half);
-    let (mut rel_sum, mut n) = (0.0f64, 0);
-    for y in 0..size {
-        for x in 0..size {
-            let p = top_down_point(half, size, x, y);
-            let e: f64 = lights
-                .iter()
-                .map(|l| {
-                    let to = l.position - p;
-                    (l.intensity * to.normalize().y / to.length_squared()) as f64
-                })
-                .sum();
-            let want = 0.8 / PI * e;
-            let got = img.rgba[(y * size + x) as usize][1] as f64;
-            assert!(
-                (got - want).abs() < 0.25 * want,
-                "pixel ({x},{y}): {got} vs {want}"
-            );
-            rel_sum += (got - want) / want;
-            n += 1;
-        }
+    for tree in [true, false] {
+        let img = plane_under_chosen(&lights, size, 256, half, tree);
+        let (bias, _) = plane_errors(&img, &lights, half, size, 0.25);
+        assert!(bias.abs() < 0.01, "tree {tree}: mean relative error {bias}");
     }
-    let bias = rel_sum / n as f64;
-    assert!(bias.abs() < 0.01, "mean relative error {bias}");
+}
+
+#[test]
+fn a_street_of_lamps_is_less_noisy_through_the_light_tree() {
+    // 100 lamps along 40 m of street, 0.6 m over the plane: at any pixel a
+    // few lamps give most of the light. The tree chooses those; power
+    // alone chooses any lamp alike. Both converge to the same image.
+    let (size, half) = (16u32, 2.0f32);
+    let lights: Vec<_> = (0..100)
+        .map(|i| {
+            let z = if i % 2 == 0 { -1.0 } else { 1.0 };
+            let p = Vec3::new(-20.0 + 0.4 * i as f32, 0.6, z);
+            light(LightKind::Point, p, Vec3::NEG_Y, [1.0; 3], 1.0)
+        })
+        .collect();
+    let tree = plane_under_chosen(&lights, size, 256, half, true);
+    let power = plane_under_chosen(&lights, size, 256, half, false);
+    let (tree_bias, tree_rms) = plane_errors(&tree, &lights, half, size, 0.2);
+    let (power_bias, power_rms) = plane_errors(&power, &lights, half, size, 1.0);
+    eprintln!(
+        "street: tree bias {tree_bias:.4} noise {tree_rms:.4}; power bias {power_bias:.4} noise {power_rms:.4}"
+    );
+    assert!(
+        tree_bias.abs() < 0.01,
+        "tree: mean relative error {tree_bias}"
+    );
+    assert!(
+        power_bias.abs() < 0.05,
+        "power: mean relative error {power_bias}"
+    );
+    assert!(
+        tree_rms < 0.25 * power_rms,
+        "relative noise: tree {tree_rms}, power {power_rms}"
+    );
 }
 
 #[test]

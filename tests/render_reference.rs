@@ -12,7 +12,10 @@ use common::{
 use glam::Vec3;
 use soupray::device::{Arg, Device};
 use soupray::scene::{FrameLight, LightKind};
-use soupray::trace::lights::{punctual_incident, DeviceEnv, DeviceLight, EnvMap, ENV_MAP};
+use soupray::trace::light_tree;
+use soupray::trace::lights::{
+    punctual_incident, DeviceEnv, DeviceLight, EnvMap, ENV_MAP, LIGHT_POINT, LIGHT_SPOT,
+};
 use soupray::trace::material::BsdfParams;
 use soupray::trace::sampling::{SampleRng, Sampler};
 
@@ -229,6 +232,151 @@ fn punctual_lights_match_the_reference() {
         }
     }
     assert!(lit > n / 3, "{lit}");
+}
+
+/// Random point and spot lights as the tree takes them: `count` at each of
+/// `steps` motion steps, each light moving a little between steps.
+fn random_lights(rng: &mut Rng, count: usize, steps: usize) -> Vec<DeviceLight> {
+    let first: Vec<FrameLight> = (0..count)
+        .map(|i| FrameLight {
+            name: None,
+            node: 0,
+            kind: if i % 3 == 0 {
+                LightKind::Spot {
+                    inner_cone_angle: 0.3 * rng.f32(),
+                    outer_cone_angle: 0.3 + 0.6 * rng.f32(),
+                }
+            } else {
+                LightKind::Point
+            },
+            color: [rng.f32(), rng.f32(), rng.f32()],
+            intensity: 0.1 + 10.0 * rng.f32(),
+            range: None,
+            position: Vec3::new(
+                rng.f32() * 20.0 - 10.0,
+                rng.f32() * 2.0,
+                rng.f32() * 4.0 - 2.0,
+            ),
+            direction: random_dir(rng),
+        })
+        .collect();
+    let mut out = Vec::new();
+    for s in 0..steps {
+        out.extend(first.iter().map(|l| {
+            let mut l = l.clone();
+            l.position += Vec3::new(0.1, 0.0, 0.05) * s as f32;
+            DeviceLight::from_frame_light(&l)
+        }));
+    }
+    out
+}
+
+#[test]
+fn light_tree_picks_as_the_reference() {
+    let d = common::device();
+    let mut rng = Rng::new(11);
+    let lights = random_lights(&mut rng, 200, 1);
+    let nodes = light_tree::build(&lights, 200);
+    assert_eq!(nodes.len(), 2 * 200 - 1, "one leaf per light");
+    let n = 4000;
+    let mut input = Vec::new();
+    for _ in 0..n {
+        let p = Vec3::new(
+            rng.f32() * 24.0 - 12.0,
+            rng.f32() * 3.0 - 0.5,
+            rng.f32() * 6.0 - 3.0,
+        );
+        let normal = random_dir(&mut rng);
+        input.extend_from_slice(&[p.x, p.y, p.z, normal.x, normal.y, normal.z, rng.f32()]);
+    }
+    let nb = upload(&d, &nodes);
+    let inb = upload(&d, &input);
+    let out = upload(&d, &vec![0.0f32; 2 * n]);
+    run(
+        &d,
+        "light_tree_probe",
+        &[
+            Arg::Buf(&nb),
+            Arg::Buf(&inb),
+            Arg::Buf(&out),
+            Arg::U32(n as u32),
+        ],
+        n,
+    );
+    let mut got = vec![0.0f32; 2 * n];
+    d.read(&out, &mut got).unwrap();
+    let mut same = 0;
+    for i in 0..n {
+        let c = &input[7 * i..7 * i + 7];
+        let (p, normal) = (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5]));
+        let what = format!("case {i} at {p} normal {normal} u {}", c[6]);
+        let want = light_tree::pick(&nodes, p, normal, c[6]);
+        let (light, pmf) = (got[2 * i], got[2 * i + 1]);
+        match want {
+            Some((l, want_pmf)) if light == l as f32 => {
+                close(pmf, want_pmf, 1e-4, &what);
+                // The pick's probability is the tree's for that light.
+                close(pmf, light_tree::pick_pmf(&nodes, p, normal, l), 1e-4, &what);
+                same += 1;
+            }
+            Some(_) => {}
+            None => assert_eq!(light, -1.0, "{what}"),
+        }
+    }
+    // Where u falls within rounding of a split, the two may part ways.
+    assert!(same >= n * 99 / 100, "{same} of {n} picks agree");
+}
+
+/// The tree's probabilities over its lights sum to at most 1 (less where
+/// a node's cone reaches a point that none of its children's does: the
+/// pick then finds no light), to 1 with point lights alone; a light is
+/// chosen exactly where it shines; a light that moves between motion steps
+/// stays inside the root's bounds.
+#[test]
+fn light_tree_probabilities_sum_to_one() {
+    let mut rng = Rng::new(12);
+    for (steps, spots) in [(1, true), (3, true), (1, false)] {
+        let mut lights = random_lights(&mut rng, 50, steps);
+        if !spots {
+            lights.iter_mut().for_each(|l| l.kind = LIGHT_POINT);
+        }
+        let nodes = light_tree::build(&lights, 50);
+        for n in &nodes {
+            assert!(n.phi > 0.0 && n.cos_theta_o >= -1.0 && n.cos_theta_o <= 1.0);
+        }
+        let root = &nodes[0];
+        for l in &lights {
+            let p = Vec3::from(l.position);
+            assert!(
+                (0..3).all(|k| root.lo[k] <= p[k] && p[k] <= root.hi[k]),
+                "light at {p} outside the root {root:?}"
+            );
+        }
+        for _ in 0..200 {
+            let p = Vec3::new(
+                rng.f32() * 24.0 - 12.0,
+                rng.f32() * 3.0,
+                rng.f32() * 6.0 - 3.0,
+            );
+            let normal = random_dir(&mut rng);
+            let sum: f32 = (0..50)
+                .map(|l| light_tree::pick_pmf(&nodes, p, normal, l))
+                .sum();
+            assert!(sum <= 1.0 + 1e-4, "{sum} at {p}");
+            let points = lights[..50].iter().all(|l| l.kind != LIGHT_SPOT);
+            assert!(!points || (sum - 1.0).abs() < 1e-4, "{sum} at {p}");
+            if steps > 1 {
+                continue;
+            }
+            // A spot light is chosen exactly where it shines.
+            for (i, l) in lights.iter().enumerate() {
+                if let Some((_, _, e)) = punctual_incident(l, p) {
+                    let pmf = light_tree::pick_pmf(&nodes, p, normal, i as u32);
+                    assert_eq!(pmf > 0.0, e.max_element() > 0.0, "light {i} at {p}: {pmf}");
+                }
+            }
+        }
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //!
 //! Flags (defaults in brackets): `--size WxH` [384x256], `--spp LIST`
 //! [16,64,256], `--ref-spp N` [4096], `--meshes LIST` [beast,nefertiti],
-//! `--lightings LIST` [sky,sun,interior,glossy,glass], `--samplers LIST` [sobol,random]
+//! `--lightings LIST` [sky,sun,interior,glossy,glass,emitter,lamps], `--samplers LIST` [sobol,random]
 //! (soupray's `--sampler`; a soupray without that flag gets one variant,
 //! `default`), `--cycles LIST` [3.4,5,5-guided], `--runs N` [1] (timed
 //! renders per scene, every renderer in turn in each run, run k with seed
@@ -26,7 +26,7 @@
 //!   the two at each sample count, and with Cycles 3.4.
 //!
 //! What it does: writes glTF 2.0 scenes from the scanned meshes (the
-//! shared folder's meshes/*.ply, read in place), in five setups:
+//! shared folder's meshes/*.ply, read in place), in seven setups:
 //! * `sky` and `sun`: the mesh standing on a ground quad, a camera framing
 //!   it, every material a 0.8 grey Lambertian (soupray `--clay`, Cycles a
 //!   Diffuse BSDF 0.8), under a constant white sky of radiance 1, or a 3
@@ -44,6 +44,16 @@
 //! * `glass`: the mesh in clear glass (KHR_materials_transmission with a
 //!   volume: a refracting solid of IOR 1.5) on a white ground (base 0.8,
 //!   roughness 1) under the sun and sky; the file's materials.
+//! * `emitter`: a textured emitter: the mesh in white and DamagedHelmet
+//!   (the shared folder's sample, read in place; its emissive texture
+//!   written beside the scene) in grey side by side in the interior's
+//!   room, lit by the helmet's emissive texture alone (strength 100, no
+//!   sun, no sky): mostly black, so light samples spread by area are
+//!   mostly wasted;
+//! * `lamps`: many small lights: the mesh in white on the white ground at
+//!   night, in a street of 200 lamps 0.4 m apart, 100 emissive heads
+//!   (small cubes) down one side and 100 KHR_lights_punctual point lights
+//!   down the other (Cycles: point lights of radius 0).
 //!
 //! Each scene is rendered by soupray (`soupray render --env-color …`, once
 //! per sampler) and by each Cycles (`benches/cycles/render_cycles.py`,

@@ -23,7 +23,9 @@ The translation, so that both renderers solve the same light transport:
   i.e. irradiance) is the file's intensity in lux, the way soupray reads it
   (Blender's importer divides lux by 683 by default; the strength is set
   from the file here, whatever the importer did) and whose angle is 0: a
-  delta light, like soupray's;
+  delta light, like soupray's; point lights become point lights of radius
+  0 whose power (W) is 4 pi times the file's intensity in candela (the
+  importer's 683 lm/W undone the same way);
 * no clamping, no adaptive sampling, no denoising, no light threshold;
   `--max-bounces` is soupray's `--max-depth` minus one (Cycles counts
   bounces after the first hit: 0 bounces is direct light only, which is
@@ -60,6 +62,7 @@ so that one-time initialisation does not land in the first timed render.
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -167,20 +170,26 @@ def main():
     bg.inputs["Strength"].default_value = 1.0
     scene.world = world
 
-    # Lights: suns of the file's irradiance, delta.
+    # Lights: suns of the file's irradiance and point lights of its
+    # intensity, delta.
     lights = file_lights(args.scene)
     for o in scene.objects:
         if o.type != "LIGHT":
             continue
         light = o.data
-        if light.type != "SUN":
-            raise SystemExit(f"{o.name}: only directional lights are translated")
+        if light.type not in ("SUN", "POINT"):
+            raise SystemExit(f"{o.name}: only directional and point lights are translated")
         src = lights.get(light.name) or (next(iter(lights.values())) if len(lights) == 1 else None)
         if src is None:
             raise SystemExit(f"{o.name}: not found among the file's lights {list(lights)}")
         imported = light.energy
-        light.energy = float(src.get("intensity", 1.0))
+        intensity = float(src.get("intensity", 1.0))
         light.color = src.get("color", [1.0, 1.0, 1.0])
+        if light.type == "POINT":
+            light.energy = 4.0 * math.pi * intensity
+            light.shadow_soft_size = 0.0
+            continue
+        light.energy = intensity
         light.angle = 0.0
         print(
             f"CYCLES_INFO sun={o.name!r} strength={light.energy} "

@@ -91,7 +91,8 @@ pub struct SceneFile {
 }
 
 /// One mesh of a scene: its node's and its own name, its vertices in the
-/// scene's buffer (first, count), their bounds and its material.
+/// scene's buffer (first, count), their bounds and its material; `uv`: the
+/// byte offset in the buffer of its TEXCOORD_0, where it has one.
 struct Part<'a> {
     node: &'a str,
     mesh: &'a str,
@@ -99,19 +100,51 @@ struct Part<'a> {
     count: usize,
     bounds: (Vec3, Vec3),
     material: u32,
+    uv: Option<usize>,
 }
 
 /// The glTF document of a scene: its nodes, materials and meshes over one
-/// buffer of positions, each mesh one accessor; the sun when `sun`.
+/// buffer of positions (and texture coordinates), each mesh one accessor
+/// (two with coordinates); `lights`: the sun, if there is one, and point
+/// lamps; `images`: the URIs of the images that the materials' textures
+/// 0, 1, … sample.
 fn scene_doc(
     name: &str,
     bin: (&str, usize),
     camera: (Vec3, Quat, f32, f32),
     materials: serde_json::Value,
     meshes: &[Part],
-    sun: Option<Quat>,
+    lights: (Option<Quat>, &[PointLamp]),
+    images: &[String],
 ) -> serde_json::Value {
     let (eye, cam_rot, yfov, aspect) = camera;
+    let mut accessors: Vec<serde_json::Value> = meshes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            json!(
+                {"bufferView": i, "componentType": 5126, "count": m.count, "type": "VEC3",
+                 "min": m.bounds.0.to_array(), "max": m.bounds.1.to_array()}
+            )
+        })
+        .collect();
+    let mut views: Vec<serde_json::Value> = meshes.iter().map(|m| json!(
+        {"buffer": 0, "byteOffset": m.first * 12, "byteLength": m.count * 12, "target": 34962}
+    )).collect();
+    let mut primitives = Vec::new();
+    for (i, m) in meshes.iter().enumerate() {
+        let mut attributes = json!({"POSITION": i});
+        if let Some(offset) = m.uv {
+            attributes["TEXCOORD_0"] = json!(accessors.len());
+            accessors.push(json!({"bufferView": views.len(), "componentType": 5126,
+                                  "count": m.count, "type": "VEC2"}));
+            views.push(
+                json!({"buffer": 0, "byteOffset": offset, "byteLength": m.count * 8,
+                              "target": 34962}),
+            );
+        }
+        primitives.push(json!([{"attributes": attributes, "material": m.material}]));
+    }
     let mut nodes: Vec<serde_json::Value> = meshes
         .iter()
         .enumerate()
@@ -125,18 +158,23 @@ fn scene_doc(
         "cameras": [{"type": "perspective", "name": "camera", "perspective": {
             "yfov": yfov, "aspectRatio": aspect, "znear": 0.01, "zfar": 1000.0}}],
         "materials": materials,
-        "meshes": meshes.iter().enumerate().map(|(i, m)| json!(
-            {"name": m.mesh, "primitives": [{"attributes": {"POSITION": i}, "material": m.material}]}
+        "meshes": meshes.iter().zip(primitives).map(|(m, p)| json!(
+            {"name": m.mesh, "primitives": p}
         )).collect::<Vec<_>>(),
-        "accessors": meshes.iter().enumerate().map(|(i, m)| json!(
-            {"bufferView": i, "componentType": 5126, "count": m.count, "type": "VEC3",
-             "min": m.bounds.0.to_array(), "max": m.bounds.1.to_array()}
-        )).collect::<Vec<_>>(),
-        "bufferViews": meshes.iter().map(|m| json!(
-            {"buffer": 0, "byteOffset": m.first * 12, "byteLength": m.count * 12, "target": 34962}
-        )).collect::<Vec<_>>(),
+        "accessors": accessors,
+        "bufferViews": views,
         "buffers": [{"uri": bin.0, "byteLength": bin.1}],
     });
+    if !images.is_empty() {
+        doc["samplers"] = json!([{"magFilter": 9729, "minFilter": 9729}]);
+        doc["images"] = json!(images
+            .iter()
+            .map(|uri| json!({"uri": uri}))
+            .collect::<Vec<_>>());
+        doc["textures"] = json!((0..images.len())
+            .map(|i| json!({"source": i, "sampler": 0}))
+            .collect::<Vec<_>>());
+    }
     // The materials' extensions, then the sun's.
     let mut used: Vec<String> = doc["materials"]
         .as_array()
@@ -147,13 +185,26 @@ fn scene_doc(
         .collect();
     used.sort();
     used.dedup();
+    let (sun, lamps) = lights;
+    let mut punctual = Vec::new();
     if let Some(sun_rot) = sun {
         nodes.push(json!({"name": "sun", "rotation": sun_rot.to_array(),
-                          "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+                          "extensions": {"KHR_lights_punctual": {"light": punctual.len()}}}));
+        punctual.push(
+            json!({"name": "sun", "type": "directional", "color": [1.0, 1.0, 1.0],
+                             "intensity": SUN_LUX}),
+        );
+    }
+    for (k, lamp) in lamps.iter().enumerate() {
+        let name = format!("lamp-{k}");
+        nodes.push(json!({"name": name, "translation": lamp.at.to_array(),
+                          "extensions": {"KHR_lights_punctual": {"light": punctual.len()}}}));
+        punctual.push(json!({"name": name, "type": "point", "color": lamp.color,
+                             "intensity": lamp.intensity}));
+    }
+    if !punctual.is_empty() {
         used.push("KHR_lights_punctual".to_owned());
-        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
-            {"name": "sun", "type": "directional", "color": [1.0, 1.0, 1.0],
-             "intensity": SUN_LUX}]}});
+        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": punctual}});
     }
     if !used.is_empty() {
         doc["extensionsUsed"] = json!(used);
@@ -249,6 +300,7 @@ impl Figure {
             count: self.pts.len(),
             bounds: self.bounds,
             material,
+            uv: None,
         }
     }
 }
@@ -259,12 +311,19 @@ struct SceneWriter<'a> {
 }
 
 impl SceneWriter<'_> {
-    /// `DIR/NAME`: the positions, little-endian f32; returns its bytes.
-    fn bin(&self, name: &str, pts: &[Vec3]) -> Result<Vec<u8>, String> {
+    /// `DIR/NAME`: the positions, little-endian f32, then `tail`; returns
+    /// its bytes.
+    fn bin(
+        &self,
+        name: &str,
+        pts: &[Vec3],
+        tail: impl Iterator<Item = u8>,
+    ) -> Result<Vec<u8>, String> {
         let bin: Vec<u8> = pts
             .iter()
             .flat_map(|p| p.to_array())
             .flat_map(f32::to_le_bytes)
+            .chain(tail)
             .collect();
         std::fs::write(self.dir.join(name), &bin)
             .map_err(|e| format!("{}: {e}", self.dir.display()))?;
@@ -322,6 +381,8 @@ pub fn write_scenes(
     out.insert("interior".to_owned(), interior_scene(&inputs)?);
     out.insert("glossy".to_owned(), glossy_scene(&inputs)?);
     out.insert("glass".to_owned(), glass_scene(&inputs)?);
+    out.insert("emitter".to_owned(), emitter_scene(&inputs)?);
+    out.insert("lamps".to_owned(), lamps_scene(&inputs)?);
     Ok(out)
 }
 
@@ -337,7 +398,11 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
     let g = GROUND_HALF;
     let ground = ground_strips(&[]).remove(0);
     let bin_name = format!("{mesh}.bin");
-    let bin = writer.bin(&bin_name, &[figure.pts.as_slice(), &ground].concat())?;
+    let bin = writer.bin(
+        &bin_name,
+        &[figure.pts.as_slice(), &ground].concat(),
+        std::iter::empty(),
+    )?;
 
     let (eye, cam_rot, yfov, aspect) = outdoor_camera(o, spec, figure);
     let sun_rot = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
@@ -353,6 +418,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
             count: ground.len(),
             bounds: (Vec3::new(-g, 0.0, -g), Vec3::new(g, 0.0, g)),
             material: 0,
+            uv: None,
         },
     ];
 
@@ -365,7 +431,8 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
             (eye, cam_rot, yfov, aspect),
             white.clone(),
             &meshes,
-            (lighting == "sun").then_some(sun_rot),
+            ((lighting == "sun").then_some(sun_rot), &[]),
+            &[],
         );
         let (path, hash) = writer.gltf(&name, &doc, &bin)?;
         out.insert(
@@ -398,18 +465,42 @@ fn outdoor_camera(o: &Opts, spec: &MeshSpec, figure: &Figure) -> (Vec3, Quat, f3
     (eye, look_rotation(centre - eye), yfov, aspect)
 }
 
-/// A scene that renders its glTF materials, lit by the sun and sky: its
-/// meshes, the figure first, over one buffer.
+/// A scene that renders its glTF materials: its meshes, the figure first,
+/// over one buffer (every mesh's positions, then the texture coordinates
+/// of those that have them), and the images its textures sample.
 struct LitScene<'a> {
     pts: Vec<Vec3>,
+    uvs: Vec<[f32; 2]>,
+    /// Each part with coordinates: its index and first coordinate.
+    uv_parts: Vec<(usize, usize)>,
     parts: Vec<Part<'a>>,
+    images: Vec<String>,
+}
+
+/// How a scene is lit: the sun's rotation, if it has one, its point lamps,
+/// and the sky's radiance.
+struct Lighting {
+    sun: Option<Quat>,
+    lamps: Vec<PointLamp>,
+    sky: f32,
+}
+
+/// A KHR_lights_punctual point light: where, its colour and its intensity
+/// (candela).
+struct PointLamp {
+    at: Vec3,
+    color: [f32; 3],
+    intensity: f32,
 }
 
 impl<'a> LitScene<'a> {
     fn new(figure: &Figure, mesh: &'a str, material: u32) -> LitScene<'a> {
         LitScene {
             pts: figure.pts.clone(),
+            uvs: Vec::new(),
+            uv_parts: Vec::new(),
             parts: vec![figure.part(mesh, material)],
+            images: Vec::new(),
         }
     }
 
@@ -422,8 +513,17 @@ impl<'a> LitScene<'a> {
             count: tris.len(),
             bounds: bounds(tris),
             material,
+            uv: None,
         });
         self.pts.extend_from_slice(tris);
+    }
+
+    /// Adds mesh `name` with texture coordinates `uvs` (one per vertex of
+    /// `tris`).
+    fn add_textured(&mut self, name: &'a str, tris: &[Vec3], uvs: &[[f32; 2]], material: u32) {
+        self.uv_parts.push((self.parts.len(), self.uvs.len()));
+        self.uvs.extend_from_slice(uvs);
+        self.add(name, tris, material);
     }
 
     /// `write` with the outdoor scenes' camera and sun, at depth
@@ -437,42 +537,53 @@ impl<'a> LitScene<'a> {
         let SceneInputs {
             o, spec, figure, ..
         } = *inputs;
+        let sun = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
         self.write(
             inputs.writer,
             name,
             materials,
             outdoor_camera(o, spec, figure),
-            look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation)),
+            Lighting {
+                sun: Some(sun),
+                lamps: Vec::new(),
+                sky: SUN_SKY,
+            },
             o.max_depth,
         )
     }
 
     /// Writes `DIR/NAME.bin` and `DIR/NAME.gltf`.
     fn write(
-        self,
+        mut self,
         writer: &SceneWriter,
         name: &str,
         materials: serde_json::Value,
         camera: (Vec3, Quat, f32, f32),
-        sun_rot: Quat,
+        lighting: Lighting,
         max_depth: u32,
     ) -> Result<SceneFile, String> {
+        let uv_base = self.pts.len() * 12;
+        for &(part, first) in &self.uv_parts {
+            self.parts[part].uv = Some(uv_base + first * 8);
+        }
         let bin_name = format!("{name}.bin");
-        let bin = writer.bin(&bin_name, &self.pts)?;
+        let uv_bytes = self.uvs.iter().flatten().flat_map(|v| v.to_le_bytes());
+        let bin = writer.bin(&bin_name, &self.pts, uv_bytes)?;
         let doc = scene_doc(
             name,
             (&bin_name, bin.len()),
             camera,
             materials,
             &self.parts,
-            Some(sun_rot),
+            (lighting.sun, &lighting.lamps),
+            &self.images,
         );
         let (path, hash) = writer.gltf(name, &doc, &bin)?;
         Ok(SceneFile {
             path,
             hash,
             triangles: self.pts.len() / 3,
-            env: SUN_SKY,
+            env: lighting.sky,
             max_depth,
             materials: true,
         })
@@ -509,7 +620,11 @@ fn interior_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
         &format!("{mesh}-interior"),
         materials,
         (eye, cam_rot, 60f32.to_radians(), aspect),
-        look_rotation(Vec3::new(1.0, -0.7, 0.25)),
+        Lighting {
+            sun: Some(look_rotation(Vec3::new(1.0, -0.7, 0.25))),
+            lamps: Vec::new(),
+            sky: SUN_SKY,
+        },
         INTERIOR_DEPTH,
     )
 }
@@ -594,4 +709,268 @@ fn glass_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
             "KHR_materials_volume": {"thicknessFactor": 0.1}}}
     ]);
     scene.write_outdoor(inputs, &format!("{mesh}-glass"), materials)
+}
+
+/// DamagedHelmet (the shared folder's sample, read in place): its
+/// triangles in the file's world space, their texture coordinates, and its
+/// emissive image as stored (bytes and file extension).
+struct Helmet {
+    pts: Vec<Vec3>,
+    uvs: Vec<[f32; 2]>,
+    emissive: (Vec<u8>, &'static str),
+}
+
+impl Helmet {
+    fn load() -> Result<Helmet, String> {
+        let path = support::sample("DamagedHelmet/DamagedHelmet.glb")?;
+        let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let file = gltf::Gltf::open(&path).map_err(|e| err(&e))?;
+        let blob = file
+            .blob
+            .as_deref()
+            .ok_or_else(|| err(&"no binary chunk"))?;
+        let scene = file.scenes().next().ok_or_else(|| err(&"no scene"))?;
+        let mut helmet = Helmet {
+            pts: Vec::new(),
+            uvs: Vec::new(),
+            emissive: (Vec::new(), ""),
+        };
+        let mut stack: Vec<(gltf::Node, glam::Mat4)> =
+            scene.nodes().map(|n| (n, glam::Mat4::IDENTITY)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
+            stack.extend(node.children().map(|c| (c, world)));
+            let Some(mesh) = node.mesh() else { continue };
+            for prim in mesh.primitives() {
+                let reader = prim.reader(|b| (b.index() == 0).then_some(blob));
+                let pos: Vec<Vec3> = reader
+                    .read_positions()
+                    .ok_or_else(|| err(&"a primitive without positions"))?
+                    .map(|p| world.transform_point3(Vec3::from(p)))
+                    .collect();
+                let uv: Vec<[f32; 2]> = reader
+                    .read_tex_coords(0)
+                    .ok_or_else(|| err(&"a primitive without TEXCOORD_0"))?
+                    .into_f32()
+                    .collect();
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..pos.len() as u32).collect(),
+                };
+                for &i in &indices {
+                    let i = i as usize;
+                    if i >= pos.len() || i >= uv.len() {
+                        return Err(err(&"an index past the vertices"));
+                    }
+                    helmet.pts.push(pos[i]);
+                    helmet.uvs.push(uv[i]);
+                }
+                let texture = prim.material().emissive_texture();
+                if let Some(source) = texture.map(|t| t.texture().source().source()) {
+                    let gltf::image::Source::View { view, mime_type } = source else {
+                        return Err(err(&"the emissive image is not in the binary chunk"));
+                    };
+                    let bytes = blob
+                        .get(view.offset()..view.offset() + view.length())
+                        .ok_or_else(|| err(&"the emissive image is past the binary chunk"))?;
+                    let ext = if mime_type == "image/png" {
+                        "png"
+                    } else {
+                        "jpg"
+                    };
+                    helmet.emissive = (bytes.to_vec(), ext);
+                }
+            }
+        }
+        if helmet.emissive.0.is_empty() {
+            return Err(err(&"no emissive texture"));
+        }
+        Ok(helmet)
+    }
+
+    /// The helmet `height` tall, standing on y = 0 at `at` (x, z), turned
+    /// `turn` radians around +Y.
+    fn placed(&self, height: f32, at: (f32, f32), turn: f32) -> Vec<Vec3> {
+        let (lo, hi) = bounds(&self.pts);
+        let scale = height / (hi.y - lo.y);
+        let centre = Vec3::new(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z));
+        let rot = Quat::from_rotation_y(turn);
+        let to = Vec3::new(at.0, 0.0, at.1);
+        self.pts
+            .iter()
+            .map(|&p| rot * ((p - centre) * scale) + to)
+            .collect()
+    }
+}
+
+/// The emissive texture's strength (KHR_materials_emissive_strength): its
+/// brightest texels are this many nits.
+const HELMET_EMISSION: f32 = 100.0;
+
+/// A textured emitter: the figure in white and DamagedHelmet in grey side
+/// by side in the interior's room, lit only by the helmet's emissive
+/// texture (no sun, no sky). The texture is mostly black: an emitter
+/// sampled by area alone wastes most of its light samples.
+fn emitter_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let SceneInputs {
+        o,
+        mesh,
+        figure,
+        writer,
+        ..
+    } = *inputs;
+    let helmet = Helmet::load()?;
+    let image = format!("damaged-helmet-emissive.{}", helmet.emissive.1);
+    let image_path = writer.dir.join(&image);
+    std::fs::write(&image_path, &helmet.emissive.0)
+        .map_err(|e| format!("{}: {e}", image_path.display()))?;
+    let mut scene = LitScene::new(figure, mesh, 0);
+    scene.add("room", &room(), 0);
+    let pts = helmet.placed(0.6, (-0.45, 0.55), 1.1);
+    scene.add_textured("helmet", &pts, &helmet.uvs, 1);
+    scene.images.push(image);
+    let materials = json!([
+        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "helmet", "pbrMetallicRoughness": {
+            "baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 0.5},
+         "emissiveFactor": [1.0, 1.0, 1.0],
+         "emissiveTexture": {"index": 0},
+         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": HELMET_EMISSION}}}
+    ]);
+    let eye = Vec3::new(1.3, 1.3, 1.3);
+    let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
+    let aspect = o.width as f32 / o.height as f32;
+    scene.write(
+        writer,
+        &format!("{mesh}-emitter"),
+        materials,
+        (eye, cam_rot, 60f32.to_radians(), aspect),
+        Lighting {
+            sun: None,
+            lamps: Vec::new(),
+            sky: 0.0,
+        },
+        o.max_depth,
+    )
+}
+
+/// Lamps along each side of the street: this many on each.
+const LAMPS_PER_SIDE: usize = 100;
+/// Their spacing along the street (m), their height, and the street's
+/// half-width.
+const LAMP_SPACING: f32 = 0.4;
+const LAMP_HEIGHT: f32 = 0.8;
+const STREET_HALF: f32 = 1.2;
+/// A lamp's warm colour; a point lamp's intensity (cd) and an emissive
+/// head's radiance (nits: KHR_materials_emissive_strength).
+const LAMP_COLOR: [f32; 3] = [1.0, 0.8, 0.6];
+const LAMP_CANDELA: f32 = 0.5;
+const LAMP_NITS: f32 = 50.0;
+/// An emissive lamp head's half-size (m).
+const LAMP_HEAD: f32 = 0.03;
+
+/// The 12 triangles of the axis-aligned cube of centre `c` and half-size
+/// `h`, facing out.
+fn cube(out: &mut Vec<Vec3>, c: Vec3, h: f32) {
+    let v = |x: f32, y: f32, z: f32| c + Vec3::new(x, y, z) * h;
+    let faces = [
+        [
+            v(-1., -1., 1.),
+            v(1., -1., 1.),
+            v(1., 1., 1.),
+            v(-1., 1., 1.),
+        ],
+        [
+            v(1., -1., -1.),
+            v(-1., -1., -1.),
+            v(-1., 1., -1.),
+            v(1., 1., -1.),
+        ],
+        [
+            v(1., -1., 1.),
+            v(1., -1., -1.),
+            v(1., 1., -1.),
+            v(1., 1., 1.),
+        ],
+        [
+            v(-1., -1., -1.),
+            v(-1., -1., 1.),
+            v(-1., 1., 1.),
+            v(-1., 1., -1.),
+        ],
+        [
+            v(-1., 1., 1.),
+            v(1., 1., 1.),
+            v(1., 1., -1.),
+            v(-1., 1., -1.),
+        ],
+        [
+            v(-1., -1., -1.),
+            v(1., -1., -1.),
+            v(1., -1., 1.),
+            v(-1., -1., 1.),
+        ],
+    ];
+    for f in faces {
+        quad(out, f);
+    }
+}
+
+/// Many small lights: the figure in white on the white ground at night (no
+/// sun, no sky), in a street 40 m long lit by 200 lamps 0.4 m apart,
+/// 100 emissive heads (small cubes) down one side and 100 point lights down
+/// the other. Most lamps are far from any one point, so a light chosen in
+/// proportion to power alone is mostly wasted.
+fn lamps_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let SceneInputs {
+        o,
+        mesh,
+        spec,
+        figure,
+        writer,
+    } = *inputs;
+    let mut scene = LitScene::new(figure, mesh, 0);
+    scene.add("ground", &ground_strips(&[])[0], 0);
+    let along = |k: usize| (k as f32 - 0.5 * (LAMPS_PER_SIDE - 1) as f32) * LAMP_SPACING;
+    let mut heads = Vec::new();
+    for k in 0..LAMPS_PER_SIDE {
+        cube(
+            &mut heads,
+            Vec3::new(-STREET_HALF, LAMP_HEIGHT, along(k)),
+            LAMP_HEAD,
+        );
+    }
+    scene.add("lamp-heads", &heads, 1);
+    let lamps = (0..LAMPS_PER_SIDE)
+        .map(|k| PointLamp {
+            at: Vec3::new(STREET_HALF, LAMP_HEIGHT, along(k)),
+            color: LAMP_COLOR,
+            intensity: LAMP_CANDELA,
+        })
+        .collect();
+    let materials = json!([
+        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "lamp", "pbrMetallicRoughness": {
+            "baseColorFactor": [0.0, 0.0, 0.0, 1.0],
+            "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         "emissiveFactor": LAMP_COLOR,
+         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": LAMP_NITS}}}
+    ]);
+    scene.write(
+        writer,
+        &format!("{mesh}-lamps"),
+        materials,
+        outdoor_camera(o, spec, figure),
+        Lighting {
+            sun: None,
+            lamps,
+            sky: 0.0,
+        },
+        o.max_depth,
+    )
 }

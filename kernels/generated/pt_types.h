@@ -38,6 +38,8 @@
 #define ENV_CONSTANT 1u
 // An equirectangular map times `PtEnv.color`.
 #define ENV_MAP 2u
+// `PtLightNode.child` of a leaf: this bit, and the light's index.
+#define LIGHT_NODE_LEAF 2147483648u
 // A triangle's flags (`triangle_flags`): a shadow catcher's.
 #define TRIANGLE_SHADOW_CATCHER 1u
 // A holdout's.
@@ -81,8 +83,9 @@ typedef struct {
 // Per-frame constants. Next-event estimation at a path vertex samples every
 // punctual light when `light_loop` is set, then one light drawn from the
 // selection distribution (`select_cdf`, `select_count` entries in this
-// order: the punctual lights unless looped, the emissive triangles as one
-// entry when there are any, the environment when it is sampled).
+// order: the punctual lights unless looped, the light tree as one entry
+// when `light_tree` (its node count) is not 0, the emissive triangles as
+// one entry when there are any, the environment when it is sampled).
 // `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
 // the emissive triangles and the environment (0 when not an entry), which
 // MIS needs when a BSDF-sampled ray hits them.
@@ -104,7 +107,8 @@ typedef struct {
     uint light_loop;
     float emit_select_pmf;
     float env_select_pmf;
-    uint pad;
+    // The light tree's node count: 0 when it is not an entry.
+    uint light_tree;
 } PtFrame;
 
 // One material as the device shades it. Texture
@@ -230,5 +234,23 @@ typedef struct {
     uint height;
     uint pad;
 } PtEnv;
+
+// One node of the light tree: the bounds of its lights' positions, their
+// total power `phi` (the selection's units: luminance, in watts up to one
+// factor), and the cone of their emission: axis `w`, `cos_theta_o` the
+// cosine of its half-angle, `cos_theta_e` the cosine of the falloff angle
+// past it. `child`: an inner node's first child (the second follows it),
+// or `LIGHT_NODE_LEAF` and a leaf's light index.
+// `DeviceLightNode` in src/trace/light_tree.rs (64 bytes).
+typedef struct {
+    float lo[3];
+    float phi;
+    float hi[3];
+    float cos_theta_o;
+    float w[3];
+    float cos_theta_e;
+    uint child;
+    uint pad[3];
+} PtLightNode;
 
 #endif

@@ -132,4 +132,70 @@ inline float3 env_sample(PtEnv env, const __global float4* texels, const __globa
     return t.xyz * (float3)(env.color[0], env.color[1], env.color[2]);
 }
 
+// The light tree (src/trace/light_tree.rs, whose `importance` and `pick`
+// these mirror): how much node `n`'s lights may send to a surface at `p`
+// with normal `nrm` (pbrt-v4's LightBounds::Importance).
+inline float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 1.0f : cos_a * cos_b + sin_a * sin_b;
+}
+inline float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 0.0f : sin_a * cos_b - cos_a * sin_b;
+}
+inline float light_node_importance(PtLightNode n, float3 p, float3 nrm) {
+    float3 lo = (float3)(n.lo[0], n.lo[1], n.lo[2]);
+    float3 hi = (float3)(n.hi[0], n.hi[1], n.hi[2]);
+    float3 pc = 0.5f * (lo + hi);
+    float3 diag = hi - lo;
+    float half_diagonal2 = 0.25f * dot(diag, diag);
+    float3 to = p - pc;
+    float to2 = dot(to, to);
+    float d2 = fmax(fmax(to2, half_diagonal2), 1e-12f);
+    float3 wi = to2 > 0.0f ? to / sqrt(to2) : (float3)(0.0f);
+    float cos_w = dot((float3)(n.w[0], n.w[1], n.w[2]), wi);
+    float sin_w = sqrt(fmax(0.0f, 1.0f - cos_w * cos_w));
+    float cos_b = to2 > half_diagonal2 ? sqrt(fmax(0.0f, 1.0f - half_diagonal2 / to2)) : -1.0f;
+    float sin_b = sqrt(fmax(0.0f, 1.0f - cos_b * cos_b));
+    float sin_o = sqrt(fmax(0.0f, 1.0f - n.cos_theta_o * n.cos_theta_o));
+    float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, n.cos_theta_o);
+    float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, n.cos_theta_o);
+    float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    if (cos_p <= n.cos_theta_e) return 0.0f;
+    float imp = n.phi * cos_p / d2;
+    if (nrm.x != 0.0f || nrm.y != 0.0f || nrm.z != 0.0f) {
+        float cos_i = fabs(dot(wi, nrm));
+        float sin_i = sqrt(fmax(0.0f, 1.0f - cos_i * cos_i));
+        imp = imp * cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+    }
+    return fmax(imp, 0.0f);
+}
+
+// Walks the light tree from the root with the random number `u`, each
+// child chosen in proportion to its importance at `p`: the light's index
+// and its probability in `pmf`, -1 where no light can reach `p`.
+inline int light_tree_pick(const __global PtLightNode* nodes, float3 p, float3 nrm, float u,
+                           float* pmf) {
+    uint at = 0u;
+    *pmf = 1.0f;
+    const float one_minus_epsilon = 0x1.fffffep-1f;
+    for (;;) {
+        PtLightNode n = nodes[at];
+        if ((n.child & LIGHT_NODE_LEAF) != 0u) return (int)(n.child & ~LIGHT_NODE_LEAF);
+        uint c = n.child;
+        float i0 = light_node_importance(nodes[c], p, nrm);
+        float i1 = light_node_importance(nodes[c + 1u], p, nrm);
+        if (!(i0 > 0.0f) && !(i1 > 0.0f)) return -1;
+        float p0 = i0 / (i0 + i1);
+        if (u < p0) {
+            *pmf = *pmf * p0;
+            u = fmin(u / p0, one_minus_epsilon);
+            at = c;
+        } else {
+            *pmf = *pmf * (1.0f - p0);
+            u = fmin((u - p0) / (1.0f - p0), one_minus_epsilon);
+            at = c + 1u;
+        }
+    }
+}
+
 #endif
+

@@ -332,12 +332,22 @@ inline void pt_next_event(PtScene* s, PtSample* out, PtSurface sf, BsdfParams bp
         float4 ul = rng_4d(rng, set_bounce(bounce, SET_LIGHT));
         uint pick = cdf_search(s->select_cdf, s->frame.select_count, ul.z);
         uint first = s->frame.light_loop != 0u ? 0u : s->frame.light_count;
-        float3 c;
+        uint tree = s->frame.light_tree != 0u ? 1u : 0u;
+        float3 c = (float3)(0.0f);
         if (pick < first) {
             float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
             c = pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta, rng,
                                    bounce TEX_PASS);
-        } else if (pick == first && s->frame.emit_count > 0u) {
+        } else if (pick == first && tree != 0u) {
+            // The light tree: one of its lights by importance at sf.p,
+            // with the dimension the punctual lights leave unused.
+            float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
+            float tree_pmf;
+            int light = light_tree_pick(s->light_nodes, sf.p, sf.ns, ul.x, &tree_pmf);
+            if (light >= 0)
+                c = pt_punctual_direct(s, (uint)light, pmf * tree_pmf, sf, bp, wo, t, b, above,
+                                       beta, rng, bounce TEX_PASS);
+        } else if (pick == first + tree && s->frame.emit_count > 0u) {
             c = pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
                                    bounce TEX_PASS);
         } else {

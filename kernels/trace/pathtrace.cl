@@ -310,7 +310,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
                         __global const PtMaterial* materials, __global const PtLight* lights,
                         __global const uint* emit_prims, __global const float* emit_cdf,
                         __global const float* emit_pmf, __global const float* select_cdf,
-                        __global const PtEnv* env,
+                        __global const PtLightNode* light_nodes, __global const PtEnv* env,
                         __global const float4* env_texels, __global const float* env_marginal,
                         __global const float* env_conditional, __global const float* filter,
                         __global const PtCamera* camera, __global const PtFrame* frame,
@@ -351,6 +351,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
     s.emit_cdf = emit_cdf;
     s.emit_pmf = emit_pmf;
     s.select_cdf = select_cdf;
+    s.light_nodes = light_nodes;
     s.env = env[0];
     s.env_texels = env_texels;
     s.env_marginal = env_marginal;

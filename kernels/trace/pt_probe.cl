@@ -241,6 +241,20 @@ __kernel void light_probe(__global const PtLight* lights, __global const float* 
     o[5] = ok ? e.x : 0.0f; o[6] = ok ? e.y : 0.0f; o[7] = ok ? e.z : 0.0f;
 }
 
+// Per case: a point (xyz), a normal (xyz) and u. Out: the light the tree
+// picks (-1: none) and its probability.
+__kernel void light_tree_probe(__global const PtLightNode* nodes, __global const float* in,
+                               __global float* out, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    const __global float* c = in + (size_t)i * 7u;
+    float pmf = 0.0f;
+    int light = light_tree_pick(nodes, (float3)(c[0], c[1], c[2]), (float3)(c[3], c[4], c[5]),
+                                c[6], &pmf);
+    out[2u * i] = (float)light;
+    out[2u * i + 1u] = light >= 0 ? pmf : 0.0f;
+}
+
 // Per case: u1, u2, and a direction (xyz). Out: sampled wi xyz, radiance
 // rgb, pdf, then the radiance rgb and pdf of the given direction (11).
 __kernel void env_probe(__global const PtEnv* env, __global const float4* texels,

@@ -38,6 +38,7 @@ typedef struct {
     const __global float* emit_cdf;
     const __global float* emit_pmf;
     const __global float* select_cdf;
+    const __global PtLightNode* light_nodes;
     PtEnv env;
     const __global float4* env_texels;
     const __global float* env_marginal;

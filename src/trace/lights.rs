@@ -485,7 +485,8 @@ pub fn environment_power(mean: f32, scene_radius: f32) -> f64 {
 /// How next-event estimation picks its light at a path vertex: every
 /// punctual light when there are few (`loop_punctual`), then one entry of
 /// the selection distribution, chosen in proportion to its estimated power:
-/// the punctual lights unless looped, the emissive triangles as one entry,
+/// the punctual lights unless looped (those in the light tree with weight
+/// 0), the light tree as one entry, the emissive triangles as one entry,
 /// the environment map. When every power estimate is zero the entries are
 /// chosen uniformly. `PtFrame` in `kernels/pt_types.h` carries it.
 ///
@@ -501,6 +502,8 @@ pub struct LightSelection {
     pub loop_punctual: bool,
     /// `count + 1` entries from 0 to 1.
     pub cdf: Vec<f32>,
+    /// Whether the light tree is an entry.
+    pub tree: bool,
     /// Probability of choosing the emissive triangles (0 when not an entry).
     pub emit_pmf: f32,
     /// Probability of choosing the environment (0 when not an entry).
@@ -508,16 +511,34 @@ pub struct LightSelection {
 }
 
 impl LightSelection {
-    /// `punctual`: each punctual light's power; `emissive`, `environment`:
-    /// the power of those entries, `None` when they are not sampled by
-    /// next-event estimation.
-    pub fn new(punctual: &[f64], emissive: Option<f64>, environment: Option<f64>) -> Self {
+    /// `punctual`: each punctual light's power; `tree`: the power of the
+    /// lights in the light tree, where there is one (it is an entry only
+    /// when the punctual lights are not looped, and its lights' own entries
+    /// get weight 0); `emissive`, `environment`: the power of those entries,
+    /// `None` when they are not sampled by next-event estimation.
+    pub fn new(
+        punctual: &[f64],
+        tree: Option<(f64, &[bool])>,
+        emissive: Option<f64>,
+        environment: Option<f64>,
+    ) -> Self {
         let loop_punctual = punctual.len() <= LOOPED_PUNCTUAL_MAX;
+        let tree = tree.filter(|_| !loop_punctual);
         let mut weights: Vec<f64> = if loop_punctual {
             Vec::new()
         } else {
-            punctual.to_vec()
+            punctual
+                .iter()
+                .enumerate()
+                .map(|(i, &p)| match tree {
+                    Some((_, in_tree)) if in_tree.get(i) == Some(&true) => 0.0,
+                    _ => p,
+                })
+                .collect()
         };
+        if let Some((power, _)) = tree {
+            weights.push(power);
+        }
         let emit_index = emissive.map(|p| {
             weights.push(p);
             weights.len() - 1
@@ -537,6 +558,7 @@ impl LightSelection {
         let pmf = |i: Option<usize>| i.map_or(0.0, |i| cdf[i + 1] - cdf[i]);
         LightSelection {
             loop_punctual,
+            tree: tree.is_some(),
             emit_pmf: pmf(emit_index),
             env_pmf: pmf(env_index),
             cdf,

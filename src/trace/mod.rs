@@ -27,6 +27,7 @@ pub mod energy;
 pub mod escape;
 pub mod intersect;
 pub mod lens;
+pub mod light_tree;
 pub mod lights;
 pub mod material;
 pub mod media;

@@ -127,6 +127,11 @@ pub struct RenderSettings {
     /// (`--layering`; `ENERGY_LAYERING` by default, never compiled for
     /// `--clay`).
     pub layering: Layering,
+    /// Next-event estimation picks among many point and spot lights (more
+    /// than are looped over) through the light tree, by their importance
+    /// at the shading point; off (`--no-light-tree`), in proportion to
+    /// their power alone.
+    pub light_tree: bool,
     /// `--backface-culling`: rays pass through the back faces of
     /// single-sided materials, as the Khronos Sample Viewer's rasterizer
     /// culls them. Off by default: back faces are shaded, as Cycles does.
@@ -164,6 +169,7 @@ impl Default for RenderSettings {
             environment: Environment::Default,
             aovs: Aovs::NONE,
             energy_compensation: true,
+            light_tree: true,
             layering: Layering::Energy,
             backface_culling: false,
             lens: None,

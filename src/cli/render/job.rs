@@ -138,6 +138,7 @@ pub(super) fn resolve_job(
                 environment,
                 aovs,
                 energy_compensation: !args.no_energy_compensation,
+                light_tree: !args.no_light_tree,
                 layering,
                 backface_culling: args.backface_culling,
                 lens: lens(args, scene)?,

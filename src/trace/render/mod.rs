@@ -56,6 +56,7 @@ pub use upload::{frame_consts, DeviceFrame};
 use opencl3::memory::Buffer;
 
 use super::device::TreeLayouts;
+use super::light_tree::DeviceLightNode;
 use super::lights::{DeviceEnv, DeviceLight};
 use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
 use super::texture::{TextureBinding, TextureSet};
@@ -190,6 +191,10 @@ pub struct PathTracer<'d> {
     /// The frame's tree in the layout of `settings.traversal`.
     layouts: TreeLayouts,
     lights: GrowBuffer<DeviceLight>,
+    /// The frame's light tree (`light_tree::build`; empty without one) and
+    /// its copy on the device.
+    light_tree: Vec<DeviceLightNode>,
+    light_nodes: GrowBuffer<DeviceLightNode>,
     power: GrowBuffer<f32>,
     power_host: Vec<f32>,
     /// The textured emitters' factors, kept while their inputs stay.
@@ -419,6 +424,8 @@ impl<'d> PathTracer<'d> {
             dummy_f4,
             layouts: TreeLayouts::default(),
             lights: GrowBuffer::new(),
+            light_tree: Vec::new(),
+            light_nodes: GrowBuffer::new(),
             power: GrowBuffer::new(),
             power_host: Vec::new(),
             texture_factors: emitters::TextureFactors::new(),

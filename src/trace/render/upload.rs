@@ -14,11 +14,12 @@ use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
 use crate::trace::camera::{device_camera, with_lens, DeviceCamera};
+use crate::trace::light_tree::{self, LIGHT_NODE_LEAF};
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
     ENV_CONSTANT, ENV_NONE,
 };
-use crate::trace::lights::{DeviceEnv, EnvMap, ENV_MAP};
+use crate::trace::lights::{DeviceEnv, EnvMap, ENV_MAP, LOOPED_PUNCTUAL_MAX};
 use crate::trace::material::{DeviceMaterial, DeviceMaterialExt};
 use crate::trace::settings::{Environment, Traversal};
 use crate::trace::texture::{Slot, TextureBinding, TextureSet};
@@ -28,8 +29,9 @@ device_struct! {
 /// Per-frame constants. Next-event estimation at a path vertex samples every
 /// punctual light when `light_loop` is set, then one light drawn from the
 /// selection distribution (`select_cdf`, `select_count` entries in this
-/// order: the punctual lights unless looped, the emissive triangles as one
-/// entry when there are any, the environment when it is sampled).
+/// order: the punctual lights unless looped, the light tree as one entry
+/// when `light_tree` (its node count) is not 0, the emissive triangles as
+/// one entry when there are any, the environment when it is sampled).
 /// `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
 /// the emissive triangles and the environment (0 when not an entry), which
 /// MIS needs when a BSDF-sampled ray hits them.
@@ -52,7 +54,8 @@ pub struct DeviceFrame as "PtFrame" {
     pub light_loop: u32,
     pub emit_select_pmf: f32,
     pub env_select_pmf: f32,
-    pub pad: u32,
+    /// The light tree's node count: 0 when it is not an entry.
+    pub light_tree: u32,
 }
 }
 
@@ -212,6 +215,16 @@ impl PathTracer<'_> {
         }
         let lbuf = self.lights.ensure(d, host_lights.len())?;
         d.write(lbuf, &host_lights)?;
+        // Few lights are looped over at every vertex: no tree.
+        self.light_tree = if self.settings.light_tree && lights.len() > LOOPED_PUNCTUAL_MAX {
+            light_tree::build(&host_lights, lights.len())
+        } else {
+            Vec::new()
+        };
+        let nodes = self.light_nodes.ensure(d, self.light_tree.len().max(1))?;
+        if !self.light_tree.is_empty() {
+            d.write(nodes, &self.light_tree)?;
+        }
         Ok(())
     }
 
@@ -304,8 +317,16 @@ impl PathTracer<'_> {
             )),
             _ => None,
         };
+        let mut in_tree = vec![false; f.lights.len()];
+        for n in &self.light_tree {
+            if n.child & LIGHT_NODE_LEAF != 0 {
+                in_tree[(n.child & !LIGHT_NODE_LEAF) as usize] = true;
+            }
+        }
+        let tree = self.light_tree.first().map(|root| root.phi as f64);
         let selection = LightSelection::new(
             &punctual,
+            tree.map(|power| (power, in_tree.as_slice())),
             (!f.emit.is_empty()).then_some(f.emit.power),
             env_power,
         );
@@ -329,7 +350,11 @@ impl PathTracer<'_> {
             light_loop: selection.loop_punctual as u32,
             emit_select_pmf: selection.emit_pmf,
             env_select_pmf: selection.env_pmf,
-            pad: 0,
+            light_tree: if selection.tree {
+                self.light_tree.len() as u32
+            } else {
+                0
+            },
         };
         d.write(&mut self.frame, &[fr])?;
         Ok(())

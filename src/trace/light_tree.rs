@@ -1,0 +1,373 @@
+//! The light tree: a bounding-volume hierarchy over the punctual point and
+//! spot lights, with the cone of each node's emission directions (Conty
+//! Estevez & Kulla 2018, "Importance Sampling of Many Lights with Adaptive
+//! Tree Splitting"; the bounds, importance and traversal of pbrt-v4's
+//! `BVHLightSampler`). Next-event estimation walks it from the root,
+//! choosing each child in proportion to its importance at the shading
+//! point, so a point is lit mostly by the lights near it and facing it
+//! instead of by all of them in proportion to their power.
+//!
+//! Built on the host each frame from the frame's lights (at every motion
+//! step, so that a moving light stays inside its nodes' bounds for the
+//! whole shutter); `light_tree_pick` in `kernels/trace/lights.h` is the
+//! kernel twin of [`pick`]. Directional lights are not in the tree: they
+//! stay entries of the frame's selection distribution (`LightSelection`).
+//! Punctual lights cannot be hit by a ray, so the tree's probability is
+//! needed only where a light is drawn: no MIS pdf lookup.
+
+// `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::lights::{DeviceLight, LIGHT_DIRECTIONAL, LIGHT_SPOT};
+use super::sampling::luminance;
+use crate::device_struct::{device_consts, device_struct};
+
+device_consts! {
+    fn light_tree_consts;
+    /// `PtLightNode.child` of a leaf: this bit, and the light's index.
+    pub const LIGHT_NODE_LEAF: u32 = 0x8000_0000;
+}
+
+device_struct! {
+/// One node of the light tree: the bounds of its lights' positions, their
+/// total power `phi` (the selection's units: luminance, in watts up to one
+/// factor), and the cone of their emission: axis `w`, `cos_theta_o` the
+/// cosine of its half-angle, `cos_theta_e` the cosine of the falloff angle
+/// past it. `child`: an inner node's first child (the second follows it),
+/// or `LIGHT_NODE_LEAF` and a leaf's light index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DeviceLightNode as "PtLightNode" {
+    pub lo: [f32; 3],
+    pub phi: f32,
+    pub hi: [f32; 3],
+    pub cos_theta_o: f32,
+    pub w: [f32; 3],
+    pub cos_theta_e: f32,
+    pub child: u32,
+    pub pad: [u32; 3],
+}
+}
+
+const _: () = assert!(std::mem::size_of::<DeviceLightNode>() == 64);
+
+/// The bounds of a set of lights (pbrt-v4's `LightBounds`).
+#[derive(Clone, Copy, Debug)]
+struct LightBounds {
+    lo: Vec3,
+    hi: Vec3,
+    phi: f32,
+    w: Vec3,
+    cos_theta_o: f32,
+    cos_theta_e: f32,
+}
+
+/// The cone of directions around `a` of half-angle acos(`cos_a`) and the
+/// one around `b` of acos(`cos_b`), in one cone (pbrt-v4's
+/// `DirectionCone::Union`).
+fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
+    let pi = std::f32::consts::PI;
+    let theta_a = cos_a.clamp(-1.0, 1.0).acos();
+    let theta_b = cos_b.clamp(-1.0, 1.0).acos();
+    let theta_d = a.dot(b).clamp(-1.0, 1.0).acos();
+    if (theta_d + theta_b).min(pi) <= theta_a {
+        return (a, cos_a);
+    }
+    if (theta_d + theta_a).min(pi) <= theta_b {
+        return (b, cos_b);
+    }
+    let theta_o = 0.5 * (theta_a + theta_d + theta_b);
+    let axis = a.cross(b);
+    if theta_o >= pi || axis.length_squared() == 0.0 {
+        return (Vec3::Z, -1.0);
+    }
+    let w = glam::Quat::from_axis_angle(axis.normalize(), theta_o - theta_a) * a;
+    (w.normalize(), theta_o.cos())
+}
+
+impl LightBounds {
+    fn union(&self, o: &LightBounds) -> LightBounds {
+        let (w, cos_theta_o) = cone_union(self.w, self.cos_theta_o, o.w, o.cos_theta_o);
+        LightBounds {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            phi: self.phi + o.phi,
+            w,
+            cos_theta_o,
+            cos_theta_e: self.cos_theta_e.min(o.cos_theta_e),
+        }
+    }
+
+    fn node(&self, child: u32) -> DeviceLightNode {
+        DeviceLightNode {
+            lo: self.lo.to_array(),
+            phi: self.phi,
+            hi: self.hi.to_array(),
+            cos_theta_o: self.cos_theta_o,
+            w: self.w.to_array(),
+            cos_theta_e: self.cos_theta_e,
+            child,
+            pad: [0; 3],
+        }
+    }
+}
+
+/// A point or spot light's power in the selection's units (as
+/// `punctual_power`: luminance; a spot's as pbrt-v4's `SpotLight::Phi`).
+pub fn device_light_power(l: &DeviceLight) -> f32 {
+    let pi = std::f32::consts::PI;
+    let lum = luminance(Vec3::from(l.intensity));
+    let p = if l.kind == LIGHT_SPOT {
+        let (cos_inner, cos_outer) = spot_cosines(l);
+        2.0 * pi * lum * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 2.0)
+    } else {
+        4.0 * pi * lum
+    };
+    if p.is_finite() && p > 0.0 {
+        p
+    } else {
+        0.0
+    }
+}
+
+/// A spot light's cosines where its falloff ends (inner: full intensity
+/// within) and where it reaches zero (outer), from the falloff's scale and
+/// offset: saturate(cos * scale + offset) is 1 at the inner cone, 0 at the
+/// outer.
+fn spot_cosines(l: &DeviceLight) -> (f32, f32) {
+    if !(l.angle_scale > 0.0) || !l.angle_scale.is_finite() {
+        return (1.0, -1.0);
+    }
+    let cos_outer = (-l.angle_offset / l.angle_scale).clamp(-1.0, 1.0);
+    let cos_inner = ((1.0 - l.angle_offset) / l.angle_scale).clamp(cos_outer, 1.0);
+    (cos_inner, cos_outer)
+}
+
+/// The bounds of light `steps[0]` over its motion steps (the same light at
+/// each), `None` for a directional light or one that sends nothing.
+fn light_bounds(steps: &[DeviceLight]) -> Option<LightBounds> {
+    let mut out: Option<LightBounds> = None;
+    for l in steps {
+        if l.kind == LIGHT_DIRECTIONAL {
+            return None;
+        }
+        let p = Vec3::from(l.position);
+        let (w, cos_theta_o, cos_theta_e) = if l.kind == LIGHT_SPOT {
+            let (cos_inner, cos_outer) = spot_cosines(l);
+            let axis = Vec3::from(l.direction).normalize_or_zero();
+            if axis == Vec3::ZERO {
+                (Vec3::Z, -1.0, 0.0)
+            } else {
+                let theta_e = cos_outer.acos() - cos_inner.acos();
+                (axis, cos_inner, theta_e.max(0.0).cos())
+            }
+        } else {
+            (Vec3::Z, -1.0, 0.0)
+        };
+        let b = LightBounds {
+            lo: p,
+            hi: p,
+            phi: device_light_power(l),
+            w,
+            cos_theta_o,
+            cos_theta_e,
+        };
+        out = Some(match out {
+            // The same light at another time: its power is the largest.
+            Some(a) => {
+                let u = a.union(&b);
+                LightBounds {
+                    phi: a.phi.max(b.phi),
+                    ..u
+                }
+            }
+            None => b,
+        });
+    }
+    out.filter(|b| b.phi > 0.0 && b.lo.is_finite() && b.hi.is_finite())
+}
+
+/// The light tree over `lights` (`count` lights, then, with motion, the
+/// same lights at each further step); empty when none of them is a point
+/// or spot light that sends light. Node 0 is the root.
+pub fn build(lights: &[DeviceLight], count: usize) -> Vec<DeviceLightNode> {
+    if count == 0 {
+        return Vec::new();
+    }
+    let steps = lights.len() / count;
+    let mut leaves: Vec<(u32, LightBounds)> = (0..count)
+        .filter_map(|i| {
+            let at: Vec<DeviceLight> = (0..steps).map(|s| lights[s * count + i]).collect();
+            light_bounds(&at).map(|b| (i as u32, b))
+        })
+        .collect();
+    if leaves.is_empty() {
+        return Vec::new();
+    }
+    let mut nodes = vec![DeviceLightNode::default()];
+    build_node(&mut nodes, 0, &mut leaves);
+    nodes
+}
+
+/// Fills node `at` with `leaves`: one leaf, or two children split at the
+/// median of the longest axis of the lights' positions.
+fn build_node(nodes: &mut Vec<DeviceLightNode>, at: usize, leaves: &mut [(u32, LightBounds)]) {
+    if let [(light, b)] = leaves {
+        nodes[at] = b.node(LIGHT_NODE_LEAF | *light);
+        return;
+    }
+    let centre = |b: &LightBounds| 0.5 * (b.lo + b.hi);
+    let (lo, hi) = leaves.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), (_, b)| (lo.min(centre(b)), hi.max(centre(b))),
+    );
+    let axis = (hi - lo).max_position();
+    // Ties keep the lights' order, so the tree is the same on every run.
+    leaves.sort_by(|a, b| centre(&a.1)[axis].total_cmp(&centre(&b.1)[axis]));
+    let child = nodes.len();
+    nodes.extend([DeviceLightNode::default(); 2]);
+    let (left, right) = leaves.split_at_mut(leaves.len() / 2);
+    build_node(nodes, child, left);
+    build_node(nodes, child + 1, right);
+    let bounds = |n: &DeviceLightNode| LightBounds {
+        lo: Vec3::from(n.lo),
+        hi: Vec3::from(n.hi),
+        phi: n.phi,
+        w: Vec3::from(n.w),
+        cos_theta_o: n.cos_theta_o,
+        cos_theta_e: n.cos_theta_e,
+    };
+    nodes[at] = bounds(&nodes[child])
+        .union(&bounds(&nodes[child + 1]))
+        .node(child as u32);
+}
+
+/// cos(max(θa − θb, 0)) from the sines and cosines.
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        1.0
+    } else {
+        cos_a * cos_b + sin_a * sin_b
+    }
+}
+
+/// sin(max(θa − θb, 0)) from the sines and cosines.
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        0.0
+    } else {
+        sin_a * cos_b - cos_a * sin_b
+    }
+}
+
+fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// How much the lights of node `n` may send to a surface at `p` with
+/// normal `normal` (pbrt-v4's `LightBounds::Importance`): power over the
+/// squared distance to the bounds' centre (no less than the squared
+/// half-diagonal), times the bound on the emission cosine towards `p` and
+/// on the incidence cosine at `p`. 0 only where no light of the node can
+/// reach `p`: outside every spot's cone.
+pub fn importance(n: &DeviceLightNode, p: Vec3, normal: Vec3) -> f32 {
+    let (lo, hi) = (Vec3::from(n.lo), Vec3::from(n.hi));
+    let pc = 0.5 * (lo + hi);
+    let half_diagonal2 = 0.25 * (hi - lo).length_squared();
+    let to = p - pc;
+    let to2 = to.length_squared();
+    let d2 = to2.max(half_diagonal2).max(1e-12);
+    let wi = if to2 > 0.0 {
+        to / to2.sqrt()
+    } else {
+        Vec3::ZERO
+    };
+    let cos_w = Vec3::from(n.w).dot(wi);
+    let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+    // The cone of directions from `p` to the bounds' sphere: all of them
+    // from inside it.
+    let cos_b = if to2 > half_diagonal2 {
+        safe_sqrt(1.0 - half_diagonal2 / to2)
+    } else {
+        -1.0
+    };
+    let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+    let sin_o = safe_sqrt(1.0 - n.cos_theta_o * n.cos_theta_o);
+    let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, n.cos_theta_o);
+    let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, n.cos_theta_o);
+    let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    if cos_p <= n.cos_theta_e {
+        return 0.0;
+    }
+    let mut imp = n.phi * cos_p / d2;
+    if normal != Vec3::ZERO {
+        let cos_i = wi.dot(normal).abs();
+        let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+        imp *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+    }
+    imp.max(0.0)
+}
+
+/// The largest f32 below 1: where a rescaled random number is clamped.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Walks the tree from the root with the random number `u`, choosing each
+/// child in proportion to its importance at `p`: the light chosen and its
+/// probability, `None` where no light can reach `p`.
+pub fn pick(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, mut u: f32) -> Option<(u32, f32)> {
+    let mut at = 0usize;
+    let mut pmf = 1.0f32;
+    loop {
+        let n = nodes.get(at)?;
+        if n.child & LIGHT_NODE_LEAF != 0 {
+            return Some((n.child & !LIGHT_NODE_LEAF, pmf));
+        }
+        let c = n.child as usize;
+        let i0 = importance(nodes.get(c)?, p, normal);
+        let i1 = importance(nodes.get(c + 1)?, p, normal);
+        if !(i0 > 0.0) && !(i1 > 0.0) {
+            return None;
+        }
+        let p0 = i0 / (i0 + i1);
+        if u < p0 {
+            pmf *= p0;
+            u = (u / p0).min(ONE_MINUS_EPSILON);
+            at = c;
+        } else {
+            pmf *= 1.0 - p0;
+            u = ((u - p0) / (1.0 - p0)).min(ONE_MINUS_EPSILON);
+            at = c + 1;
+        }
+    }
+}
+
+/// The probability that [`pick`] chooses light `light` at `p` (summing
+/// over the tree: for tests).
+pub fn pick_pmf(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, light: u32) -> f32 {
+    fn walk(nodes: &[DeviceLightNode], at: usize, p: Vec3, normal: Vec3, light: u32) -> f32 {
+        let n = &nodes[at];
+        if n.child & LIGHT_NODE_LEAF != 0 {
+            return if n.child & !LIGHT_NODE_LEAF == light {
+                1.0
+            } else {
+                0.0
+            };
+        }
+        let c = n.child as usize;
+        let i0 = importance(&nodes[c], p, normal);
+        let i1 = importance(&nodes[c + 1], p, normal);
+        if !(i0 + i1 > 0.0) {
+            return 0.0;
+        }
+        let p0 = i0 / (i0 + i1);
+        p0 * walk(nodes, c, p, normal, light) + (1.0 - p0) * walk(nodes, c + 1, p, normal, light)
+    }
+    if nodes.is_empty() {
+        0.0
+    } else {
+        walk(nodes, 0, p, normal, light)
+    }
+}
