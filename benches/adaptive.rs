@@ -6,9 +6,11 @@
 //!       --configs "u64;--noise-threshold 0.04;--noise-threshold 0.028 --min-spp 8"
 //!
 //! Flags (defaults in brackets): `--scene NAME` [cesium] (`cesium` is frame
-//! 24 of CesiumMan from the shared folder; `MESH-LIGHTING` a clay scan scene that
-//! `cargo bench --bench cycles -- --scenes-only` writes, frame 0, `--clay`,
-//! sky 0.1 under the sun, 1 otherwise), `--size WxH` [640x360], `--ref-spp
+//! 24 of CesiumMan from the shared folder; `MESH-LIGHTING` a scene that
+//! `cargo bench --bench cycles -- --scenes-only` writes, frame 0: the
+//! `sky` and `sun` scans `--clay` under a sky of 1 or of 0.1 and the sun,
+//! `emitter` and `lamps` their materials and lights with no sky, the others
+//! their materials under the sun and a sky of 0.1), `--size WxH` [640x360], `--ref-spp
 //! N` [1024], `--max-spp N` [1024] (the adaptive renders' `--spp`),
 //! `--runs N` [3], `--configs LIST` (`;`-separated: `uN [FLAGS]` is
 //! uniform N spp, anything else the extra flags of an adaptive render; [u64 and the

@@ -271,27 +271,62 @@ fn random_lights(rng: &mut Rng, count: usize, steps: usize) -> Vec<DeviceLight> 
     out
 }
 
+/// Random emissive triangles in the lights' street, a third double-sided,
+/// at each of `steps` motion steps.
+fn random_emitters(rng: &mut Rng, count: usize, steps: usize) -> Vec<light_tree::EmissiveTriangle> {
+    (0..count)
+        .map(|k| {
+            let c = Vec3::new(
+                rng.f32() * 20.0 - 10.0,
+                rng.f32() * 2.0,
+                rng.f32() * 4.0 - 2.0,
+            );
+            let corners = [c, c + random_dir(rng) * 0.2, c + random_dir(rng) * 0.2];
+            light_tree::EmissiveTriangle {
+                corners: (0..steps)
+                    .map(|s| corners.map(|v| v + Vec3::new(0.0, 0.05, 0.1) * s as f32))
+                    .collect(),
+                power: 0.1 + 5.0 * rng.f32(),
+                two_sided: k % 3 == 0,
+            }
+        })
+        .collect()
+}
+
 #[test]
 fn light_tree_picks_as_the_reference() {
     let d = common::device();
     let mut rng = Rng::new(11);
     let lights = random_lights(&mut rng, 200, 1);
-    let nodes = light_tree::build(&lights, 200);
-    assert_eq!(nodes.len(), 2 * 200 - 1, "one leaf per light");
+    let emitters = random_emitters(&mut rng, 300, 1);
+    let tree = light_tree::build(&lights, 200, &emitters);
+    let nodes = &tree.nodes;
+    assert_eq!(nodes.len(), 2 * 500 - 1, "one leaf per light and emitter");
+    let trails: Vec<u32> = tree.emitter_trails.iter().map(|t| t.unwrap()).collect();
     let n = 4000;
     let mut input = Vec::new();
-    for _ in 0..n {
+    for i in 0..n {
         let p = Vec3::new(
             rng.f32() * 24.0 - 12.0,
             rng.f32() * 3.0 - 0.5,
             rng.f32() * 6.0 - 3.0,
         );
         let normal = random_dir(&mut rng);
-        input.extend_from_slice(&[p.x, p.y, p.z, normal.x, normal.y, normal.z, rng.f32()]);
+        let trail = f32::from_bits(trails[i % trails.len()]);
+        input.extend_from_slice(&[
+            p.x,
+            p.y,
+            p.z,
+            normal.x,
+            normal.y,
+            normal.z,
+            rng.f32(),
+            trail,
+        ]);
     }
-    let nb = upload(&d, &nodes);
+    let nb = upload(&d, nodes);
     let inb = upload(&d, &input);
-    let out = upload(&d, &vec![0.0f32; 2 * n]);
+    let out = upload(&d, &vec![0.0f32; 3 * n]);
     run(
         &d,
         "light_tree_probe",
@@ -303,35 +338,50 @@ fn light_tree_picks_as_the_reference() {
         ],
         n,
     );
-    let mut got = vec![0.0f32; 2 * n];
+    let mut got = vec![0.0f32; 3 * n];
     d.read(&out, &mut got).unwrap();
-    let mut same = 0;
+    let (mut same, mut emitters_picked) = (0, 0);
     for i in 0..n {
-        let c = &input[7 * i..7 * i + 7];
+        let c = &input[8 * i..8 * i + 8];
         let (p, normal) = (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5]));
         let what = format!("case {i} at {p} normal {normal} u {}", c[6]);
-        let want = light_tree::pick(&nodes, p, normal, c[6]);
-        let (light, pmf) = (got[2 * i], got[2 * i + 1]);
-        match want {
-            Some((l, want_pmf)) if light == l as f32 => {
+        let (leaf, pmf) = (got[3 * i].to_bits() as i32, got[3 * i + 1]);
+        // The trail's probability: the kernel's, the reference's, and the
+        // sum over the tree for that emitter.
+        let k = i % trails.len();
+        let want_trail = light_tree::trail_pmf(nodes, p, normal, trails[k]);
+        close(got[3 * i + 2], want_trail, 1e-4, &what);
+        let emitter = light_tree::LIGHT_NODE_EMITTER | k as u32;
+        close(
+            want_trail,
+            light_tree::pick_pmf(nodes, p, normal, emitter),
+            1e-4,
+            &what,
+        );
+        match light_tree::pick(nodes, p, normal, c[6]) {
+            Some((l, want_pmf)) if leaf == l as i32 => {
                 close(pmf, want_pmf, 1e-4, &what);
-                // The pick's probability is the tree's for that light.
-                close(pmf, light_tree::pick_pmf(&nodes, p, normal, l), 1e-4, &what);
+                close(pmf, light_tree::pick_pmf(nodes, p, normal, l), 1e-4, &what);
                 same += 1;
+                emitters_picked += (l & light_tree::LIGHT_NODE_EMITTER != 0) as usize;
             }
             Some(_) => {}
-            None => assert_eq!(light, -1.0, "{what}"),
+            None => assert_eq!(leaf, -1, "{what}"),
         }
     }
     // Where u falls within rounding of a split, the two may part ways.
     assert!(same >= n * 99 / 100, "{same} of {n} picks agree");
+    assert!(
+        emitters_picked > n / 10,
+        "{emitters_picked} emitters picked"
+    );
 }
 
-/// The tree's probabilities over its lights sum to at most 1 (less where
-/// a node's cone reaches a point that none of its children's does: the
-/// pick then finds no light), to 1 with point lights alone; a light is
-/// chosen exactly where it shines; a light that moves between motion steps
-/// stays inside the root's bounds.
+/// The tree's probabilities over its lights and emitters sum to at most 1
+/// (less where a node's cone reaches a point that none of its children's
+/// does: the pick then finds no light), to 1 with point lights alone; a
+/// light is chosen exactly where it shines, an emitter wherever it can; a
+/// light that moves between motion steps stays inside the root's bounds.
 #[test]
 fn light_tree_probabilities_sum_to_one() {
     let mut rng = Rng::new(12);
@@ -340,7 +390,10 @@ fn light_tree_probabilities_sum_to_one() {
         if !spots {
             lights.iter_mut().for_each(|l| l.kind = LIGHT_POINT);
         }
-        let nodes = light_tree::build(&lights, 50);
+        // Point lights alone make a tree whose cones never cut: there the
+        // probabilities sum to 1 exactly.
+        let emitters = random_emitters(&mut rng, if spots { 40 } else { 0 }, steps);
+        let nodes = light_tree::build(&lights, 50, &emitters).nodes;
         for n in &nodes {
             assert!(n.phi > 0.0 && n.cos_theta_o >= -1.0 && n.cos_theta_o <= 1.0);
         }
@@ -359,7 +412,10 @@ fn light_tree_probabilities_sum_to_one() {
                 rng.f32() * 6.0 - 3.0,
             );
             let normal = random_dir(&mut rng);
-            let sum: f32 = (0..50)
+            let emitter_leaves =
+                (0..emitters.len() as u32).map(|k| light_tree::LIGHT_NODE_EMITTER | k);
+            let leaves = (0..50).chain(emitter_leaves);
+            let sum: f32 = leaves
                 .map(|l| light_tree::pick_pmf(&nodes, p, normal, l))
                 .sum();
             assert!(sum <= 1.0 + 1e-4, "{sum} at {p}");
@@ -367,6 +423,16 @@ fn light_tree_probabilities_sum_to_one() {
             assert!(!points || (sum - 1.0).abs() < 1e-4, "{sum} at {p}");
             if steps > 1 {
                 continue;
+            }
+            // An emitter is chosen wherever it can shine.
+            for (k, t) in emitters.iter().enumerate() {
+                let c = t.corners[0];
+                let n = (c[1] - c[0]).cross(c[2] - c[0]);
+                if t.two_sided || (p - c[0]).dot(n) > 1e-3 * n.length() {
+                    let leaf = light_tree::LIGHT_NODE_EMITTER | k as u32;
+                    let pmf = light_tree::pick_pmf(&nodes, p, normal, leaf);
+                    assert!(pmf > 0.0, "emitter {k} at {p}: {pmf}");
+                }
             }
             // A spot light is chosen exactly where it shines.
             for (i, l) in lights.iter().enumerate() {

@@ -69,16 +69,20 @@ pub fn scene(
             path.display()
         ));
     }
-    let env = if name.ends_with("-sun") { "0.1" } else { "1" };
-    Ok((
-        path,
-        "0",
-        vec![
-            "--clay".into(),
-            "--env-color".into(),
-            format!("{env},{env},{env}"),
-        ],
-    ))
+    // The clay scans under the sky or the sun render clay; the other
+    // scenes their materials: the textured emitter and the street of lamps
+    // by their own light at night, the rest under the sun and a dim sky.
+    let (clay, env) = match name.rsplit_once('-').map_or("", |(_, lighting)| lighting) {
+        "sky" => (true, "1"),
+        "sun" => (true, "0.1"),
+        "emitter" | "lamps" => (false, "0"),
+        _ => (false, "0.1"),
+    };
+    let mut args: Vec<String> = vec!["--env-color".into(), format!("{env},{env},{env}")];
+    if clay {
+        args.insert(0, "--clay".into());
+    }
+    Ok((path, "0", args))
 }
 
 /// A frame `soupray render` wrote: its RGBA (the denoised beauty of a

@@ -40,6 +40,9 @@
 #define ENV_MAP 2u
 // `PtLightNode.child` of a leaf: this bit, and the light's index.
 #define LIGHT_NODE_LEAF 2147483648u
+// A leaf of an emissive triangle: also this bit, and the triangle's
+// index among the frame's emitters (`emit_prims`).
+#define LIGHT_NODE_EMITTER 1073741824u
 // A triangle's flags (`triangle_flags`): a shadow catcher's.
 #define TRIANGLE_SHADOW_CATCHER 1u
 // A holdout's.
@@ -87,9 +90,9 @@ typedef struct {
 // when `light_tree` (its node count) is not 0, the emissive triangles as
 // one entry when there are any, the environment when it is sampled).
 // `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
-// the emissive triangles and the environment (0 when not an entry), which
-// MIS needs when a BSDF-sampled ray hits them.
-// `DeviceFrame` in src/trace/render/upload.rs (64 bytes).
+// the emissive triangles (or the tree that holds them) and the environment
+// (0 when not an entry), which MIS needs when a BSDF-sampled ray hits them.
+// `DeviceFrame` in src/trace/render/upload.rs (80 bytes).
 typedef struct {
     uint seed_lo;
     uint seed_hi;
@@ -109,6 +112,10 @@ typedef struct {
     float env_select_pmf;
     // The light tree's node count: 0 when it is not an entry.
     uint light_tree;
+    // 1 when the emitters are in the light tree (not an entry of their
+    // own); `emit_select_pmf` is then the tree's probability.
+    uint emit_tree;
+    uint pad[3];
 } PtFrame;
 
 // One material as the device shades it. Texture
@@ -239,8 +246,10 @@ typedef struct {
 // total power `phi` (the selection's units: luminance, in watts up to one
 // factor), and the cone of their emission: axis `w`, `cos_theta_o` the
 // cosine of its half-angle, `cos_theta_e` the cosine of the falloff angle
-// past it. `child`: an inner node's first child (the second follows it),
-// or `LIGHT_NODE_LEAF` and a leaf's light index.
+// past it; `two_sided`: 1 where the cone is mirrored too (double-sided
+// emitters). `child`: an inner node's first child (the second follows
+// it), or `LIGHT_NODE_LEAF` and a leaf's light (or `LIGHT_NODE_EMITTER`
+// and emitter) index.
 // `DeviceLightNode` in src/trace/light_tree.rs (64 bytes).
 typedef struct {
     float lo[3];
@@ -250,7 +259,8 @@ typedef struct {
     float w[3];
     float cos_theta_e;
     uint child;
-    uint pad[3];
+    uint two_sided;
+    uint pad[2];
 } PtLightNode;
 
 #endif

@@ -164,16 +164,13 @@ inline float3 pt_punctual_direct(PtScene* s, uint i, float pmf, PtSurface sf, Bs
                           shadow_t, rng, bounce TEX_PASS);
 }
 
-// A point on an emissive triangle, chosen by power (the selection
-// probability is in pt_emissive_pdf).
-inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfParams bp,
-                                 float3 wo, float3 t, float3 b, float3 above, float3 beta,
-                                 SampleRng rng, uint bounce TEX_DECL) {
-    uint k = cdf_search(s->emit_cdf, s->frame.emit_count, u1);
-    float c0 = s->emit_cdf[k], c1 = s->emit_cdf[k + 1u];
-    float ur = (u1 - c0) / (c1 - c0);
-    uint prim = s->emit_prims[k];
-    float2 bc = sample_triangle(ur, u2);
+// A point on emissive triangle `prim`, chosen with probability `pmf`
+// (selection included), at the uniforms `u1`, `u2`.
+inline float3 pt_emissive_triangle(PtScene* s, uint prim, float pmf, float u1, float u2,
+                                   PtSurface sf, BsdfParams bp, float3 wo, float3 t, float3 b,
+                                   float3 above, float3 beta, SampleRng rng,
+                                   uint bounce TEX_DECL) {
+    float2 bc = sample_triangle(u1, u2);
     float3 q = hit_point(SGEOM(s), prim, bc.x, bc.y);
     float3 to = q - sf.p;
     float d = sqrt(dot(to, to));
@@ -183,13 +180,27 @@ inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, B
     float3 nl = geometric_normal(SGEOM(s), prim);
     float cos_l = -dot(wi_w, nl);
     if ((lm.flags & MAT_DOUBLE_SIDED) != 0u) cos_l = fabs(cos_l);
-    float pdf = pt_emissive_pdf(s, prim, d, cos_l);
+    float pdf = pt_emissive_pdf(s, prim, pmf, d, cos_l);
     if (!(pdf > 0.0f)) return (float3)(0.0f);
     PtAttrs luv = pt_attrs(s, prim, bc.x, bc.y);
     float3 contrib = pt_emission(lm, luv TEX_PASS) / pdf;
     // Stop just short of the emitter itself.
     return pt_shade_light(s, sf, bp, wo, t, b, above, beta, wi_w, contrib, pdf, q - above,
                           1.0f - 1.0e-4f, rng, bounce TEX_PASS);
+}
+
+// A point on an emissive triangle chosen by power: `u1` picks the triangle
+// and, rescaled, places the point with `u2`.
+inline float3 pt_emissive_direct(PtScene* s, float u1, float u2, PtSurface sf, BsdfParams bp,
+                                 float3 wo, float3 t, float3 b, float3 above, float3 beta,
+                                 SampleRng rng, uint bounce TEX_DECL) {
+    uint k = cdf_search(s->emit_cdf, s->frame.emit_count, u1);
+    float c0 = s->emit_cdf[k], c1 = s->emit_cdf[k + 1u];
+    float ur = (u1 - c0) / (c1 - c0);
+    uint prim = s->emit_prims[k];
+    float pmf = s->emit_pmf[prim] * s->frame.emit_select_pmf;
+    return pt_emissive_triangle(s, prim, pmf, ur, u2, sf, bp, wo, t, b, above, beta, rng,
+                                bounce TEX_PASS);
 }
 
 // A direction towards the environment map, by its importance (a constant

@@ -152,6 +152,7 @@ inline float light_node_importance(PtLightNode n, float3 p, float3 nrm) {
     float d2 = fmax(fmax(to2, half_diagonal2), 1e-12f);
     float3 wi = to2 > 0.0f ? to / sqrt(to2) : (float3)(0.0f);
     float cos_w = dot((float3)(n.w[0], n.w[1], n.w[2]), wi);
+    if (n.two_sided != 0u) cos_w = fabs(cos_w);
     float sin_w = sqrt(fmax(0.0f, 1.0f - cos_w * cos_w));
     float cos_b = to2 > half_diagonal2 ? sqrt(fmax(0.0f, 1.0f - half_diagonal2 / to2)) : -1.0f;
     float sin_b = sqrt(fmax(0.0f, 1.0f - cos_b * cos_b));
@@ -170,8 +171,9 @@ inline float light_node_importance(PtLightNode n, float3 p, float3 nrm) {
 }
 
 // Walks the light tree from the root with the random number `u`, each
-// child chosen in proportion to its importance at `p`: the light's index
-// and its probability in `pmf`, -1 where no light can reach `p`.
+// child chosen in proportion to its importance at `p`: the leaf's payload
+// (a light's index, or LIGHT_NODE_EMITTER and an emitter's) and its
+// probability in `pmf`, -1 where no light can reach `p`.
 inline int light_tree_pick(const __global PtLightNode* nodes, float3 p, float3 nrm, float u,
                            float* pmf) {
     uint at = 0u;
@@ -197,5 +199,29 @@ inline int light_tree_pick(const __global PtLightNode* nodes, float3 p, float3 n
     }
 }
 
-#endif
+// The probability that light_tree_pick chooses the leaf at the end of
+// `trail` (bit k: the second child at depth k) at `p`: the same products
+// along one path.
+inline float light_tree_pmf(const __global PtLightNode* nodes, float3 p, float3 nrm, uint trail) {
+    uint at = 0u;
+    float pmf = 1.0f;
+    for (;;) {
+        PtLightNode n = nodes[at];
+        if ((n.child & LIGHT_NODE_LEAF) != 0u) return pmf;
+        uint c = n.child;
+        float i0 = light_node_importance(nodes[c], p, nrm);
+        float i1 = light_node_importance(nodes[c + 1u], p, nrm);
+        if (!(i0 > 0.0f) && !(i1 > 0.0f)) return 0.0f;
+        float p0 = i0 / (i0 + i1);
+        if ((trail & 1u) == 0u) {
+            pmf = pmf * p0;
+            at = c;
+        } else {
+            pmf = pmf * (1.0f - p0);
+            at = c + 1u;
+        }
+        trail = trail >> 1;
+    }
+}
 
+#endif

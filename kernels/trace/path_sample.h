@@ -66,6 +66,10 @@ typedef struct {
     // along it counts in full (MIS weight 1).
     float prev_pdf;
     bool prev_delta;
+    // The last scattering vertex and its shading normal: where the light
+    // tree would have chosen an emitter the path finds (for MIS).
+    float3 prev_p;
+    float3 prev_n;
     uint depth; // scattering vertices so far
 #ifdef HAS_TRANSMISSION
     // The volumes the path is in (media.h) and the innermost one's
@@ -84,6 +88,8 @@ inline PtPath pt_path_new(void) {
     p.beta = (float3)(1.0f);
     p.prev_pdf = 0.0f;
     p.prev_delta = false;
+    p.prev_p = (float3)(0.0f);
+    p.prev_n = (float3)(0.0f);
     p.depth = 0u;
 #ifdef HAS_TRANSMISSION
     p.media = media_empty();
@@ -339,15 +345,22 @@ inline void pt_next_event(PtScene* s, PtSample* out, PtSurface sf, BsdfParams bp
             c = pt_punctual_direct(s, pick, pmf, sf, bp, wo, t, b, above, beta, rng,
                                    bounce TEX_PASS);
         } else if (pick == first && tree != 0u) {
-            // The light tree: one of its lights by importance at sf.p,
-            // with the dimension the punctual lights leave unused.
+            // The light tree: one of its lights or emitters by importance
+            // at sf.p, with the dimension the punctual lights leave unused
+            // (an emitter's point takes the two after it).
             float pmf = s->select_cdf[pick + 1u] - s->select_cdf[pick];
             float tree_pmf;
-            int light = light_tree_pick(s->light_nodes, sf.p, sf.ns, ul.x, &tree_pmf);
-            if (light >= 0)
-                c = pt_punctual_direct(s, (uint)light, pmf * tree_pmf, sf, bp, wo, t, b, above,
+            int leaf = light_tree_pick(s->light_nodes, sf.p, sf.ns, ul.x, &tree_pmf);
+            if (leaf >= 0 && ((uint)leaf & LIGHT_NODE_EMITTER) != 0u) {
+                uint prim = s->emit_prims[(uint)leaf & ~LIGHT_NODE_EMITTER];
+                c = pt_emissive_triangle(s, prim, pmf * tree_pmf, ul.y, ul.w, sf, bp, wo, t, b,
+                                         above, beta, rng, bounce TEX_PASS);
+            } else if (leaf >= 0) {
+                c = pt_punctual_direct(s, (uint)leaf, pmf * tree_pmf, sf, bp, wo, t, b, above,
                                        beta, rng, bounce TEX_PASS);
-        } else if (pick == first + tree && s->frame.emit_count > 0u) {
+            }
+        } else if (pick == first + tree && s->frame.emit_count > 0u &&
+                   s->frame.emit_tree == 0u) {
             c = pt_emissive_direct(s, ul.x, ul.y, sf, bp, wo, t, b, above, beta, rng,
                                    bounce TEX_PASS);
         } else {
@@ -382,13 +395,15 @@ inline void pt_env_found(PtScene* s, PtSample* out, float3 dir, float3 beta, uin
 // An emitter the path finds at `reach` from its last scattering vertex,
 // weighed by MIS as pt_env_found.
 inline void pt_emitter_found(PtScene* s, PtSample* out, PtMaterial m, PtSurface sf, uint prim,
-                             float3 dir, float3 beta, float reach, uint depth, bool prev_delta,
-                             float prev_pdf TEX_DECL) {
+                             const PtPath* p, float reach TEX_DECL) {
     float3 le = pt_emission(m, sf.at TEX_PASS);
+    float3 dir = p->dir, beta = p->beta;
+    uint depth = p->depth;
     float w = 1.0f;
-    if (depth > 0u && !prev_delta) {
+    if (depth > 0u && !p->prev_delta) {
         float cos_l = dot(-dir, sf.ng);
-        w = power_heuristic(prev_pdf, pt_emissive_pdf(s, prim, reach, cos_l));
+        float pmf = pt_emitter_pmf(s, prim, p->prev_p, p->prev_n);
+        w = power_heuristic(p->prev_pdf, pt_emissive_pdf(s, prim, pmf, reach, cos_l));
     }
     out->radiance += beta * le * w;
 #ifdef FILM_LIGHT
@@ -534,6 +549,8 @@ inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, floa
 #endif
         p->prev_pdf = pdf;
         p->prev_delta = delta;
+        p->prev_p = sf.p;
+        p->prev_n = sf.ns;
 #ifdef HAS_TRANSMISSION
         // Each refraction scales radiance by 1 / eta^2, which roulette must
         // not see, or a path inside glass (throughput 1 / 1.5^2) would be

@@ -151,8 +151,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // A single-sided emitter emits from its front only (the light
         // sampler's pdf is 0 behind it too).
         if ((m.flags & MAT_EMISSIVE) != 0u && (sf.front || (m.flags & MAT_DOUBLE_SIDED) != 0u))
-            pt_emitter_found(s, &out, m, sf, h.prim, p.dir, p.beta, reach, p.depth,
-                             p.prev_delta, p.prev_pdf TEX_PASS);
+            pt_emitter_found(s, &out, m, sf, h.prim, &p, reach TEX_PASS);
 #ifdef HAS_UNLIT
         if ((m.flags & MAT_UNLIT) != 0u && (s->frame.flags & FRAME_CLAY) == 0u) {
             out.radiance += p.beta * albedo;
@@ -310,7 +309,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
                         __global const PtMaterial* materials, __global const PtLight* lights,
                         __global const uint* emit_prims, __global const float* emit_cdf,
                         __global const float* emit_pmf, __global const float* select_cdf,
-                        __global const PtLightNode* light_nodes, __global const PtEnv* env,
+                        __global const PtLightNode* light_nodes,
+                        __global const uint* emit_trails, __global const PtEnv* env,
                         __global const float4* env_texels, __global const float* env_marginal,
                         __global const float* env_conditional, __global const float* filter,
                         __global const PtCamera* camera, __global const PtFrame* frame,
@@ -352,6 +352,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
     s.emit_pmf = emit_pmf;
     s.select_cdf = select_cdf;
     s.light_nodes = light_nodes;
+    s.emit_trails = emit_trails;
     s.env = env[0];
     s.env_texels = env_texels;
     s.env_marginal = env_marginal;
@@ -594,6 +595,30 @@ __kernel void pt_emissive_texture_factor(__global const float* uvs, __global con
     factor[i] = f;
 }
 #endif
+
+// The corners of the frame's emitters (`prims`, `count` of them) at motion
+// step `step` of the soup's `triangles` (step 0 without motion), and
+// whether each is double-sided: 10 floats each, from which the host builds
+// the light tree.
+__kernel void pt_gather_emitters(__global const float* positions,
+                                 __global const uint* material_ids,
+                                 __global const PtMaterial* materials, uint material_count,
+                                 __global const uint* prims, uint count, uint step,
+                                 uint triangles, __global float* out) {
+    uint k = get_global_id(0);
+    if (k >= count) return;
+    uint prim = prims[k];
+    const __global float* p =
+        positions + ((size_t)step * (size_t)triangles + (size_t)prim) * 12u;
+    __global float* o = out + (size_t)k * 10u;
+    for (uint c = 0u; c < 3u; ++c) {
+        o[3u * c] = p[4u * c];
+        o[3u * c + 1u] = p[4u * c + 1u];
+        o[3u * c + 2u] = p[4u * c + 2u];
+    }
+    PtMaterial m = materials[min(prim < triangles ? material_ids[prim] : 0u, material_count - 1u)];
+    o[9] = (m.flags & MAT_DOUBLE_SIDED) != 0u ? 1.0f : 0.0f;
+}
 
 // Each word of `current` against `kept`, which then holds it: `same` (1 on
 // entry) becomes 0 at any difference. The host keeps the emissive texture

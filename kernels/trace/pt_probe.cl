@@ -241,18 +241,21 @@ __kernel void light_probe(__global const PtLight* lights, __global const float* 
     o[5] = ok ? e.x : 0.0f; o[6] = ok ? e.y : 0.0f; o[7] = ok ? e.z : 0.0f;
 }
 
-// Per case: a point (xyz), a normal (xyz) and u. Out: the light the tree
-// picks (-1: none) and its probability.
+// Per case: a point (xyz), a normal (xyz), u and a trail (its bits). Out:
+// the leaf the tree picks (its payload's bits, -1: none), its probability,
+// and the probability of the trail's leaf.
 __kernel void light_tree_probe(__global const PtLightNode* nodes, __global const float* in,
                                __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    const __global float* c = in + (size_t)i * 7u;
+    const __global float* c = in + (size_t)i * 8u;
+    float3 p = (float3)(c[0], c[1], c[2]);
+    float3 nrm = (float3)(c[3], c[4], c[5]);
     float pmf = 0.0f;
-    int light = light_tree_pick(nodes, (float3)(c[0], c[1], c[2]), (float3)(c[3], c[4], c[5]),
-                                c[6], &pmf);
-    out[2u * i] = (float)light;
-    out[2u * i + 1u] = light >= 0 ? pmf : 0.0f;
+    int leaf = light_tree_pick(nodes, p, nrm, c[6], &pmf);
+    out[3u * i] = as_float(leaf);
+    out[3u * i + 1u] = leaf >= 0 ? pmf : 0.0f;
+    out[3u * i + 2u] = light_tree_pmf(nodes, p, nrm, as_uint(c[7]));
 }
 
 // Per case: u1, u2, and a direction (xyz). Out: sampled wi xyz, radiance

@@ -39,6 +39,7 @@ typedef struct {
     const __global float* emit_pmf;
     const __global float* select_cdf;
     const __global PtLightNode* light_nodes;
+    const __global uint* emit_trails;
     PtEnv env;
     const __global float4* env_texels;
     const __global float* env_marginal;
@@ -435,13 +436,25 @@ inline float pt_triangle_area(GEOM_DECL(positions), uint prim) {
     return 0.5f * length(cross(e1, e2));
 }
 
-// The light-sampling pdf (solid angle, selection included) of reaching
-// emissive triangle `prim` at distance `dist` with cosine `cos_l` there.
-inline float pt_emissive_pdf(const PtScene* s, uint prim, float dist, float cos_l) {
+// The probability that next-event estimation at `p` (normal `nrm`)
+// chooses emissive triangle `prim`, selection included: through the light
+// tree along the triangle's trail when the emitters are in it, else by
+// power.
+inline float pt_emitter_pmf(const PtScene* s, uint prim, float3 p, float3 nrm) {
     float pmf = s->emit_pmf[prim];
+    if (!(pmf > 0.0f)) return 0.0f;
+    if (s->frame.emit_tree != 0u)
+        return s->frame.emit_select_pmf * light_tree_pmf(s->light_nodes, p, nrm, s->emit_trails[prim]);
+    return pmf * s->frame.emit_select_pmf;
+}
+
+// The light-sampling pdf (solid angle) of reaching emissive triangle `prim`,
+// chosen with probability `pmf`, at distance `dist` with cosine `cos_l`
+// there.
+inline float pt_emissive_pdf(const PtScene* s, uint prim, float pmf, float dist, float cos_l) {
     if (!(pmf > 0.0f) || !(cos_l > 0.0f)) return 0.0f;
     float area = pt_triangle_area(SGEOM(s), prim);
-    return ((pmf * s->frame.emit_select_pmf) * (dist * dist)) / (area * cos_l);
+    return (pmf * (dist * dist)) / (area * cos_l);
 }
 
 #if defined(HAS_TEXTURES) || defined(HAS_ANISOTROPY)

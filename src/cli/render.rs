@@ -267,13 +267,13 @@ pub struct RenderArgs {
     /// specification's Appendix B (darker rough metals).
     #[arg(long, help_heading = "Image")]
     pub no_energy_compensation: bool,
-    /// With more than 8 point and spot lights (fewer are all sampled at
-    /// every bounce), each bounce picks one through a light tree, by how
-    /// much each group of lights may send to the point being shaded:
-    /// nearby lights facing it are chosen more often than distant ones.
-    /// This flag picks them in proportion to their power alone, wherever
-    /// the point is (the same image on average, noisier in a street of
-    /// lamps).
+    /// Each bounce picks one emissive triangle, or one of the point and
+    /// spot lights past 8 (fewer are all sampled at every bounce), through
+    /// a light tree, by how much each group may send to the point being
+    /// shaded: nearby lights and emitters facing it are chosen more often
+    /// than distant ones. This flag picks them in proportion to their power
+    /// alone, wherever the point is (the same image on average, noisier
+    /// in a street of lamps).
     #[arg(long, help_heading = "Image")]
     pub no_light_tree: bool,
     /// How a dielectric's base (its diffuse and transmission) lies under its

@@ -1,5 +1,6 @@
 //! The light tree: a bounding-volume hierarchy over the punctual point and
-//! spot lights, with the cone of each node's emission directions (Conty
+//! spot lights and the emissive triangles, with the cone of each node's
+//! emission directions (Conty
 //! Estevez & Kulla 2018, "Importance Sampling of Many Lights with Adaptive
 //! Tree Splitting"; the bounds, importance and traversal of pbrt-v4's
 //! `BVHLightSampler`). Next-event estimation walks it from the root,
@@ -7,13 +8,16 @@
 //! point, so a point is lit mostly by the lights near it and facing it
 //! instead of by all of them in proportion to their power.
 //!
-//! Built on the host each frame from the frame's lights (at every motion
-//! step, so that a moving light stays inside its nodes' bounds for the
-//! whole shutter); `light_tree_pick` in `kernels/trace/lights.h` is the
-//! kernel twin of [`pick`]. Directional lights are not in the tree: they
-//! stay entries of the frame's selection distribution (`LightSelection`).
-//! Punctual lights cannot be hit by a ray, so the tree's probability is
-//! needed only where a light is drawn: no MIS pdf lookup.
+//! Built on the host each frame from the frame's lights and emitters (at
+//! every motion step, so that a moving light stays inside its nodes'
+//! bounds for the whole shutter); `light_tree_pick` and `light_tree_pmf`
+//! in `kernels/trace/lights.h` are the kernel twins of [`pick`] and
+//! [`trail_pmf`]. Directional lights and the environment are not in the
+//! tree: they stay entries of the frame's selection distribution
+//! (`LightSelection`). A BSDF-sampled ray that hits an emitter needs the
+//! probability that the tree would have chosen it from the previous
+//! vertex (for MIS): each emitter's path from the root, its trail, gives
+//! it without a search.
 
 // `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -29,6 +33,9 @@ device_consts! {
     fn light_tree_consts;
     /// `PtLightNode.child` of a leaf: this bit, and the light's index.
     pub const LIGHT_NODE_LEAF: u32 = 0x8000_0000;
+    /// A leaf of an emissive triangle: also this bit, and the triangle's
+    /// index among the frame's emitters (`emit_prims`).
+    pub const LIGHT_NODE_EMITTER: u32 = 0x4000_0000;
 }
 
 device_struct! {
@@ -36,8 +43,10 @@ device_struct! {
 /// total power `phi` (the selection's units: luminance, in watts up to one
 /// factor), and the cone of their emission: axis `w`, `cos_theta_o` the
 /// cosine of its half-angle, `cos_theta_e` the cosine of the falloff angle
-/// past it. `child`: an inner node's first child (the second follows it),
-/// or `LIGHT_NODE_LEAF` and a leaf's light index.
+/// past it; `two_sided`: 1 where the cone is mirrored too (double-sided
+/// emitters). `child`: an inner node's first child (the second follows
+/// it), or `LIGHT_NODE_LEAF` and a leaf's light (or `LIGHT_NODE_EMITTER`
+/// and emitter) index.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DeviceLightNode as "PtLightNode" {
@@ -48,7 +57,8 @@ pub struct DeviceLightNode as "PtLightNode" {
     pub w: [f32; 3],
     pub cos_theta_e: f32,
     pub child: u32,
-    pub pad: [u32; 3],
+    pub two_sided: u32,
+    pub pad: [u32; 2],
 }
 }
 
@@ -63,6 +73,7 @@ struct LightBounds {
     w: Vec3,
     cos_theta_o: f32,
     cos_theta_e: f32,
+    two_sided: bool,
 }
 
 /// The cone of directions around `a` of half-angle acos(`cos_a`) and the
@@ -98,6 +109,7 @@ impl LightBounds {
             w,
             cos_theta_o,
             cos_theta_e: self.cos_theta_e.min(o.cos_theta_e),
+            two_sided: self.two_sided || o.two_sided,
         }
     }
 
@@ -110,7 +122,20 @@ impl LightBounds {
             w: self.w.to_array(),
             cos_theta_e: self.cos_theta_e,
             child,
-            pad: [0; 3],
+            two_sided: self.two_sided as u32,
+            pad: [0; 2],
+        }
+    }
+
+    fn of_node(n: &DeviceLightNode) -> LightBounds {
+        LightBounds {
+            lo: Vec3::from(n.lo),
+            hi: Vec3::from(n.hi),
+            phi: n.phi,
+            w: Vec3::from(n.w),
+            cos_theta_o: n.cos_theta_o,
+            cos_theta_e: n.cos_theta_e,
+            two_sided: n.two_sided != 0,
         }
     }
 }
@@ -174,6 +199,7 @@ fn light_bounds(steps: &[DeviceLight]) -> Option<LightBounds> {
             w,
             cos_theta_o,
             cos_theta_e,
+            two_sided: false,
         };
         out = Some(match out {
             // The same light at another time: its power is the largest.
@@ -190,33 +216,106 @@ fn light_bounds(steps: &[DeviceLight]) -> Option<LightBounds> {
     out.filter(|b| b.phi > 0.0 && b.lo.is_finite() && b.hi.is_finite())
 }
 
-/// The light tree over `lights` (`count` lights, then, with motion, the
-/// same lights at each further step); empty when none of them is a point
-/// or spot light that sends light. Node 0 is the root.
-pub fn build(lights: &[DeviceLight], count: usize) -> Vec<DeviceLightNode> {
-    if count == 0 {
-        return Vec::new();
+/// An emissive triangle as the tree takes it: its corners at each motion
+/// step (one step without motion), its power in the selection's units (π
+/// times luminance times area, doubled when double-sided) and whether it
+/// emits from both sides.
+#[derive(Clone, Debug)]
+pub struct EmissiveTriangle {
+    pub corners: Vec<[Vec3; 3]>,
+    pub power: f32,
+    pub two_sided: bool,
+}
+
+/// The bounds of an emissive triangle over its steps: the corners' box and
+/// the cone of its normals, each a hemisphere's emission (θe = π/2).
+fn emitter_bounds(t: &EmissiveTriangle) -> Option<LightBounds> {
+    let mut out: Option<LightBounds> = None;
+    for c in &t.corners {
+        let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
+        if normal == Vec3::ZERO || !normal.is_finite() {
+            return None;
+        }
+        let b = LightBounds {
+            lo: c[0].min(c[1]).min(c[2]),
+            hi: c[0].max(c[1]).max(c[2]),
+            phi: t.power,
+            w: normal,
+            cos_theta_o: 1.0,
+            cos_theta_e: 0.0,
+            two_sided: t.two_sided,
+        };
+        out = Some(match out {
+            Some(a) => LightBounds {
+                phi: a.phi,
+                ..a.union(&b)
+            },
+            None => b,
+        });
     }
-    let steps = lights.len() / count;
+    out.filter(|b| b.phi > 0.0 && b.lo.is_finite() && b.hi.is_finite())
+}
+
+/// A frame's light tree: its nodes (node 0 the root; empty when nothing
+/// is in it), and each emitter's trail, the turns from the root to its
+/// leaf (bit k: 1 for the second child at depth k; `None`: not in the
+/// tree).
+#[derive(Clone, Debug, Default)]
+pub struct LightTree {
+    pub nodes: Vec<DeviceLightNode>,
+    pub emitter_trails: Vec<Option<u32>>,
+}
+
+/// The light tree over the point and spot lights of `lights` (`count`
+/// lights, then, with motion, the same lights at each further step) and
+/// the emissive triangles `emitters`.
+pub fn build(lights: &[DeviceLight], count: usize, emitters: &[EmissiveTriangle]) -> LightTree {
+    let steps = lights.len().checked_div(count).unwrap_or(0);
     let mut leaves: Vec<(u32, LightBounds)> = (0..count)
         .filter_map(|i| {
             let at: Vec<DeviceLight> = (0..steps).map(|s| lights[s * count + i]).collect();
             light_bounds(&at).map(|b| (i as u32, b))
         })
         .collect();
+    leaves.extend(
+        emitters
+            .iter()
+            .enumerate()
+            .filter_map(|(k, t)| emitter_bounds(t).map(|b| (LIGHT_NODE_EMITTER | k as u32, b))),
+    );
+    let mut tree = LightTree {
+        nodes: Vec::new(),
+        emitter_trails: vec![None; emitters.len()],
+    };
     if leaves.is_empty() {
-        return Vec::new();
+        return tree;
     }
-    let mut nodes = vec![DeviceLightNode::default()];
-    build_node(&mut nodes, 0, &mut leaves);
-    nodes
+    tree.nodes.push(DeviceLightNode::default());
+    build_node(&mut tree.nodes, 0, &mut leaves);
+    // Each emitter's trail: a median split is at most 32 levels deep for
+    // the 2^30 emitters a leaf can name.
+    let mut stack = vec![(0usize, 0u32, 0u32)];
+    while let Some((at, trail, depth)) = stack.pop() {
+        let n = tree.nodes[at];
+        if n.child & LIGHT_NODE_LEAF != 0 {
+            if n.child & LIGHT_NODE_EMITTER != 0 {
+                let k = (n.child & !(LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER)) as usize;
+                tree.emitter_trails[k] = Some(trail);
+            }
+            continue;
+        }
+        let c = n.child as usize;
+        stack.push((c, trail, depth + 1));
+        stack.push((c + 1, trail | (1u32 << depth), depth + 1));
+    }
+    tree
 }
 
 /// Fills node `at` with `leaves`: one leaf, or two children split at the
-/// median of the longest axis of the lights' positions.
+/// median of the longest axis of their bounds' centres.
 fn build_node(nodes: &mut Vec<DeviceLightNode>, at: usize, leaves: &mut [(u32, LightBounds)]) {
-    if let [(light, b)] = leaves {
-        nodes[at] = b.node(LIGHT_NODE_LEAF | *light);
+    if let [(payload, b)] = leaves {
+        nodes[at] = b.node(LIGHT_NODE_LEAF | *payload);
         return;
     }
     let centre = |b: &LightBounds| 0.5 * (b.lo + b.hi);
@@ -225,23 +324,15 @@ fn build_node(nodes: &mut Vec<DeviceLightNode>, at: usize, leaves: &mut [(u32, L
         |(lo, hi), (_, b)| (lo.min(centre(b)), hi.max(centre(b))),
     );
     let axis = (hi - lo).max_position();
-    // Ties keep the lights' order, so the tree is the same on every run.
+    // Ties keep the leaves' order, so the tree is the same on every run.
     leaves.sort_by(|a, b| centre(&a.1)[axis].total_cmp(&centre(&b.1)[axis]));
     let child = nodes.len();
     nodes.extend([DeviceLightNode::default(); 2]);
     let (left, right) = leaves.split_at_mut(leaves.len() / 2);
     build_node(nodes, child, left);
     build_node(nodes, child + 1, right);
-    let bounds = |n: &DeviceLightNode| LightBounds {
-        lo: Vec3::from(n.lo),
-        hi: Vec3::from(n.hi),
-        phi: n.phi,
-        w: Vec3::from(n.w),
-        cos_theta_o: n.cos_theta_o,
-        cos_theta_e: n.cos_theta_e,
-    };
-    nodes[at] = bounds(&nodes[child])
-        .union(&bounds(&nodes[child + 1]))
+    nodes[at] = LightBounds::of_node(&nodes[child])
+        .union(&LightBounds::of_node(&nodes[child + 1]))
         .node(child as u32);
 }
 
@@ -285,7 +376,10 @@ pub fn importance(n: &DeviceLightNode, p: Vec3, normal: Vec3) -> f32 {
     } else {
         Vec3::ZERO
     };
-    let cos_w = Vec3::from(n.w).dot(wi);
+    let mut cos_w = Vec3::from(n.w).dot(wi);
+    if n.two_sided != 0 {
+        cos_w = cos_w.abs();
+    }
     let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
     // The cone of directions from `p` to the bounds' sphere: all of them
     // from inside it.
@@ -315,8 +409,9 @@ pub fn importance(n: &DeviceLightNode, p: Vec3, normal: Vec3) -> f32 {
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Walks the tree from the root with the random number `u`, choosing each
-/// child in proportion to its importance at `p`: the light chosen and its
-/// probability, `None` where no light can reach `p`.
+/// child in proportion to its importance at `p`: the leaf chosen (a light's
+/// index, or `LIGHT_NODE_EMITTER` and an emitter's) and its probability,
+/// `None` where no light can reach `p`.
 pub fn pick(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, mut u: f32) -> Option<(u32, f32)> {
     let mut at = 0usize;
     let mut pmf = 1.0f32;
@@ -344,13 +439,45 @@ pub fn pick(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, mut u: f32) -> Opt
     }
 }
 
-/// The probability that [`pick`] chooses light `light` at `p` (summing
+/// The probability that [`pick`] chooses the leaf at the end of `trail`
+/// (`LightTree::emitter_trails`) at `p`: the same products, along one path.
+pub fn trail_pmf(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, mut trail: u32) -> f32 {
+    let mut at = 0usize;
+    let mut pmf = 1.0f32;
+    loop {
+        let Some(n) = nodes.get(at) else {
+            return 0.0;
+        };
+        if n.child & LIGHT_NODE_LEAF != 0 {
+            return pmf;
+        }
+        let c = n.child as usize;
+        let (Some(n0), Some(n1)) = (nodes.get(c), nodes.get(c + 1)) else {
+            return 0.0;
+        };
+        let (i0, i1) = (importance(n0, p, normal), importance(n1, p, normal));
+        if !(i0 > 0.0) && !(i1 > 0.0) {
+            return 0.0;
+        }
+        let p0 = i0 / (i0 + i1);
+        if trail & 1 == 0 {
+            pmf *= p0;
+            at = c;
+        } else {
+            pmf *= 1.0 - p0;
+            at = c + 1;
+        }
+        trail >>= 1;
+    }
+}
+
+/// The probability that [`pick`] chooses leaf `payload` at `p` (summing
 /// over the tree: for tests).
-pub fn pick_pmf(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, light: u32) -> f32 {
-    fn walk(nodes: &[DeviceLightNode], at: usize, p: Vec3, normal: Vec3, light: u32) -> f32 {
+pub fn pick_pmf(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, payload: u32) -> f32 {
+    fn walk(nodes: &[DeviceLightNode], at: usize, p: Vec3, normal: Vec3, payload: u32) -> f32 {
         let n = &nodes[at];
         if n.child & LIGHT_NODE_LEAF != 0 {
-            return if n.child & !LIGHT_NODE_LEAF == light {
+            return if n.child & !LIGHT_NODE_LEAF == payload {
                 1.0
             } else {
                 0.0
@@ -363,11 +490,12 @@ pub fn pick_pmf(nodes: &[DeviceLightNode], p: Vec3, normal: Vec3, light: u32) ->
             return 0.0;
         }
         let p0 = i0 / (i0 + i1);
-        p0 * walk(nodes, c, p, normal, light) + (1.0 - p0) * walk(nodes, c + 1, p, normal, light)
+        p0 * walk(nodes, c, p, normal, payload)
+            + (1.0 - p0) * walk(nodes, c + 1, p, normal, payload)
     }
     if nodes.is_empty() {
         0.0
     } else {
-        walk(nodes, 0, p, normal, light)
+        walk(nodes, 0, p, normal, payload)
     }
 }

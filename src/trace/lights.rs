@@ -502,8 +502,10 @@ pub struct LightSelection {
     pub loop_punctual: bool,
     /// `count + 1` entries from 0 to 1.
     pub cdf: Vec<f32>,
-    /// Whether the light tree is an entry.
+    /// Whether the light tree is an entry, and the probability of choosing
+    /// it.
     pub tree: bool,
+    pub tree_pmf: f32,
     /// Probability of choosing the emissive triangles (0 when not an entry).
     pub emit_pmf: f32,
     /// Probability of choosing the environment (0 when not an entry).
@@ -512,10 +514,12 @@ pub struct LightSelection {
 
 impl LightSelection {
     /// `punctual`: each punctual light's power; `tree`: the power of the
-    /// lights in the light tree, where there is one (it is an entry only
-    /// when the punctual lights are not looped, and its lights' own entries
-    /// get weight 0); `emissive`, `environment`: the power of those entries,
-    /// `None` when they are not sampled by next-event estimation.
+    /// lights and emitters in the light tree, where there is one, and which
+    /// punctual lights it holds (their own entries get weight 0; it holds
+    /// none while they are looped); `emissive`, `environment`: the power of
+    /// those entries, `None` when they are not sampled by next-event
+    /// estimation (the emitters are not an entry of their own when the tree
+    /// holds them).
     pub fn new(
         punctual: &[f64],
         tree: Option<(f64, &[bool])>,
@@ -523,7 +527,6 @@ impl LightSelection {
         environment: Option<f64>,
     ) -> Self {
         let loop_punctual = punctual.len() <= LOOPED_PUNCTUAL_MAX;
-        let tree = tree.filter(|_| !loop_punctual);
         let mut weights: Vec<f64> = if loop_punctual {
             Vec::new()
         } else {
@@ -556,9 +559,11 @@ impl LightSelection {
         };
         // The pmf exactly as the kernel computes it from the table.
         let pmf = |i: Option<usize>| i.map_or(0.0, |i| cdf[i + 1] - cdf[i]);
+        let tree_index = tree.map(|_| if loop_punctual { 0 } else { punctual.len() });
         LightSelection {
             loop_punctual,
             tree: tree.is_some(),
+            tree_pmf: pmf(tree_index),
             emit_pmf: pmf(emit_index),
             env_pmf: pmf(env_index),
             cdf,

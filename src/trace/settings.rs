@@ -127,10 +127,10 @@ pub struct RenderSettings {
     /// (`--layering`; `ENERGY_LAYERING` by default, never compiled for
     /// `--clay`).
     pub layering: Layering,
-    /// Next-event estimation picks among many point and spot lights (more
-    /// than are looped over) through the light tree, by their importance
-    /// at the shading point; off (`--no-light-tree`), in proportion to
-    /// their power alone.
+    /// Next-event estimation picks among the emitters and many point and
+    /// spot lights (more than are looped over) through the light tree, by
+    /// their importance at the shading point; off (`--no-light-tree`), in
+    /// proportion to their power alone.
     pub light_tree: bool,
     /// `--backface-culling`: rays pass through the back faces of
     /// single-sided materials, as the Khronos Sample Viewer's rasterizer

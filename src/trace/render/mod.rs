@@ -56,7 +56,7 @@ pub use upload::{frame_consts, DeviceFrame};
 use opencl3::memory::Buffer;
 
 use super::device::TreeLayouts;
-use super::light_tree::DeviceLightNode;
+use super::light_tree::{DeviceLightNode, LightTree};
 use super::lights::{DeviceEnv, DeviceLight};
 use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
 use super::texture::{TextureBinding, TextureSet};
@@ -193,8 +193,14 @@ pub struct PathTracer<'d> {
     lights: GrowBuffer<DeviceLight>,
     /// The frame's light tree (`light_tree::build`; empty without one) and
     /// its copy on the device.
-    light_tree: Vec<DeviceLightNode>,
+    light_tree: LightTree,
     light_nodes: GrowBuffer<DeviceLightNode>,
+    /// Each triangle's trail in the light tree (`LightTree::emitter_trails`).
+    emit_trails: GrowBuffer<u32>,
+    /// The frame's lights as uploaded (with motion, at every step).
+    host_lights: Vec<DeviceLight>,
+    /// `pt_gather_emitters`' output.
+    emitter_corners: GrowBuffer<f32>,
     power: GrowBuffer<f32>,
     power_host: Vec<f32>,
     /// The textured emitters' factors, kept while their inputs stay.
@@ -424,8 +430,11 @@ impl<'d> PathTracer<'d> {
             dummy_f4,
             layouts: TreeLayouts::default(),
             lights: GrowBuffer::new(),
-            light_tree: Vec::new(),
+            light_tree: LightTree::default(),
             light_nodes: GrowBuffer::new(),
+            emit_trails: GrowBuffer::new(),
+            host_lights: Vec::new(),
+            emitter_corners: GrowBuffer::new(),
             power: GrowBuffer::new(),
             power_host: Vec::new(),
             texture_factors: emitters::TextureFactors::new(),
@@ -714,6 +723,7 @@ impl<'d> PathTracer<'d> {
         self.upload_lights(lights, motion)?;
         let flags = self.frame_flags(soup);
         let emit = self.upload_emitters(soup, flags)?;
+        self.upload_light_tree(soup, lights.len(), &emit, motion.map_or(1, |m| m.0))?;
         let env = self.upload_environment(lights, &mut warnings)?;
         self.warn_missing_uvs(soup, &mut warnings);
         let frame = FrameTables {

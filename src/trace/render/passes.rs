@@ -381,6 +381,7 @@ impl PathTracer<'_> {
                     Arg::Buf(self.emit_pmf.get()),
                     Arg::Buf(self.select_cdf.get()),
                     Arg::Buf(self.light_nodes.get()),
+                    Arg::Buf(self.emit_trails.get()),
                     Arg::Buf(&self.env),
                 ];
                 match &self.env_map {

@@ -23,6 +23,7 @@ pub(super) struct Kernels {
     /// `pt_emissive_texture_factor`, compiled with textures only.
     pub(super) emissive_texture_factor: Option<Kernel>,
     pub(super) compare_and_keep: Kernel,
+    pub(super) gather_emitters: Kernel,
     _program: Program,
 }
 
@@ -44,6 +45,7 @@ impl Kernels {
                 None
             },
             compare_and_keep: device.kernel(&program, "pt_compare_and_keep")?,
+            gather_emitters: device.kernel(&program, "pt_gather_emitters")?,
             _program: program,
         })
     }

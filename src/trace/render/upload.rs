@@ -9,12 +9,12 @@ use opencl3::memory::Buffer;
 
 use super::{usage, MotionSteps, PathTracer, SoupBuffers};
 use crate::bvh::Bvh;
-use crate::device::Device;
+use crate::device::{Arg, Device};
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
 use crate::trace::camera::{device_camera, with_lens, DeviceCamera};
-use crate::trace::light_tree::{self, LIGHT_NODE_LEAF};
+use crate::trace::light_tree::{self, EmissiveTriangle, LIGHT_NODE_EMITTER, LIGHT_NODE_LEAF};
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
     ENV_CONSTANT, ENV_NONE,
@@ -33,8 +33,8 @@ device_struct! {
 /// when `light_tree` (its node count) is not 0, the emissive triangles as
 /// one entry when there are any, the environment when it is sampled).
 /// `emit_select_pmf` and `env_select_pmf` are the probabilities of choosing
-/// the emissive triangles and the environment (0 when not an entry), which
-/// MIS needs when a BSDF-sampled ray hits them.
+/// the emissive triangles (or the tree that holds them) and the environment
+/// (0 when not an entry), which MIS needs when a BSDF-sampled ray hits them.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DeviceFrame as "PtFrame" {
@@ -56,6 +56,10 @@ pub struct DeviceFrame as "PtFrame" {
     pub env_select_pmf: f32,
     /// The light tree's node count: 0 when it is not an entry.
     pub light_tree: u32,
+    /// 1 when the emitters are in the light tree (not an entry of their
+    /// own); `emit_select_pmf` is then the tree's probability.
+    pub emit_tree: u32,
+    pub pad: [u32; 3],
 }
 }
 
@@ -215,17 +219,113 @@ impl PathTracer<'_> {
         }
         let lbuf = self.lights.ensure(d, host_lights.len())?;
         d.write(lbuf, &host_lights)?;
-        // Few lights are looped over at every vertex: no tree.
-        self.light_tree = if self.settings.light_tree && lights.len() > LOOPED_PUNCTUAL_MAX {
-            light_tree::build(&host_lights, lights.len())
+        self.host_lights = host_lights;
+        Ok(())
+    }
+
+    /// The light tree over the point and spot lights (when there are more
+    /// than are looped over) and the emitters `emit` of `soup` at each of
+    /// its `steps` motion steps, with each emitter's trail; `--no-light-tree`
+    /// leaves it empty.
+    pub(super) fn upload_light_tree(
+        &mut self,
+        soup: &SoupBuffers,
+        light_count: usize,
+        emit: &EmissiveDistribution,
+        steps: u32,
+    ) -> Result<(), TraceError> {
+        let d = self.device;
+        let on = self.settings.light_tree;
+        let punctual = if on && light_count > LOOPED_PUNCTUAL_MAX {
+            light_count
+        } else {
+            0
+        };
+        let emitters = if on && !emit.is_empty() {
+            self.gather_emitters(soup, emit, steps)?
         } else {
             Vec::new()
         };
-        let nodes = self.light_nodes.ensure(d, self.light_tree.len().max(1))?;
-        if !self.light_tree.is_empty() {
-            d.write(nodes, &self.light_tree)?;
+        let lights = &self.host_lights[..if punctual > 0 {
+            self.host_lights.len()
+        } else {
+            0
+        }];
+        self.light_tree = light_tree::build(lights, punctual, &emitters);
+        let nodes = self
+            .light_nodes
+            .ensure(d, self.light_tree.nodes.len().max(1))?;
+        if !self.light_tree.nodes.is_empty() {
+            d.write(nodes, &self.light_tree.nodes)?;
+        }
+        let n = soup.triangles.max(1);
+        let trails = self.emit_trails.ensure(d, n)?;
+        if self.light_tree.emitter_trails.iter().any(Option::is_some) {
+            let mut by_prim = vec![0u32; n];
+            let mut pmf = emit.pmf_by_prim.clone();
+            for (&prim, trail) in emit.prims.iter().zip(&self.light_tree.emitter_trails) {
+                match trail {
+                    Some(t) => by_prim[prim as usize] = *t,
+                    // Not in the tree (degenerate at some motion step): the
+                    // tree never chooses it, so MIS must not count on it.
+                    None => pmf[prim as usize] = 0.0,
+                }
+            }
+            d.write(trails, &by_prim)?;
+            if self.light_tree.emitter_trails.iter().any(Option::is_none) {
+                d.write(self.emit_pmf.ensure(d, pmf.len())?, &pmf)?;
+            }
         }
         Ok(())
+    }
+
+    /// The emitters' corners at each motion step and their sidedness, read
+    /// back from the device (`pt_gather_emitters`), with their power.
+    fn gather_emitters(
+        &mut self,
+        soup: &SoupBuffers,
+        emit: &EmissiveDistribution,
+        steps: u32,
+    ) -> Result<Vec<EmissiveTriangle>, TraceError> {
+        let d = self.device;
+        let count = emit.prims.len();
+        let out = self.emitter_corners.ensure(d, 10 * count)?;
+        let mut host = vec![0.0f32; 10 * count];
+        let mut emitters: Vec<EmissiveTriangle> = emit
+            .prims
+            .iter()
+            .map(|&prim| EmissiveTriangle {
+                corners: Vec::with_capacity(steps as usize),
+                power: std::f32::consts::PI * self.power_host[prim as usize],
+                two_sided: false,
+            })
+            .collect();
+        for step in 0..steps.max(1) {
+            d.launch(
+                "pathtrace/gather_emitters",
+                &self.kernels.gather_emitters,
+                count.div_ceil(64),
+                64,
+                &[
+                    Arg::Buf(soup.positions),
+                    Arg::Buf(soup.material_ids),
+                    Arg::Buf(&self.materials),
+                    Arg::U32(self.material_count),
+                    Arg::Buf(self.emit_prims.get()),
+                    Arg::U32(count as u32),
+                    Arg::U32(step),
+                    Arg::U32(soup.triangles as u32),
+                    Arg::Buf(&*out),
+                ],
+            )?;
+            d.read(out, &mut host)?;
+            for (t, c) in emitters.iter_mut().zip(host.chunks_exact(10)) {
+                let v = |i: usize| Vec3::new(c[3 * i], c[3 * i + 1], c[3 * i + 2]);
+                t.corners.push([v(0), v(1), v(2)]);
+                t.two_sided = c[9] != 0.0;
+            }
+        }
+        Ok(emitters)
     }
 
     /// The environment. The default: the studio sky unless the scene has
@@ -318,16 +418,17 @@ impl PathTracer<'_> {
             _ => None,
         };
         let mut in_tree = vec![false; f.lights.len()];
-        for n in &self.light_tree {
-            if n.child & LIGHT_NODE_LEAF != 0 {
+        for n in &self.light_tree.nodes {
+            if n.child & (LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER) == LIGHT_NODE_LEAF {
                 in_tree[(n.child & !LIGHT_NODE_LEAF) as usize] = true;
             }
         }
-        let tree = self.light_tree.first().map(|root| root.phi as f64);
+        let emit_tree = self.light_tree.emitter_trails.iter().any(Option::is_some);
+        let tree = self.light_tree.nodes.first().map(|root| root.phi as f64);
         let selection = LightSelection::new(
             &punctual,
             tree.map(|power| (power, in_tree.as_slice())),
-            (!f.emit.is_empty()).then_some(f.emit.power),
+            (!f.emit.is_empty() && !emit_tree).then_some(f.emit.power),
             env_power,
         );
         d.write(
@@ -348,13 +449,19 @@ impl PathTracer<'_> {
             material_count: self.material_count,
             select_count: selection.count(),
             light_loop: selection.loop_punctual as u32,
-            emit_select_pmf: selection.emit_pmf,
+            emit_select_pmf: if emit_tree {
+                selection.tree_pmf
+            } else {
+                selection.emit_pmf
+            },
             env_select_pmf: selection.env_pmf,
             light_tree: if selection.tree {
-                self.light_tree.len() as u32
+                self.light_tree.nodes.len() as u32
             } else {
                 0
             },
+            emit_tree: emit_tree as u32,
+            pad: [0; 3],
         };
         d.write(&mut self.frame, &[fr])?;
         Ok(())
