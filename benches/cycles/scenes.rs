@@ -590,6 +590,20 @@ impl<'a> LitScene<'a> {
     }
 }
 
+/// The camera of the scenes in the room: in the far corner, looking back at
+/// the window wall and the figure. Eye, rotation, vertical field of view
+/// and aspect.
+fn room_camera(o: &Opts) -> (Vec3, Quat, f32, f32) {
+    let eye = Vec3::new(1.3, 1.3, 1.3);
+    let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
+    (
+        eye,
+        cam_rot,
+        60f32.to_radians(),
+        o.width as f32 / o.height as f32,
+    )
+}
+
 /// The interior: the figure in rough gold, the room white (glTF's
 /// dielectric at roughness 1, its specular layer included), the sun
 /// through the window onto the floor beside the figure, and the camera in
@@ -612,14 +626,11 @@ fn interior_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
             "baseColorFactor": [1.0, 0.766, 0.336, 1.0],
             "metallicFactor": 1.0, "roughnessFactor": 0.4}}
     ]);
-    let eye = Vec3::new(1.3, 1.3, 1.3);
-    let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
-    let aspect = o.width as f32 / o.height as f32;
     scene.write(
         writer,
         &format!("{mesh}-interior"),
         materials,
-        (eye, cam_rot, 60f32.to_radians(), aspect),
+        room_camera(o),
         Lighting {
             sun: Some(look_rotation(Vec3::new(1.0, -0.7, 0.25))),
             lamps: Vec::new(),
@@ -840,14 +851,11 @@ fn emitter_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
          "emissiveTexture": {"index": 0},
          "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": HELMET_EMISSION}}}
     ]);
-    let eye = Vec3::new(1.3, 1.3, 1.3);
-    let cam_rot = look_rotation(Vec3::new(-0.6, 0.45, -0.3) - eye);
-    let aspect = o.width as f32 / o.height as f32;
     scene.write(
         writer,
         &format!("{mesh}-emitter"),
         materials,
-        (eye, cam_rot, 60f32.to_radians(), aspect),
+        room_camera(o),
         Lighting {
             sun: None,
             lamps: Vec::new(),
