@@ -803,6 +803,18 @@ pub struct RenderLog {
     /// textured, `transmission` when some material uses
     /// KHR_materials_transmission, _ior or _volume.
     pub material_features: Vec<String>,
+    /// How next-event estimation chose among the frame's lights: `tree`
+    /// (the light tree holds the emitters, and the point and spot lights
+    /// past 8 if any), `tree for point lights` (the emitters by power),
+    /// or `power` (everything by power; also when there is nothing to
+    /// choose between).
+    pub light_selection: String,
+    /// The emissive triangles' extent as a fraction of the scene's (the
+    /// diagonals of their bounds, over the shutter): by default the light
+    /// tree holds them from 0.25. Absent without emitters, or with
+    /// `--no-light-tree`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub emitter_spread: Option<f64>,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

@@ -58,13 +58,15 @@ fn lamp_grid(
 /// the lamp spans x in [-1, 1], white where u < 0.5 and black beyond by its
 /// emissive texture; otherwise it is only the white half, untextured.
 fn lamp_scene(dir: &Path, textured: bool) -> PathBuf {
+    lamp_scene_on(dir, textured, 2.0)
+}
+
+/// `lamp_scene` on a floor reaching `floor` from the lamp's centre in x
+/// and z.
+fn lamp_scene_on(dir: &Path, textured: bool, floor: f32) -> PathBuf {
     let mut b = Builder::default();
-    let floor_p = b.floats(
-        &[
-            -2.0, 0.0, -2.0, -2.0, 0.0, 2.0, 2.0, 0.0, 2.0, 2.0, 0.0, -2.0,
-        ],
-        3,
-    );
+    let f = floor;
+    let floor_p = b.floats(&[-f, 0.0, -f, -f, 0.0, f, f, 0.0, f, f, 0.0, -f], 3);
     let floor_n = b.floats(&[0.0, 1.0, 0.0].repeat(4), 3);
     let floor_i = b.u16s(&[0, 1, 2, 0, 2, 3], 1, false);
     let (p, n, uv, idx) = if textured {
@@ -111,7 +113,13 @@ fn lamp_scene(dir: &Path, textured: bool) -> PathBuf {
         root["samplers"] = json!([{"magFilter": 9728, "minFilter": 9728}]);
         root["textures"] = json!([{"source": 0, "sampler": 0}]);
     }
-    b.write(root, dir, if textured { "textured" } else { "half" }, true)
+    let name = match (textured, floor == 2.0) {
+        (true, true) => "textured".to_owned(),
+        (false, true) => "half".to_owned(),
+        (true, false) => format!("textured-floor{floor}"),
+        (false, false) => format!("half-floor{floor}"),
+    };
+    b.write(root, dir, &name, true)
 }
 
 /// The scene rendered at 48x48 and `spp` with `seed`, under a black sky,
@@ -120,6 +128,17 @@ fn lamp_scene(dir: &Path, textured: bool) -> PathBuf {
 /// differs between the two lamps; independent samples measure the choice's
 /// weights alone.
 fn render(scene: &Path, seed: u32, spp: u32, light_tree: bool) -> soupray::film::Image {
+    let tree = if light_tree {
+        "--light-tree"
+    } else {
+        "--no-light-tree"
+    };
+    render_with(scene, seed, spp, tree).0
+}
+
+/// As `render`, with `tree` the light tree's flag (or "" for the default),
+/// and the frame log's `render.light_selection`.
+fn render_with(scene: &Path, seed: u32, spp: u32, tree: &str) -> (soupray::film::Image, String) {
     let (seed, spp) = (seed.to_string(), spp.to_string());
     let mut args = vec![
         "--frames",
@@ -133,17 +152,23 @@ fn render(scene: &Path, seed: u32, spp: u32, light_tree: bool) -> soupray::film:
         "--sampler",
         "random",
     ];
-    if !light_tree {
-        args.push("--no-light-tree");
+    if !tree.is_empty() {
+        args.push(tree);
     }
     let exr = common::render_exr(
         scene,
         (48, 48),
-        &scene.with_extension(format!("seed{seed}-tree{light_tree}")),
+        &scene.with_extension(format!("seed{seed}-tree{}", tree.trim_start_matches('-'))),
         "f.exr",
         &args,
     );
-    soupray::output::read_exr_rgba(&exr).unwrap()
+    let log: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(exr.with_extension("json")).unwrap()).unwrap();
+    let selection = log["render"]["light_selection"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    (soupray::output::read_exr_rgba(&exr).unwrap(), selection)
 }
 
 fn mean(img: &soupray::film::Image) -> f64 {
@@ -208,6 +233,39 @@ fn a_half_black_emissive_texture_lights_and_samples_as_its_bright_half() {
     assert!(
         vtt < 0.5 * vt,
         "relative variance through the tree {vtt}, by power {vt}"
+    );
+}
+
+/// By default the light tree holds the emitters where they spread over the
+/// scene (the lamp over its own floor: 0.39 of the scene's diagonal) and
+/// not where they gather in a small part of it (the same lamp over a floor
+/// 20 times as wide: 0.04), where choosing by power costs less per sample;
+/// `--light-tree` and `--no-light-tree` choose either anywhere. The image
+/// is the one the chosen selection renders, bit for bit.
+#[test]
+fn the_light_tree_holds_emitters_by_default_where_they_spread() {
+    let dir = tempfile::tempdir().unwrap();
+    let near = lamp_scene(dir.path(), true);
+    let wide = lamp_scene_on(dir.path(), true, 40.0);
+    let (auto, selection) = render_with(&near, 1, 4, "");
+    assert_eq!(selection, "tree");
+    let (tree, selection) = render_with(&near, 1, 4, "--light-tree");
+    assert_eq!(selection, "tree");
+    assert!(auto.rgba == tree.rgba, "auto and --light-tree differ");
+    let (auto, selection) = render_with(&wide, 1, 4, "");
+    assert_eq!(selection, "power");
+    let (power, selection) = render_with(&wide, 1, 4, "--no-light-tree");
+    assert_eq!(selection, "power");
+    assert!(auto.rgba == power.rgba, "auto and --no-light-tree differ");
+    let (tree, selection) = render_with(&wide, 1, 4, "--light-tree");
+    assert_eq!(selection, "tree");
+    assert!(tree.rgba != power.rgba, "the tree changed nothing");
+    // Both light the floor under the lamp alike on average.
+    let (mp, mt) = (mean(&power), mean(&tree));
+    assert!(mp > 0.05, "the floor is dark: {mp}");
+    assert!(
+        (mt / mp - 1.0).abs() < 0.05,
+        "through the tree {mt}, by power {mp}"
     );
 }
 

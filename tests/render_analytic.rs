@@ -14,7 +14,7 @@ use soupray::scene::LightKind;
 use soupray::soup::Soup;
 use soupray::trace::lights::LOOPED_PUNCTUAL_MAX;
 use soupray::trace::material::{bsdf_eval, bsdf_sample, BsdfParams};
-use soupray::trace::render::{render_soup, Environment};
+use soupray::trace::render::{render_soup, Environment, LightTreeUse};
 use soupray::trace::sampling::Sampler;
 
 const PI: f64 = std::f64::consts::PI;
@@ -205,7 +205,11 @@ fn plane_under_chosen(
     let d = common::device();
     let s = ground_plane();
     let mut st = settings(size, spp);
-    st.light_tree = light_tree;
+    st.light_tree = if light_tree {
+        LightTreeUse::Always
+    } else {
+        LightTreeUse::Never
+    };
     st.clay = true;
     st.max_depth = 1;
     render_soup(&d, &s, &table(vec![]), &top_down(half), lights, &st, 0)

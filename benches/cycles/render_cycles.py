@@ -47,7 +47,9 @@ For the feature comparisons (`cargo bench --bench cycles_features`):
   `motion_steps`, which Blender's manual gives as 2^(N-1) steps), the
   shutter curve left at Blender's default (flat: open the whole time);
 * `--keep-materials` keeps the importer's Principled BSDFs (glass,
-  clearcoat, sheen...) instead of the clay diffuse.
+  clearcoat, sheen...) instead of the clay diffuse, with every 8-bit sRGB
+  texture replaced by a float copy of its linear values, so that Cycles
+  filters light, not sRGB codes, as glTF and soupray do.
 
 For each sample count it prints one line
 
@@ -94,6 +96,47 @@ def parse_args():
     return p.parse_args(argv)
 
 
+def linearize_srgb_textures():
+    """Replaces every 8-bit sRGB image the materials sample with a float copy
+    of its decoded, linear texels.
+
+    Cycles keeps 8-bit sRGB textures as bytes and decodes them after its
+    bilinear filter, so it averages sRGB codes, not light: on DamagedHelmet's
+    emissive texture (thin bright lines on black) that renders 6.3% darker
+    than the texels' linear mean. glTF samples sRGB textures the way GPUs do,
+    decoding each texel before filtering, and so does soupray; a float image
+    is filtered in linear values by Cycles too.
+    """
+    import numpy
+
+    converted = {}
+    for m in bpy.data.materials:
+        if not m.node_tree:
+            continue
+        for n in m.node_tree.nodes:
+            img = getattr(n, "image", None) if n.type == "TEX_IMAGE" else None
+            if img is None or img.is_float or img.colorspace_settings.name != "sRGB":
+                continue
+            if img.name not in converted:
+                w, h = img.size
+                px = numpy.empty(w * h * 4, dtype=numpy.float32)
+                img.pixels.foreach_get(px)
+                px = px.reshape(-1, 4)
+                # The sRGB transfer function's exact inverse (IEC 61966-2-1).
+                c = px[:, :3].astype(numpy.float64)
+                px[:, :3] = numpy.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+                lin = bpy.data.images.new(img.name + " (linear)", w, h, alpha=True, float_buffer=True)
+                # A float image is scene-linear by default; named for
+                # clarity ("Linear" before Blender 4.0).
+                spaces = lin.colorspace_settings.bl_rna.properties["name"].enum_items.keys()
+                lin.colorspace_settings.name = "Linear Rec.709" if "Linear Rec.709" in spaces else "Linear"
+                lin.alpha_mode = img.alpha_mode
+                lin.pixels.foreach_set(px.ravel())
+                converted[img.name] = lin
+                print(f"CYCLES_INFO linearized texture {img.name!r} {w}x{h}")
+            n.image = converted[img.name]
+
+
 def file_lights(scene_path):
     """The KHR_lights_punctual lights of the glTF file, by name."""
     if not scene_path.endswith(".gltf"):
@@ -125,6 +168,8 @@ def main():
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=os.path.abspath(args.scene), import_shading="FLAT")
+    if args.keep_materials:
+        linearize_srgb_textures()
     scene = bpy.context.scene
 
     cameras = [o for o in scene.objects if o.type == "CAMERA"]

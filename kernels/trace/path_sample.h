@@ -400,7 +400,9 @@ inline void pt_emitter_found(PtScene* s, PtSample* out, PtMaterial m, PtSurface 
     float3 dir = p->dir, beta = p->beta;
     uint depth = p->depth;
     float w = 1.0f;
-    if (depth > 0u && !p->prev_delta) {
+    // A black texel adds nothing whatever its weight: the weight's walk of
+    // the light tree is skipped (most of a textured emitter is black).
+    if (depth > 0u && !p->prev_delta && (le.x > 0.0f || le.y > 0.0f || le.z > 0.0f)) {
         float cos_l = dot(-dir, sf.ng);
         float pmf = pt_emitter_pmf(s, prim, p->prev_p, p->prev_n);
         w = power_heuristic(p->prev_pdf, pt_emissive_pdf(s, prim, pmf, reach, cos_l));

@@ -267,13 +267,21 @@ pub struct RenderArgs {
     /// specification's Appendix B (darker rough metals).
     #[arg(long, help_heading = "Image")]
     pub no_energy_compensation: bool,
-    /// Each bounce picks one emissive triangle, or one of the point and
-    /// spot lights past 8 (fewer are all sampled at every bounce), through
-    /// a light tree, by how much each group may send to the point being
-    /// shaded: nearby lights and emitters facing it are chosen more often
-    /// than distant ones. This flag picks them in proportion to their power
-    /// alone, wherever the point is (the same image on average, noisier
-    /// in a street of lamps).
+    /// Each bounce picks one of the point and spot lights past 8 (fewer are
+    /// all sampled at every bounce) through a light tree, by how much each
+    /// group may send to the point being shaded: nearby lights facing it
+    /// are chosen more often than distant ones. Emissive triangles join the
+    /// tree when they spread over at least a quarter of the scene (a street
+    /// of lamps, a lit ceiling); gathered in one small object (a lamp, a
+    /// glowing helmet) they are picked by power, which costs less per
+    /// sample there for about the same noise. This flag puts them in the
+    /// tree wherever they are. The frame log's `render.light_selection`
+    /// says what was chosen.
+    #[arg(long, help_heading = "Image", conflicts_with = "no_light_tree")]
+    pub light_tree: bool,
+    /// Picks every light and emitter in proportion to its power alone,
+    /// wherever the point being shaded is: the same image on average,
+    /// noisier among many lights (a street of lamps).
     #[arg(long, help_heading = "Image")]
     pub no_light_tree: bool,
     /// How a dielectric's base (its diffuse and transmission) lies under its

@@ -65,6 +65,8 @@ impl FrameRenderer<'_> {
                 .iter()
                 .map(|f| (*f).to_owned())
                 .collect(),
+            light_selection: self.tracer.light_selection().to_owned(),
+            emitter_spread: self.tracer.emitter_spread().map(f64::from),
         };
         log.camera = camera_log(&f.ev.info.camera);
         // The lens the frame was traced through (the focus moves with

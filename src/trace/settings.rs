@@ -41,6 +41,32 @@ impl Traversal {
     }
 }
 
+/// Which lights next-event estimation picks through the light tree
+/// (`trace::light_tree`) rather than in proportion to their power alone
+/// (`--light-tree`, `--no-light-tree`). Both choices give the same image on
+/// average; they differ in noise and in the cost of a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightTreeUse {
+    /// The default: the point and spot lights past the looped ones always,
+    /// and the emissive triangles when they spread over at least
+    /// `EMITTER_SPREAD_MIN` of the scene's extent. Emitters gathered in
+    /// one small object (a lamp, a textured helmet) differ little in
+    /// position and orientation as seen from the rest of the scene, so the
+    /// tree's walk, 14 levels for 14K triangles, costs more than its
+    /// choices save (BENCHMARKS.md, "Many lights and a textured emitter").
+    #[default]
+    Auto,
+    /// Every light and emitter, wherever they are.
+    Always,
+    /// None: every light by its power.
+    Never,
+}
+
+/// The least extent of the emissive triangles' bounds, as a fraction of the
+/// scene's (their diagonals), for which `LightTreeUse::Auto` puts them in
+/// the light tree.
+pub const EMITTER_SPREAD_MIN: f32 = 0.25;
+
 /// How the dielectric's base (diffuse, diffuse and thin-walled
 /// transmission) lies under its specular layer, and the base under the
 /// sheen (`--layering`).
@@ -127,11 +153,9 @@ pub struct RenderSettings {
     /// (`--layering`; `ENERGY_LAYERING` by default, never compiled for
     /// `--clay`).
     pub layering: Layering,
-    /// Next-event estimation picks among the emitters and many point and
-    /// spot lights (more than are looped over) through the light tree, by
-    /// their importance at the shading point; off (`--no-light-tree`), in
-    /// proportion to their power alone.
-    pub light_tree: bool,
+    /// Which lights next-event estimation picks through the light tree, by
+    /// their importance at the shading point, rather than by power.
+    pub light_tree: LightTreeUse,
     /// `--backface-culling`: rays pass through the back faces of
     /// single-sided materials, as the Khronos Sample Viewer's rasterizer
     /// culls them. Off by default: back faces are shaded, as Cycles does.
@@ -169,7 +193,7 @@ impl Default for RenderSettings {
             environment: Environment::Default,
             aovs: Aovs::NONE,
             energy_compensation: true,
-            light_tree: true,
+            light_tree: LightTreeUse::Auto,
             layering: Layering::Energy,
             backface_culling: false,
             lens: None,

@@ -11,7 +11,7 @@ use crate::scene::{Projection, Scene};
 use crate::trace::lens::Lens;
 use crate::trace::motion::{Shutter, ShutterPosition};
 use crate::trace::render::{
-    Adaptive, Allocation, Environment, Layering, RenderSettings, Traversal,
+    Adaptive, Allocation, Environment, Layering, LightTreeUse, RenderSettings, Traversal,
 };
 use crate::trace::sampling::{NoisePattern, Sampler};
 use crate::UsageError;
@@ -138,7 +138,11 @@ pub(super) fn resolve_job(
                 environment,
                 aovs,
                 energy_compensation: !args.no_energy_compensation,
-                light_tree: !args.no_light_tree,
+                light_tree: match (args.light_tree, args.no_light_tree) {
+                    (_, true) => LightTreeUse::Never,
+                    (true, false) => LightTreeUse::Always,
+                    (false, false) => LightTreeUse::Auto,
+                },
                 layering,
                 backface_culling: args.backface_culling,
                 lens: lens(args, scene)?,

@@ -36,8 +36,8 @@ mod upload;
 
 pub use super::camera::{device_camera, with_lens, DeviceCamera};
 pub use super::settings::{
-    check_counts, Adaptive, Allocation, Environment, Layering, RenderSettings, Schedule, Traversal,
-    ADAPTIVE_STEP,
+    check_counts, Adaptive, Allocation, Environment, Layering, LightTreeUse, RenderSettings,
+    Schedule, Traversal, ADAPTIVE_STEP, EMITTER_SPREAD_MIN,
 };
 pub use host_soup::render_soup;
 use host_soup::HostSoupBuffers;
@@ -194,6 +194,8 @@ pub struct PathTracer<'d> {
     /// The frame's light tree (`light_tree::build`; empty without one) and
     /// its copy on the device.
     light_tree: LightTree,
+    /// The frame's emitters' extent over the scene's (`emitter_spread`).
+    emitter_spread: Option<f32>,
     light_nodes: GrowBuffer<DeviceLightNode>,
     /// Each triangle's trail in the light tree (`LightTree::emitter_trails`).
     emit_trails: GrowBuffer<u32>,
@@ -274,6 +276,27 @@ impl<'d> PathTracer<'d> {
     /// The material features compiled in (`material_features`).
     pub fn material_features(&self) -> &[&'static str] {
         &self.features
+    }
+
+    /// The last frame's emissive triangles' extent as a fraction of the
+    /// scene's (the diagonals of their bounds), which decides whether the
+    /// light tree holds them by default (`EMITTER_SPREAD_MIN`); `None`
+    /// without emitters or where `--no-light-tree` left them ungathered.
+    pub fn emitter_spread(&self) -> Option<f32> {
+        self.emitter_spread
+    }
+
+    /// How the last frame's light samples chose among its lights
+    /// (`RenderLog::light_selection`).
+    pub fn light_selection(&self) -> &'static str {
+        let tree = &self.light_tree;
+        if tree.emitter_trails.iter().any(Option::is_some) {
+            "tree"
+        } else if !tree.nodes.is_empty() {
+            "tree for point lights"
+        } else {
+            "power"
+        }
     }
 
     /// Compiles the kernels for what the scene needs and uploads its
@@ -431,6 +454,7 @@ impl<'d> PathTracer<'d> {
             layouts: TreeLayouts::default(),
             lights: GrowBuffer::new(),
             light_tree: LightTree::default(),
+            emitter_spread: None,
             light_nodes: GrowBuffer::new(),
             emit_trails: GrowBuffer::new(),
             host_lights: Vec::new(),
@@ -723,7 +747,7 @@ impl<'d> PathTracer<'d> {
         self.upload_lights(lights, motion)?;
         let flags = self.frame_flags(soup);
         let emit = self.upload_emitters(soup, flags)?;
-        self.upload_light_tree(soup, lights.len(), &emit, motion.map_or(1, |m| m.0))?;
+        self.upload_light_tree(soup, bvh, lights.len(), &emit, motion.map_or(1, |m| m.0))?;
         let env = self.upload_environment(lights, &mut warnings)?;
         self.warn_missing_uvs(soup, &mut warnings);
         let frame = FrameTables {

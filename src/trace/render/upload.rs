@@ -21,7 +21,7 @@ use crate::trace::lights::{
 };
 use crate::trace::lights::{DeviceEnv, EnvMap, ENV_MAP, LOOPED_PUNCTUAL_MAX};
 use crate::trace::material::{DeviceMaterial, DeviceMaterialExt};
-use crate::trace::settings::{Environment, Traversal};
+use crate::trace::settings::{Environment, LightTreeUse, Traversal, EMITTER_SPREAD_MIN};
 use crate::trace::texture::{Slot, TextureBinding, TextureSet};
 use crate::trace::TraceError;
 
@@ -225,27 +225,38 @@ impl PathTracer<'_> {
 
     /// The light tree over the point and spot lights (when there are more
     /// than are looped over) and the emitters `emit` of `soup` at each of
-    /// its `steps` motion steps, with each emitter's trail; `--no-light-tree`
-    /// leaves it empty.
+    /// its `steps` motion steps, with each emitter's trail, as
+    /// `settings.light_tree` asks (`LightTreeUse`; `bvh` bounds the scene);
+    /// `--no-light-tree` leaves it empty.
     pub(super) fn upload_light_tree(
         &mut self,
         soup: &SoupBuffers,
+        bvh: &Bvh,
         light_count: usize,
         emit: &EmissiveDistribution,
         steps: u32,
     ) -> Result<(), TraceError> {
         let d = self.device;
-        let on = self.settings.light_tree;
+        let use_tree = self.settings.light_tree;
+        let on = use_tree != LightTreeUse::Never;
         let punctual = if on && light_count > LOOPED_PUNCTUAL_MAX {
             light_count
         } else {
             0
         };
-        let emitters = if on && !emit.is_empty() {
+        let mut emitters = if on && !emit.is_empty() {
             self.gather_emitters(soup, emit, steps)?
         } else {
             Vec::new()
         };
+        let scene = 2.0 * scene_radius(bvh);
+        self.emitter_spread = (!emitters.is_empty() && scene > 0.0)
+            .then(|| (emitters_extent(&emitters) / scene).min(1.0));
+        if use_tree == LightTreeUse::Auto
+            && self.emitter_spread.is_some_and(|s| s < EMITTER_SPREAD_MIN)
+        {
+            emitters.clear();
+        }
         let lights = &self.host_lights[..if punctual > 0 {
             self.host_lights.len()
         } else {
@@ -497,6 +508,21 @@ impl PathTracer<'_> {
             .collect();
         d.write(self.motion_cameras.ensure(d, cams.len())?, &cams)?;
         Ok(Some(steps))
+    }
+}
+
+/// The diagonal of the emitters' bounds over every motion step (0 without
+/// emitters).
+fn emitters_extent(emitters: &[EmissiveTriangle]) -> f32 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for &p in emitters.iter().flat_map(|e| e.corners.iter().flatten()) {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    if lo.cmple(hi).all() {
+        (hi - lo).length()
+    } else {
+        0.0
     }
 }
 
