@@ -6,7 +6,7 @@
 //!
 //! Flags (defaults in brackets): `--size WxH` [384x256], `--spp LIST`
 //! [16,64,256], `--ref-spp N` [4096], `--meshes LIST` [beast,nefertiti],
-//! `--lightings LIST` [sky,sun,interior,glossy,glass,emitter,lamps], `--samplers LIST` [sobol,random]
+//! `--lightings LIST` [sky,sun,interior,glossy,glass,emitter,lamps,character], `--samplers LIST` [sobol,random]
 //! (soupray's `--sampler`; a soupray without that flag gets one variant,
 //! `default`), `--cycles LIST` [3.4,5,5-guided], `--runs N` [1] (timed
 //! renders per scene, every renderer in turn in each run, run k with seed
@@ -26,7 +26,7 @@
 //!   the two at each sample count, and with Cycles 3.4.
 //!
 //! What it does: writes glTF 2.0 scenes from the scanned meshes (the
-//! shared folder's meshes/*.ply, read in place), in seven setups:
+//! shared folder's meshes/*.ply, read in place), in eight setups:
 //! * `sky` and `sun`: the mesh standing on a ground quad, a camera framing
 //!   it, every material a 0.8 grey Lambertian (soupray `--clay`, Cycles a
 //!   Diffuse BSDF 0.8), under a constant white sky of radiance 1, or a 3
@@ -53,7 +53,15 @@
 //! * `lamps`: many small lights: the mesh in white on the white ground at
 //!   night, in a street of 200 lamps 0.4 m apart, 100 emissive heads
 //!   (small cubes) down one side and 100 KHR_lights_punctual point lights
-//!   down the other (Cycles: point lights of radius 0).
+//!   down the other (Cycles: point lights of radius 0);
+//! * `character`: an animated character under the sun, where per-frame
+//!   work counts: the mesh in white on the white ground beside CesiumMan
+//!   (the shared folder's sample, read in place: its skin, walk and
+//!   texture merged into the scene), as tall as the mesh, rendered at
+//!   frame 12 (0.5 s, mid-stride) by both: soupray evaluates the skin and
+//!   builds the BVH of the whole scene for the frame, Cycles syncs the
+//!   frame's pose. The time compared is soupray's evaluation, build and
+//!   trace against Cycles' render (sync, BVH build and path tracing).
 //!
 //! Each scene is rendered by soupray (`soupray render --env-color …`, once
 //! per sampler) and by each Cycles (`benches/cycles/render_cycles.py`,
@@ -398,6 +406,7 @@ impl Bench<'_> {
             env: scene.env,
             max_depth: scene.max_depth,
             materials: scene.materials,
+            frame: scene.frame,
             seed: REF_SEED,
         };
         let (s_ref, c_refs) = self.references(mesh, lighting, scene, &ref_job, results)?;
@@ -470,8 +479,8 @@ impl Bench<'_> {
         let (code_hash, script_hash) = (self.code_hash, self.script_hash);
         let tag = format!("{mesh}-{lighting}");
         let common = format!(
-            "{tag}-{}x{}-spp{}-seed{REF_SEED}-depth{}-scene{:016x}",
-            o.width, o.height, o.ref_spp, scene.max_depth, scene.hash
+            "{tag}-{}x{}-spp{}-seed{REF_SEED}-depth{}-frame{}-scene{:016x}",
+            o.width, o.height, o.ref_spp, scene.max_depth, scene.frame, scene.hash
         );
         // soupray's reference: the first sampler variant.
         let ref_variant = self.samplers[0].clone();
@@ -817,7 +826,8 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
     let _ = writeln!(
         md,
         "\nEach render against its own renderer's reference (rel. MSE). time: soupray = \
-         trace (frame log `timings_ms.trace`), Cycles = bpy.ops.render.render (scene sync, \
+         trace (frame log `timings_ms.trace`; for the animated character, with its \
+         `evaluate` and `build`), Cycles = bpy.ops.render.render (scene sync, \
          BVH build and path tracing). ratio to Cycles V: soupray's MSE x time over that of \
          Cycles V's better setting at the same spp (below 1: soupray is more efficient). \
          total: soupray's whole frame (evaluate, build, trace, write). sampling: path tracing \

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 pub const USAGE: &str = "\
 usage: cargo bench --bench cycles -- [--size WxH] [--spp LIST] [--ref-spp N]
-       [--meshes beast,nefertiti] [--lightings sky,sun,interior,glossy,glass,emitter,lamps] [--samplers sobol,random]
+       [--meshes beast,nefertiti] [--lightings sky,sun,interior,glossy,glass,emitter,lamps,character] [--samplers sobol,random]
        [--cycles 3.4,5,5-guided] [--runs N] [--max-depth N] [--threads N] [--out DIR]
        [--fresh-refs] [--scenes-only]";
 
@@ -46,7 +46,7 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
         spp: vec![16, 64, 256],
         ref_spp: 4096,
         meshes: list("beast,nefertiti"),
-        lightings: list("sky,sun,interior,glossy,glass,emitter,lamps"),
+        lightings: list("sky,sun,interior,glossy,glass,emitter,lamps,character"),
         samplers: list("sobol,random"),
         cycles: list("3.4,5,5-guided"),
         runs: 1,
@@ -131,10 +131,10 @@ pub fn parse_opts(args: &[String]) -> Result<Opts, String> {
     for l in &o.lightings {
         if !matches!(
             l.as_str(),
-            "sky" | "sun" | "interior" | "glossy" | "glass" | "emitter" | "lamps"
+            "sky" | "sun" | "interior" | "glossy" | "glass" | "emitter" | "lamps" | "character"
         ) {
             return Err(format!(
-                "--lightings: unknown lighting {l:?} (sky, sun, interior, glossy, glass, emitter, lamps)"
+                "--lightings: unknown lighting {l:?} (sky, sun, interior, glossy, glass, emitter, lamps, character)"
             ));
         }
     }

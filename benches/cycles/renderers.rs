@@ -63,12 +63,14 @@ pub fn run_logged(cmd: &mut Command, what: &str) -> Result<String, String> {
 }
 
 /// What a render is of: the scene, its sky radiance, path depth, whether
-/// it keeps the file's materials (otherwise clay), and the seed.
+/// it keeps the file's materials (otherwise clay), the animation frame
+/// (frame N at N / 24 s; 0 for the still scenes) and the seed.
 pub struct Job<'a> {
     pub scene: &'a Path,
     pub env: f32,
     pub max_depth: u32,
     pub materials: bool,
+    pub frame: u32,
     pub seed: u64,
 }
 
@@ -93,7 +95,7 @@ impl Soupray {
         let mut cmd = Command::new(&self.exe);
         cmd.arg("render")
             .arg(scene)
-            .args(["--frame", "0", "--quiet"])
+            .args(["--frame", &job.frame.to_string(), "--quiet"])
             .args(["--spp", &spp.to_string()])
             .args(["--width", &o.width.to_string()])
             .args(["--height", &o.height.to_string()])
@@ -113,15 +115,24 @@ impl Soupray {
             &mut cmd,
             &format!("soupray render {} ({variant}, {spp} spp)", scene.display()),
         )?;
-        let log_path = dir.join("img.0000.json");
+        let stem = format!("img.{:04}", job.frame);
+        let log_path = dir.join(format!("{stem}.json"));
         let text = std::fs::read_to_string(&log_path)
             .map_err(|e| format!("{}: {e}", log_path.display()))?;
         let log: soupray::output::FrameLog =
             serde_json::from_str(&text).map_err(|e| format!("{}: {e}", log_path.display()))?;
         Ok(Render {
-            image: read_exr(&dir.join("img.0000.exr"))?,
+            image: read_exr(&dir.join(format!("{stem}.exr")))?,
             times: Times {
-                time: log.timings_ms.trace / 1e3,
+                // An animated scene's frame counts its evaluation and
+                // build, as Cycles' render counts its sync and BVH build.
+                time: (log.timings_ms.trace
+                    + if job.frame > 0 {
+                        log.timings_ms.evaluate + log.timings_ms.build
+                    } else {
+                        0.0
+                    })
+                    / 1e3,
                 total: log.timings_ms.total / 1e3,
                 sampling: log.timings_ms.trace / 1e3,
                 setup: (log.timings_ms.evaluate + log.timings_ms.build) / 1e3,
@@ -250,6 +261,9 @@ impl Cycles {
         }
         if job.materials {
             cmd.arg("--keep-materials");
+        }
+        if job.frame > 0 {
+            cmd.args(["--frame", &job.frame.to_string()]);
         }
         let stdout = run_logged(
             &mut cmd,

@@ -88,6 +88,8 @@ pub struct SceneFile {
     /// Render the file's materials (Cycles: the importer's Principled
     /// BSDFs); otherwise clay.
     pub materials: bool,
+    /// The animation frame rendered (frame N at N / 24 s).
+    pub frame: u32,
 }
 
 /// One mesh of a scene: its node's and its own name, its vertices in the
@@ -383,6 +385,7 @@ pub fn write_scenes(
     out.insert("glass".to_owned(), glass_scene(&inputs)?);
     out.insert("emitter".to_owned(), emitter_scene(&inputs)?);
     out.insert("lamps".to_owned(), lamps_scene(&inputs)?);
+    out.insert("character".to_owned(), character_scene(&inputs)?);
     Ok(out)
 }
 
@@ -404,7 +407,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
         std::iter::empty(),
     )?;
 
-    let (eye, cam_rot, yfov, aspect) = outdoor_camera(o, spec, figure);
+    let (eye, cam_rot, yfov, aspect) = outdoor_camera(o, spec, figure.bounds);
     let sun_rot = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
     let white = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
         "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
@@ -444,6 +447,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
                 env,
                 max_depth: o.max_depth,
                 materials: false,
+                frame: 0,
             },
         );
     }
@@ -453,8 +457,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
 /// The camera of the outdoor scenes: on the mesh's view direction, far
 /// enough that its bounding sphere fits the narrower field of view. Eye,
 /// rotation, vertical field of view and aspect.
-fn outdoor_camera(o: &Opts, spec: &MeshSpec, figure: &Figure) -> (Vec3, Quat, f32, f32) {
-    let (lo, hi) = figure.bounds;
+fn outdoor_camera(o: &Opts, spec: &MeshSpec, (lo, hi): (Vec3, Vec3)) -> (Vec3, Quat, f32, f32) {
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
     let aspect = o.width as f32 / o.height as f32;
@@ -542,7 +545,7 @@ impl<'a> LitScene<'a> {
             inputs.writer,
             name,
             materials,
-            outdoor_camera(o, spec, figure),
+            outdoor_camera(o, spec, figure.bounds),
             Lighting {
                 sun: Some(sun),
                 lamps: Vec::new(),
@@ -554,13 +557,27 @@ impl<'a> LitScene<'a> {
 
     /// Writes `DIR/NAME.bin` and `DIR/NAME.gltf`.
     fn write(
-        mut self,
+        self,
         writer: &SceneWriter,
         name: &str,
         materials: serde_json::Value,
         camera: (Vec3, Quat, f32, f32),
         lighting: Lighting,
         max_depth: u32,
+    ) -> Result<SceneFile, String> {
+        let view = (camera, lighting, max_depth);
+        self.write_edited(writer, name, materials, view, |_| Ok(()))
+    }
+
+    /// `write`, with the glTF document changed by `edit` before it is
+    /// written.
+    fn write_edited(
+        mut self,
+        writer: &SceneWriter,
+        name: &str,
+        materials: serde_json::Value,
+        (camera, lighting, max_depth): ((Vec3, Quat, f32, f32), Lighting, u32),
+        edit: impl FnOnce(&mut serde_json::Value) -> Result<(), String>,
     ) -> Result<SceneFile, String> {
         let uv_base = self.pts.len() * 12;
         for &(part, first) in &self.uv_parts {
@@ -569,7 +586,7 @@ impl<'a> LitScene<'a> {
         let bin_name = format!("{name}.bin");
         let uv_bytes = self.uvs.iter().flatten().flat_map(|v| v.to_le_bytes());
         let bin = writer.bin(&bin_name, &self.pts, uv_bytes)?;
-        let doc = scene_doc(
+        let mut doc = scene_doc(
             name,
             (&bin_name, bin.len()),
             camera,
@@ -578,6 +595,7 @@ impl<'a> LitScene<'a> {
             (lighting.sun, &lighting.lamps),
             &self.images,
         );
+        edit(&mut doc)?;
         let (path, hash) = writer.gltf(name, &doc, &bin)?;
         Ok(SceneFile {
             path,
@@ -585,6 +603,7 @@ impl<'a> LitScene<'a> {
             triangles: self.pts.len() / 3,
             env: lighting.sky,
             max_depth,
+            frame: 0,
             materials: true,
         })
     }
@@ -973,7 +992,7 @@ fn lamps_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
         writer,
         &format!("{mesh}-lamps"),
         materials,
-        outdoor_camera(o, spec, figure),
+        outdoor_camera(o, spec, figure.bounds),
         Lighting {
             sun: None,
             lamps,
@@ -981,4 +1000,263 @@ fn lamps_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
         },
         o.max_depth,
     )
+}
+
+/// The frame the animated character is rendered at: 0.5 s into its walk,
+/// mid-stride.
+const CHARACTER_FRAME: u32 = 12;
+/// CesiumMan's height in its file (m).
+const CESIUM_MAN_HEIGHT: f32 = 1.5;
+
+/// An animated character under the sun, where per-frame work counts: the
+/// figure in white on the white ground (glTF's dielectric, base 0.8,
+/// roughness 1) beside CesiumMan (the shared folder's sample, read in
+/// place, its skin, animation and texture merged into the scene as they
+/// are), as tall as the figure, walking; rendered at `CHARACTER_FRAME`.
+/// soupray evaluates the skin and rebuilds the whole scene's BVH for the
+/// frame; Cycles imports the animation and syncs the frame's pose.
+fn character_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
+    let SceneInputs {
+        o,
+        mesh,
+        spec,
+        figure,
+        writer,
+    } = *inputs;
+    let path = support::sample("CesiumMan/CesiumMan.glb")?;
+    let (json, bin) = read_glb(&path)?;
+    let bin_name = "cesium-man.bin";
+    let bin_path = writer.dir.join(bin_name);
+    std::fs::write(&bin_path, &bin).map_err(|e| format!("{}: {e}", bin_path.display()))?;
+    let mut scene = LitScene::new(figure, mesh, 0);
+    scene.add("ground", &ground_strips(&[])[0], 0);
+    let materials = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}}]);
+    // Beside the figure, on the side away from the sun's shadow.
+    let (lo, hi) = figure.bounds;
+    let at = Vec3::new(hi.x + 0.35, 0.0, 0.0);
+    let reach = Vec3::new(0.35, 1.0, 0.35);
+    let camera = outdoor_camera(o, spec, (lo.min(at - reach), hi.max(at + reach)));
+    let sun = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
+    let lighting = Lighting {
+        sun: Some(sun),
+        lamps: Vec::new(),
+        sky: SUN_SKY,
+    };
+    let mut triangles = 0;
+    let mut file = scene.write_edited(
+        writer,
+        &format!("{mesh}-character"),
+        materials,
+        (camera, lighting, o.max_depth),
+        |doc| {
+            triangles = merge_gltf(
+                doc,
+                &json,
+                (bin_name, bin.len()),
+                (at, 1.0 / CESIUM_MAN_HEIGHT),
+            )
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok(())
+        },
+    )?;
+    file.triangles += triangles;
+    file.frame = CHARACTER_FRAME;
+    Ok(file)
+}
+
+/// A GLB file's JSON and its binary chunk.
+fn read_glb(path: &Path) -> Result<(serde_json::Value, Vec<u8>), String> {
+    let err = |e: &str| format!("{}: {e}", path.display());
+    let data = std::fs::read(path).map_err(|e| err(&e.to_string()))?;
+    let word = |at: usize| -> Result<usize, String> {
+        let b = data.get(at..at + 4).ok_or_else(|| err("truncated"))?;
+        Ok(u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+    };
+    if data.get(0..4) != Some(b"glTF") {
+        return Err(err("not a GLB file"));
+    }
+    let json_len = word(12)?;
+    let json_chunk = data
+        .get(20..20 + json_len)
+        .ok_or_else(|| err("truncated"))?;
+    let json = serde_json::from_slice(json_chunk).map_err(|e| err(&e.to_string()))?;
+    let bin_at = 20 + json_len;
+    let bin_len = word(bin_at)?;
+    let bin = data
+        .get(bin_at + 8..bin_at + 8 + bin_len)
+        .ok_or_else(|| err("truncated"))?
+        .to_vec();
+    Ok((json, bin))
+}
+
+/// Merges the glTF document `src`, whose one buffer is the file `bin` (URI,
+/// bytes), into `doc` under a new node at `place` (translation, uniform
+/// scale): every index it holds is moved past `doc`'s own. Returns the
+/// triangles of its meshes' primitives.
+fn merge_gltf(
+    doc: &mut serde_json::Value,
+    src: &serde_json::Value,
+    bin: (&str, usize),
+    (at, scale): (Vec3, f32),
+) -> Result<usize, String> {
+    use serde_json::Value;
+    let base = |doc: &Value, key: &str| doc[key].as_array().map_or(0, Vec::len) as u64;
+    let [buffer, views, accessors, images, samplers, textures, materials, meshes, skins, nodes] = [
+        "buffers",
+        "bufferViews",
+        "accessors",
+        "images",
+        "samplers",
+        "textures",
+        "materials",
+        "meshes",
+        "skins",
+        "nodes",
+    ]
+    .map(|k| base(doc, k));
+    let shift = |v: &mut Value, by: u64| {
+        if let Some(i) = v.as_u64() {
+            *v = json!(i + by);
+        }
+    };
+    // Moves `obj[key]` where it is present (indexing would insert a null).
+    let shift_key = |obj: &mut Value, key: &str, by: u64| {
+        if let Some(v) = obj.get_mut(key) {
+            shift(v, by);
+        }
+    };
+    let items = |key: &str| src[key].as_array().cloned().unwrap_or_default();
+    let push = |doc: &mut Value, key: &str, v: Value| {
+        if !doc[key].is_array() {
+            doc[key] = json!([]);
+        }
+        doc[key].as_array_mut().expect("an array").push(v);
+    };
+    if src["buffers"].as_array().map_or(0, Vec::len) != 1 || src.get("extensionsRequired").is_some()
+    {
+        return Err("merging needs one buffer and no required extensions".into());
+    }
+    push(doc, "buffers", json!({"uri": bin.0, "byteLength": bin.1}));
+    for mut v in items("bufferViews") {
+        v["buffer"] = json!(buffer);
+        push(doc, "bufferViews", v);
+    }
+    for mut a in items("accessors") {
+        if a.get("sparse").is_some() {
+            return Err("a sparse accessor".into());
+        }
+        shift_key(&mut a, "bufferView", views);
+        push(doc, "accessors", a);
+    }
+    for mut i in items("images") {
+        shift_key(&mut i, "bufferView", views);
+        push(doc, "images", i);
+    }
+    for s in items("samplers") {
+        push(doc, "samplers", s);
+    }
+    for mut t in items("textures") {
+        shift_key(&mut t, "sampler", samplers);
+        shift_key(&mut t, "source", images);
+        push(doc, "textures", t);
+    }
+    // A material holds indices only in its texture references.
+    fn shift_texture_indices(v: &mut Value, by: u64) {
+        match v {
+            Value::Object(map) => {
+                for (k, v) in map.iter_mut() {
+                    match v.as_u64() {
+                        Some(i) if k == "index" => *v = json!(i + by),
+                        _ => shift_texture_indices(v, by),
+                    }
+                }
+            }
+            Value::Array(list) => list.iter_mut().for_each(|v| shift_texture_indices(v, by)),
+            _ => {}
+        }
+    }
+    for mut m in items("materials") {
+        shift_texture_indices(&mut m, textures);
+        push(doc, "materials", m);
+    }
+    let mut triangles = 0;
+    for mut m in items("meshes") {
+        for p in m["primitives"].as_array_mut().into_iter().flatten() {
+            for a in p["attributes"]
+                .as_object_mut()
+                .into_iter()
+                .flat_map(|a| a.values_mut())
+            {
+                shift(a, accessors);
+            }
+            for t in p
+                .get_mut("targets")
+                .and_then(Value::as_array_mut)
+                .into_iter()
+                .flatten()
+            {
+                for a in t.as_object_mut().into_iter().flat_map(|a| a.values_mut()) {
+                    shift(a, accessors);
+                }
+            }
+            let counted = p.get("indices").unwrap_or(&p["attributes"]["POSITION"]);
+            let count = counted
+                .as_u64()
+                .and_then(|i| src["accessors"][i as usize]["count"].as_u64());
+            triangles += count.unwrap_or(0) as usize / 3;
+            shift_key(p, "indices", accessors);
+            shift_key(p, "material", materials);
+        }
+        push(doc, "meshes", m);
+    }
+    for mut s in items("skins") {
+        shift_key(&mut s, "inverseBindMatrices", accessors);
+        shift_key(&mut s, "skeleton", nodes);
+        for j in s["joints"].as_array_mut().into_iter().flatten() {
+            shift(j, nodes);
+        }
+        push(doc, "skins", s);
+    }
+    for mut n in items("nodes") {
+        shift_key(&mut n, "mesh", meshes);
+        shift_key(&mut n, "skin", skins);
+        for c in n
+            .get_mut("children")
+            .and_then(Value::as_array_mut)
+            .into_iter()
+            .flatten()
+        {
+            shift(c, nodes);
+        }
+        push(doc, "nodes", n);
+    }
+    for mut a in items("animations") {
+        for s in a["samplers"].as_array_mut().into_iter().flatten() {
+            shift_key(s, "input", accessors);
+            shift_key(s, "output", accessors);
+        }
+        for c in a["channels"].as_array_mut().into_iter().flatten() {
+            shift_key(&mut c["target"], "node", nodes);
+        }
+        push(doc, "animations", a);
+    }
+    let scene = src["scene"].as_u64().unwrap_or(0) as usize;
+    let roots: Vec<u64> = src["scenes"][scene]["nodes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_u64)
+        .map(|i| i + nodes)
+        .collect();
+    let placed = base(doc, "nodes");
+    push(
+        doc,
+        "nodes",
+        json!({"name": "character", "translation": at.to_array(),
+               "scale": [scale, scale, scale], "children": roots}),
+    );
+    push(&mut doc["scenes"][0], "nodes", json!(placed));
+    Ok(triangles)
 }
