@@ -113,13 +113,8 @@ fn lamp_scene_on(dir: &Path, textured: bool, floor: f32) -> PathBuf {
         root["samplers"] = json!([{"magFilter": 9728, "minFilter": 9728}]);
         root["textures"] = json!([{"source": 0, "sampler": 0}]);
     }
-    let name = match (textured, floor == 2.0) {
-        (true, true) => "textured".to_owned(),
-        (false, true) => "half".to_owned(),
-        (true, false) => format!("textured-floor{floor}"),
-        (false, false) => format!("half-floor{floor}"),
-    };
-    b.write(root, dir, &name, true)
+    let lamp = if textured { "textured" } else { "half" };
+    b.write(root, dir, &format!("{lamp}-floor{floor}"), true)
 }
 
 /// The scene rendered at 48x48 and `spp` with `seed`, under a black sky,

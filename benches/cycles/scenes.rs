@@ -216,6 +216,14 @@ fn scene_doc(
     doc
 }
 
+/// The scenes' white: glTF's dielectric, base 0.8, roughness 1,
+/// double-sided.
+fn white() -> serde_json::Value {
+    json!({"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}})
+}
+
 fn bounds(pts: &[Vec3]) -> (Vec3, Vec3) {
     pts.iter().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
@@ -313,6 +321,12 @@ struct SceneWriter<'a> {
 }
 
 impl SceneWriter<'_> {
+    /// `DIR/NAME`, holding `bytes`.
+    fn file(&self, name: &str, bytes: &[u8]) -> Result<(), String> {
+        let path = self.dir.join(name);
+        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
     /// `DIR/NAME`: the positions, little-endian f32, then `tail`; returns
     /// its bytes.
     fn bin(
@@ -409,9 +423,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
 
     let (eye, cam_rot, yfov, aspect) = outdoor_camera(o, spec, figure.bounds);
     let sun_rot = look_rotation(-dir_from(spec.sun_azimuth, spec.sun_elevation));
-    let white = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-        "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-        "metallicFactor": 0.0, "roughnessFactor": 1.0}}]);
+    let materials = json!([white()]);
     let meshes = [
         figure.part(mesh, 0),
         Part {
@@ -432,7 +444,7 @@ fn outdoor_scenes(inputs: &SceneInputs) -> Result<BTreeMap<String, SceneFile>, S
             &name,
             (&bin_name, bin.len()),
             (eye, cam_rot, yfov, aspect),
-            white.clone(),
+            materials.clone(),
             &meshes,
             ((lighting == "sun").then_some(sun_rot), &[]),
             &[],
@@ -638,9 +650,7 @@ fn interior_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
     let mut scene = LitScene::new(figure, mesh, 1);
     scene.add("room", &room(), 0);
     let materials = json!([
-        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        white(),
         {"name": "gold", "doubleSided": true, "pbrMetallicRoughness": {
             "baseColorFactor": [1.0, 0.766, 0.336, 1.0],
             "metallicFactor": 1.0, "roughnessFactor": 0.4}}
@@ -728,9 +738,7 @@ fn glass_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
     let mut scene = LitScene::new(inputs.figure, mesh, 1);
     scene.add("ground", &ground_strips(&[])[0], 0);
     let materials = json!([
-        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        white(),
         {"name": "glass", "pbrMetallicRoughness": {
             "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
             "metallicFactor": 0.0, "roughnessFactor": 0.0},
@@ -851,18 +859,14 @@ fn emitter_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
     } = *inputs;
     let helmet = Helmet::load()?;
     let image = format!("damaged-helmet-emissive.{}", helmet.emissive.1);
-    let image_path = writer.dir.join(&image);
-    std::fs::write(&image_path, &helmet.emissive.0)
-        .map_err(|e| format!("{}: {e}", image_path.display()))?;
+    writer.file(&image, &helmet.emissive.0)?;
     let mut scene = LitScene::new(figure, mesh, 0);
     scene.add("room", &room(), 0);
     let pts = helmet.placed(0.6, (-0.45, 0.55), 1.1);
     scene.add_textured("helmet", &pts, &helmet.uvs, 1);
     scene.images.push(image);
     let materials = json!([
-        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        white(),
         {"name": "helmet", "pbrMetallicRoughness": {
             "baseColorFactor": [0.5, 0.5, 0.5, 1.0],
             "metallicFactor": 0.0, "roughnessFactor": 0.5},
@@ -979,9 +983,7 @@ fn lamps_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
         })
         .collect();
     let materials = json!([
-        {"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-            "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        white(),
         {"name": "lamp", "pbrMetallicRoughness": {
             "baseColorFactor": [0.0, 0.0, 0.0, 1.0],
             "metallicFactor": 0.0, "roughnessFactor": 1.0},
@@ -1026,13 +1028,10 @@ fn character_scene(inputs: &SceneInputs) -> Result<SceneFile, String> {
     let path = support::sample("CesiumMan/CesiumMan.glb")?;
     let (json, bin) = read_glb(&path)?;
     let bin_name = "cesium-man.bin";
-    let bin_path = writer.dir.join(bin_name);
-    std::fs::write(&bin_path, &bin).map_err(|e| format!("{}: {e}", bin_path.display()))?;
+    writer.file(bin_name, &bin)?;
     let mut scene = LitScene::new(figure, mesh, 0);
     scene.add("ground", &ground_strips(&[])[0], 0);
-    let materials = json!([{"name": "white", "doubleSided": true, "pbrMetallicRoughness": {
-        "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
-        "metallicFactor": 0.0, "roughnessFactor": 1.0}}]);
+    let materials = json!([white()]);
     // Beside the figure, on the side away from the sun's shadow.
     let (lo, hi) = figure.bounds;
     let at = Vec3::new(hi.x + 0.35, 0.0, 0.0);

@@ -18,6 +18,7 @@ pub mod sweep;
 pub use layout::{BvhNode, EMPTY_CHILD};
 
 use crate::soup::Soup;
+use glam::Vec3;
 
 /// Tree-shape parameters shared by every builder.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -93,6 +94,14 @@ impl Aabb {
             self.lo[a] = self.lo[a].min(p[a]);
             self.hi[a] = self.hi[a].max(p[a]);
         }
+    }
+
+    /// The length of the diagonal (0 for an empty box).
+    pub fn diagonal(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        (Vec3::from(self.hi) - Vec3::from(self.lo)).length()
     }
 
     pub fn contains(&self, o: &Aabb) -> bool {

@@ -266,6 +266,13 @@ pub struct LightTree {
     pub emitter_trails: Vec<Option<u32>>,
 }
 
+impl LightTree {
+    /// Whether the tree holds emitters (otherwise they are chosen by power).
+    pub fn holds_emitters(&self) -> bool {
+        self.emitter_trails.iter().any(Option::is_some)
+    }
+}
+
 /// The light tree over the point and spot lights of `lights` (`count`
 /// lights, then, with motion, the same lights at each further step) and
 /// the emissive triangles `emitters`.

@@ -289,10 +289,9 @@ impl<'d> PathTracer<'d> {
     /// How the last frame's light samples chose among its lights
     /// (`RenderLog::light_selection`).
     pub fn light_selection(&self) -> &'static str {
-        let tree = &self.light_tree;
-        if tree.emitter_trails.iter().any(Option::is_some) {
+        if self.light_tree.holds_emitters() {
             "tree"
-        } else if !tree.nodes.is_empty() {
+        } else if !self.light_tree.nodes.is_empty() {
             "tree for point lights"
         } else {
             "power"

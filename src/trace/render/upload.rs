@@ -8,7 +8,7 @@ use glam::Vec3;
 use opencl3::memory::Buffer;
 
 use super::{usage, MotionSteps, PathTracer, SoupBuffers};
-use crate::bvh::Bvh;
+use crate::bvh::{Aabb, Bvh};
 use crate::device::{Arg, Device};
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
@@ -271,7 +271,7 @@ impl PathTracer<'_> {
         }
         let n = soup.triangles.max(1);
         let trails = self.emit_trails.ensure(d, n)?;
-        if self.light_tree.emitter_trails.iter().any(Option::is_some) {
+        if self.light_tree.holds_emitters() {
             let mut by_prim = vec![0u32; n];
             let mut pmf = emit.pmf_by_prim.clone();
             for (&prim, trail) in emit.prims.iter().zip(&self.light_tree.emitter_trails) {
@@ -434,7 +434,7 @@ impl PathTracer<'_> {
                 in_tree[(n.child & !LIGHT_NODE_LEAF) as usize] = true;
             }
         }
-        let emit_tree = self.light_tree.emitter_trails.iter().any(Option::is_some);
+        let emit_tree = self.light_tree.holds_emitters();
         let tree = self.light_tree.nodes.first().map(|root| root.phi as f64);
         let selection = LightSelection::new(
             &punctual,
@@ -514,16 +514,11 @@ impl PathTracer<'_> {
 /// The diagonal of the emitters' bounds over every motion step (0 without
 /// emitters).
 fn emitters_extent(emitters: &[EmissiveTriangle]) -> f32 {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for &p in emitters.iter().flat_map(|e| e.corners.iter().flatten()) {
-        lo = lo.min(p);
-        hi = hi.max(p);
+    let mut bounds = Aabb::EMPTY;
+    for p in emitters.iter().flat_map(|e| e.corners.iter().flatten()) {
+        bounds.grow(p.to_array());
     }
-    if lo.cmple(hi).all() {
-        (hi - lo).length()
-    } else {
-        0.0
-    }
+    bounds.diagonal()
 }
 
 /// The radius of the scene's bounding sphere: half the diagonal of the
