@@ -407,119 +407,55 @@ fn describe_materials(o: &mut String, scene: &Scene) {
 }
 
 /// The material extensions' parameters `m` departs from the defaults in,
-/// as `soupray render` reads them (`tex` formats a texture reference).
+/// by extension, as `soupray render` reads them (`tex` formats a texture
+/// reference): every extension row of `scene::material_params`.
 fn material_extensions(
     m: &crate::scene::Material,
     tex: &dyn Fn(&Option<crate::scene::TextureRef>) -> String,
 ) -> Vec<String> {
-    let mut out = Vec::new();
+    use crate::scene::material_params::{Slot, FACTORS};
+    let mut by_extension: Vec<(&str, Vec<String>)> = Vec::new();
+    let mut add =
+        |ext: &'static str, item: String| match by_extension.iter_mut().find(|(e, _)| *e == ext) {
+            Some((_, items)) => items.push(item),
+            None => by_extension.push((ext, vec![item])),
+        };
+    let (mut value, mut default) = (m.clone(), crate::scene::Material::default());
+    for factor in FACTORS {
+        let Some((ext, key)) = factor.extension_key() else {
+            continue;
+        };
+        let (v, d) = (
+            factor.components(&mut value),
+            factor.components(&mut default),
+        );
+        // The emissive strength is on the core line.
+        if v != d && ext != "KHR_materials_emissive_strength" {
+            let shown = match v {
+                [x] => x.to_string(),
+                _ => format!("{v:?}"),
+            };
+            add(ext, format!("{key} {shown}"));
+        }
+    }
+    for slot in Slot::ALL {
+        if let (Some((ext, key)), Some(t)) = (slot.extension_key(), slot.of(m)) {
+            add(ext, format!("{key}{}", tex(&Some(t.clone()))));
+        }
+    }
+    let mut out: Vec<String> = Vec::new();
     if m.unlit {
         out.push("unlit".to_owned());
     }
-    if m.transmission_factor > 0.0 || m.transmission_texture.is_some() {
-        out.push(format!(
-            "transmission {}{}",
-            m.transmission_factor,
-            tex(&m.transmission_texture)
-        ));
-    }
-    if m.ior != 1.5 {
-        out.push(format!("ior {}", m.ior));
-    }
+    out.extend(
+        by_extension
+            .into_iter()
+            .map(|(ext, items)| format!("{ext} {}", items.join(" "))),
+    );
     if m.has_volume() {
-        let distance = if m.attenuation_distance.is_finite() {
-            format!(" per {}", m.attenuation_distance)
-        } else {
-            String::new()
-        };
-        out.push(format!(
-            "volume (attenuation colour {:?}{distance})",
-            m.attenuation_color
-        ));
+        out.push("refracting volume".to_owned());
     } else if m.transmission_factor > 0.0 || m.has_diffuse_transmission() {
         out.push("thin-walled".to_owned());
-    }
-    if m.has_iridescence() {
-        let thickness = if m.iridescence_thickness_texture.is_some() {
-            format!(
-                "{}-{} nm{}",
-                m.iridescence_thickness_min,
-                m.iridescence_thickness_max,
-                tex(&m.iridescence_thickness_texture)
-            )
-        } else {
-            format!("{} nm", m.iridescence_thickness_max)
-        };
-        out.push(format!(
-            "iridescence {}{} ior {} thickness {thickness}",
-            m.iridescence,
-            tex(&m.iridescence_texture),
-            m.iridescence_ior
-        ));
-    }
-    if m.has_dispersion() {
-        out.push(format!(
-            "dispersion {} (Abbe number {})",
-            m.dispersion,
-            20.0 / m.dispersion
-        ));
-    }
-    if m.has_anisotropy() {
-        out.push(format!(
-            "anisotropy {}{} rotation {} rad",
-            m.anisotropy_strength,
-            tex(&m.anisotropy_texture),
-            m.anisotropy_rotation
-        ));
-    }
-    if m.has_diffuse_transmission() {
-        out.push(format!(
-            "diffuse transmission {}{} colour {:?}{}",
-            m.diffuse_transmission,
-            tex(&m.diffuse_transmission_texture),
-            m.diffuse_transmission_color,
-            tex(&m.diffuse_transmission_color_texture)
-        ));
-    }
-    if m.specular_factor != 1.0
-        || m.specular_color != [1.0; 3]
-        || m.specular_texture.is_some()
-        || m.specular_color_texture.is_some()
-    {
-        out.push(format!(
-            "specular {}{} colour {:?}{}",
-            m.specular_factor,
-            tex(&m.specular_texture),
-            m.specular_color,
-            tex(&m.specular_color_texture)
-        ));
-    }
-    if m.has_clearcoat() {
-        let normal = if m.clearcoat_normal_texture.is_some() {
-            format!(
-                ", normal map{} scale {}",
-                tex(&m.clearcoat_normal_texture),
-                m.clearcoat_normal_scale
-            )
-        } else {
-            String::new()
-        };
-        out.push(format!(
-            "clearcoat {}{} roughness {}{}{normal}",
-            m.clearcoat_factor,
-            tex(&m.clearcoat_texture),
-            m.clearcoat_roughness,
-            tex(&m.clearcoat_roughness_texture)
-        ));
-    }
-    if m.has_sheen() {
-        out.push(format!(
-            "sheen colour {:?}{} roughness {}{}",
-            m.sheen_color,
-            tex(&m.sheen_color_texture),
-            m.sheen_roughness,
-            tex(&m.sheen_roughness_texture)
-        ));
     }
     out
 }

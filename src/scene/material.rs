@@ -16,6 +16,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use super::error::{Result, SceneError};
+use super::material_params::Slot;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AlphaMode {
@@ -146,32 +147,6 @@ pub struct Material {
     pub dispersion: f32,
 }
 
-impl Material {
-    /// Every texture use of the material, core and extensions alike.
-    pub fn texture_refs_mut(&mut self) -> [&mut Option<TextureRef>; 18] {
-        [
-            &mut self.base_color_texture,
-            &mut self.metallic_roughness_texture,
-            &mut self.normal_texture,
-            &mut self.occlusion_texture,
-            &mut self.emissive_texture,
-            &mut self.transmission_texture,
-            &mut self.specular_texture,
-            &mut self.specular_color_texture,
-            &mut self.clearcoat_texture,
-            &mut self.clearcoat_roughness_texture,
-            &mut self.clearcoat_normal_texture,
-            &mut self.sheen_color_texture,
-            &mut self.sheen_roughness_texture,
-            &mut self.diffuse_transmission_texture,
-            &mut self.diffuse_transmission_color_texture,
-            &mut self.iridescence_texture,
-            &mut self.iridescence_thickness_texture,
-            &mut self.anisotropy_texture,
-        ]
-    }
-}
-
 impl Default for Material {
     /// The glTF default material: every property at its specification
     /// default (base colour 1, metallic 1, roughness 1, opaque, one-sided).
@@ -234,28 +209,7 @@ impl Default for Material {
 
 impl Material {
     pub fn texture_refs(&self) -> impl Iterator<Item = &TextureRef> {
-        [
-            &self.base_color_texture,
-            &self.metallic_roughness_texture,
-            &self.normal_texture,
-            &self.occlusion_texture,
-            &self.emissive_texture,
-            &self.transmission_texture,
-            &self.specular_texture,
-            &self.specular_color_texture,
-            &self.clearcoat_texture,
-            &self.clearcoat_roughness_texture,
-            &self.clearcoat_normal_texture,
-            &self.sheen_color_texture,
-            &self.sheen_roughness_texture,
-            &self.diffuse_transmission_texture,
-            &self.diffuse_transmission_color_texture,
-            &self.iridescence_texture,
-            &self.iridescence_thickness_texture,
-            &self.anisotropy_texture,
-        ]
-        .into_iter()
-        .flatten()
+        Slot::ALL.into_iter().filter_map(|slot| slot.of(self))
     }
 
     pub fn is_textured(&self) -> bool {

@@ -7,6 +7,7 @@ use std::sync::OnceLock;
 
 use super::error::{Result, SceneError};
 use super::material::*;
+use super::material_params::{Slot, FACTORS};
 use super::source::{decode_base64, resolve_uri, Source};
 
 /// KHR_materials_pbrSpecularGlossiness, converted to soupray's
@@ -152,24 +153,11 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     SPECULAR_GLOSSINESS,
 ];
 
-/// Every texture the supported material extensions read, as (extension,
-/// property): what `validate` checks beside the core material's textures.
-pub(crate) const EXTENSION_TEXTURES: &[(&str, &str)] = &[
-    ("KHR_materials_transmission", "transmissionTexture"),
-    ("KHR_materials_specular", "specularTexture"),
-    ("KHR_materials_specular", "specularColorTexture"),
-    ("KHR_materials_clearcoat", "clearcoatTexture"),
-    ("KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
-    ("KHR_materials_clearcoat", "clearcoatNormalTexture"),
-    ("KHR_materials_sheen", "sheenColorTexture"),
-    ("KHR_materials_sheen", "sheenRoughnessTexture"),
-    (DIFFUSE_TRANSMISSION, "diffuseTransmissionTexture"),
-    (DIFFUSE_TRANSMISSION, "diffuseTransmissionColorTexture"),
-    (IRIDESCENCE, "iridescenceTexture"),
-    (IRIDESCENCE, "iridescenceThicknessTexture"),
-    (ANISOTROPY, "anisotropyTexture"),
-    (SPECULAR_GLOSSINESS, "diffuseTexture"),
-    (SPECULAR_GLOSSINESS, "specularGlossinessTexture"),
+/// The textures of KHR_materials_pbrSpecularGlossiness, below
+/// `/materials/N/`: what `validate` checks beside the `Slot`s.
+pub(crate) const SPECULAR_GLOSSINESS_TEXTURES: &[&str] = &[
+    "extensions/KHR_materials_pbrSpecularGlossiness/diffuseTexture",
+    "extensions/KHR_materials_pbrSpecularGlossiness/specularGlossinessTexture",
 ];
 
 /// One warning per `KHR_materials_*` extension the file uses (on a
@@ -279,10 +267,6 @@ pub(crate) fn variant_material(
     })
 }
 
-const DIFFUSE_TRANSMISSION: &str = "KHR_materials_diffuse_transmission";
-const IRIDESCENCE: &str = "KHR_materials_iridescence";
-const ANISOTROPY: &str = "KHR_materials_anisotropy";
-
 /// The material's `extensions.NAME` object in the raw JSON.
 pub(super) fn material_extension<'j>(
     src: &'j Source,
@@ -296,6 +280,16 @@ pub(super) fn material_extension<'j>(
         .get(name)
 }
 
+/// The JSON value at `path` below material `material`'s object.
+fn material_json<'j>(
+    src: &'j Source,
+    material: usize,
+    path: &str,
+) -> Option<&'j serde_json::Value> {
+    let object = src.json.get("materials")?.get(material)?;
+    path.split('/').try_fold(object, |v, key| v.get(key))
+}
+
 /// A material extension's texture (`extensions.EXT.KEY`), read from the
 /// raw JSON, which `validate` has checked (index in range, texCoord a set
 /// index).
@@ -305,7 +299,12 @@ pub(super) fn extension_texture(
     ext: &str,
     key: &str,
 ) -> Option<TextureRef> {
-    let info = material_extension(src, material, ext)?.get(key)?;
+    texture_at(src, material, &format!("extensions/{ext}/{key}"))
+}
+
+/// The texture info at `path` below a material.
+fn texture_at(src: &Source, material: usize, path: &str) -> Option<TextureRef> {
+    let info = material_json(src, material, path)?;
     let texture = info.get("index")?.as_u64()? as usize;
     let tex_coord = info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32;
     Some(texture_ref(
@@ -471,177 +470,40 @@ fn load_material(src: &Source, i: usize, m: &gltf::Material) -> Material {
         unlit: material_extension(src, i, "KHR_materials_unlit").is_some(),
         ..Material::default()
     };
-    read_transmission_and_volume(src, i, &mut material);
-    read_specular(src, i, &mut material);
-    read_clearcoat(src, i, &mut material);
-    read_sheen(src, i, &mut material);
-    read_diffuse_transmission(src, i, &mut material);
-    read_iridescence(src, i, &mut material);
-    read_anisotropy(src, i, &mut material);
+    read_extensions(src, i, &mut material);
     material
 }
 
-/// KHR_materials_transmission, _ior, _volume and _dispersion: light
-/// through the surface and the medium behind it.
-fn read_transmission_and_volume(src: &Source, i: usize, material: &mut Material) {
-    material.transmission_factor = number(
-        material_extension(src, i, "KHR_materials_transmission"),
-        "transmissionFactor",
-        0.0,
-    );
-    material.transmission_texture =
-        extension_texture(src, i, "KHR_materials_transmission", "transmissionTexture");
-    material.ior = number(material_extension(src, i, "KHR_materials_ior"), "ior", 1.5);
-    material.thickness_factor = number(
-        material_extension(src, i, "KHR_materials_volume"),
-        "thicknessFactor",
-        0.0,
-    );
-    material.attenuation_color = rgb(
-        material_extension(src, i, "KHR_materials_volume"),
-        "attenuationColor",
-        1.0,
-    );
-    material.attenuation_distance = number(
-        material_extension(src, i, "KHR_materials_volume"),
-        "attenuationDistance",
-        f32::INFINITY,
-    );
-    material.dispersion = number(
-        material_extension(src, i, "KHR_materials_dispersion"),
-        "dispersion",
-        0.0,
-    );
-}
-
-/// KHR_materials_specular.
-fn read_specular(src: &Source, i: usize, material: &mut Material) {
-    material.specular_factor = number(
-        material_extension(src, i, "KHR_materials_specular"),
-        "specularFactor",
-        1.0,
-    );
-    material.specular_color = rgb(
-        material_extension(src, i, "KHR_materials_specular"),
-        "specularColorFactor",
-        1.0,
-    );
-    material.specular_texture =
-        extension_texture(src, i, "KHR_materials_specular", "specularTexture");
-    material.specular_color_texture =
-        extension_texture(src, i, "KHR_materials_specular", "specularColorTexture");
-}
-
-/// KHR_materials_clearcoat.
-fn read_clearcoat(src: &Source, i: usize, material: &mut Material) {
-    material.clearcoat_factor = number(
-        material_extension(src, i, "KHR_materials_clearcoat"),
-        "clearcoatFactor",
-        0.0,
-    );
-    material.clearcoat_roughness = number(
-        material_extension(src, i, "KHR_materials_clearcoat"),
-        "clearcoatRoughnessFactor",
-        0.0,
-    );
-    material.clearcoat_texture =
-        extension_texture(src, i, "KHR_materials_clearcoat", "clearcoatTexture");
-    material.clearcoat_roughness_texture = extension_texture(
-        src,
-        i,
-        "KHR_materials_clearcoat",
-        "clearcoatRoughnessTexture",
-    );
-    material.clearcoat_normal_texture =
-        extension_texture(src, i, "KHR_materials_clearcoat", "clearcoatNormalTexture");
-    material.clearcoat_normal_scale = number(
-        material_extension(src, i, "KHR_materials_clearcoat")
-            .and_then(|c| c.get("clearcoatNormalTexture")),
-        "scale",
-        1.0,
-    );
-}
-
-/// KHR_materials_sheen.
-fn read_sheen(src: &Source, i: usize, material: &mut Material) {
-    material.sheen_color = rgb(
-        material_extension(src, i, "KHR_materials_sheen"),
-        "sheenColorFactor",
-        0.0,
-    );
-    material.sheen_roughness = number(
-        material_extension(src, i, "KHR_materials_sheen"),
-        "sheenRoughnessFactor",
-        0.0,
-    );
-    material.sheen_color_texture =
-        extension_texture(src, i, "KHR_materials_sheen", "sheenColorTexture");
-    material.sheen_roughness_texture =
-        extension_texture(src, i, "KHR_materials_sheen", "sheenRoughnessTexture");
-}
-
-/// KHR_materials_diffuse_transmission.
-fn read_diffuse_transmission(src: &Source, i: usize, material: &mut Material) {
-    material.diffuse_transmission = number(
-        material_extension(src, i, DIFFUSE_TRANSMISSION),
-        "diffuseTransmissionFactor",
-        0.0,
-    );
-    material.diffuse_transmission_texture =
-        extension_texture(src, i, DIFFUSE_TRANSMISSION, "diffuseTransmissionTexture");
-    material.diffuse_transmission_color = rgb(
-        material_extension(src, i, DIFFUSE_TRANSMISSION),
-        "diffuseTransmissionColorFactor",
-        1.0,
-    );
-    material.diffuse_transmission_color_texture = extension_texture(
-        src,
-        i,
-        DIFFUSE_TRANSMISSION,
-        "diffuseTransmissionColorTexture",
-    );
-}
-
-/// KHR_materials_iridescence.
-fn read_iridescence(src: &Source, i: usize, material: &mut Material) {
-    material.iridescence = number(
-        material_extension(src, i, IRIDESCENCE),
-        "iridescenceFactor",
-        0.0,
-    );
-    material.iridescence_texture = extension_texture(src, i, IRIDESCENCE, "iridescenceTexture");
-    material.iridescence_ior = number(
-        material_extension(src, i, IRIDESCENCE),
-        "iridescenceIor",
-        1.3,
-    );
-    material.iridescence_thickness_min = number(
-        material_extension(src, i, IRIDESCENCE),
-        "iridescenceThicknessMinimum",
-        100.0,
-    );
-    material.iridescence_thickness_max = number(
-        material_extension(src, i, IRIDESCENCE),
-        "iridescenceThicknessMaximum",
-        400.0,
-    );
-    material.iridescence_thickness_texture =
-        extension_texture(src, i, IRIDESCENCE, "iridescenceThicknessTexture");
-}
-
-/// KHR_materials_anisotropy.
-fn read_anisotropy(src: &Source, i: usize, material: &mut Material) {
-    material.anisotropy_strength = number(
-        material_extension(src, i, ANISOTROPY),
-        "anisotropyStrength",
-        0.0,
-    );
-    material.anisotropy_rotation = number(
-        material_extension(src, i, ANISOTROPY),
-        "anisotropyRotation",
-        0.0,
-    );
-    material.anisotropy_texture = extension_texture(src, i, ANISOTROPY, "anisotropyTexture");
+/// The extensions' factors and textures, each row of the tables in
+/// `material_params` the file sets (the core ones come through `gltf`).
+fn read_extensions(src: &Source, i: usize, material: &mut Material) {
+    for factor in FACTORS.iter().filter(|f| f.extension_key().is_some()) {
+        let Some(value) = material_json(src, i, factor.path) else {
+            continue;
+        };
+        let components = factor.components(material);
+        match value.as_array() {
+            // A colour's missing components keep their defaults.
+            Some(array) if components.len() > 1 => {
+                for (c, x) in components.iter_mut().zip(array) {
+                    if let Some(x) = x.as_f64() {
+                        *c = x as f32;
+                    }
+                }
+            }
+            _ if components.len() == 1 => {
+                if let Some(x) = value.as_f64() {
+                    components[0] = x as f32;
+                }
+            }
+            _ => {}
+        }
+    }
+    for slot in Slot::ALL {
+        if slot.extension_key().is_some() {
+            *slot.of_mut(material) = texture_at(src, i, slot.path());
+        }
+    }
 }
 
 /// The file's textures with their samplers' wrap modes and filters.

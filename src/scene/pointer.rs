@@ -20,7 +20,8 @@ use std::borrow::Cow;
 use super::animation::{ClipTargets, Interpolation, Property};
 use super::camera::Projection;
 use super::light::{LightDef, LightKind};
-use super::material::{Material, TextureRef, TextureTransform};
+use super::material::{Material, TextureTransform};
+use super::material_params::{Slot, FACTORS};
 use super::Scene;
 
 pub(crate) const EXTENSION: &str = "KHR_animation_pointer";
@@ -122,13 +123,13 @@ pub(crate) enum Resolved {
 /// A material, light or camera property a pointer channel drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ValueTarget {
-    /// `MATERIAL_FACTORS[factor]` of a material.
+    /// `FACTORS[factor]` of a material.
     MaterialFactor { material: usize, factor: usize },
-    /// KHR_texture_transform `offset`, `rotation` or `scale` of the
-    /// material's texture `TEXTURE_SLOTS[slot]`.
+    /// KHR_texture_transform `offset`, `rotation` or `scale` of one of the
+    /// material's textures.
     TextureTransform {
         material: usize,
-        slot: usize,
+        slot: Slot,
         part: TransformPart,
     },
     Light {
@@ -167,208 +168,15 @@ pub enum CameraProperty {
     Ymag,
 }
 
-type FactorSetter = fn(&mut Material, &[f32]);
-
 fn v3(v: &[f32]) -> [f32; 3] {
     [v[0], v[1], v[2]]
 }
-
-/// The material factors a pointer may animate: the path below
-/// `/materials/N/`, the value's width, and where it goes.
-pub const MATERIAL_FACTORS: &[(&str, usize, FactorSetter)] = &[
-    ("pbrMetallicRoughness/baseColorFactor", 4, |m, v| {
-        m.base_color_factor = [v[0], v[1], v[2], v[3]]
-    }),
-    ("pbrMetallicRoughness/metallicFactor", 1, |m, v| {
-        m.metallic_factor = v[0]
-    }),
-    ("pbrMetallicRoughness/roughnessFactor", 1, |m, v| {
-        m.roughness_factor = v[0]
-    }),
-    ("emissiveFactor", 3, |m, v| m.emissive_factor = v3(v)),
-    ("alphaCutoff", 1, |m, v| m.alpha_cutoff = v[0]),
-    ("normalTexture/scale", 1, |m, v| m.normal_scale = v[0]),
-    ("occlusionTexture/strength", 1, |m, v| {
-        m.occlusion_strength = v[0]
-    }),
-    (
-        "extensions/KHR_materials_emissive_strength/emissiveStrength",
-        1,
-        |m, v| m.emissive_strength = v[0],
-    ),
-    (
-        "extensions/KHR_materials_transmission/transmissionFactor",
-        1,
-        |m, v| m.transmission_factor = v[0],
-    ),
-    ("extensions/KHR_materials_ior/ior", 1, |m, v| m.ior = v[0]),
-    (
-        "extensions/KHR_materials_volume/thicknessFactor",
-        1,
-        |m, v| m.thickness_factor = v[0],
-    ),
-    (
-        "extensions/KHR_materials_volume/attenuationColor",
-        3,
-        |m, v| m.attenuation_color = v3(v),
-    ),
-    (
-        "extensions/KHR_materials_volume/attenuationDistance",
-        1,
-        |m, v| m.attenuation_distance = v[0],
-    ),
-    (
-        "extensions/KHR_materials_specular/specularFactor",
-        1,
-        |m, v| m.specular_factor = v[0],
-    ),
-    (
-        "extensions/KHR_materials_specular/specularColorFactor",
-        3,
-        |m, v| m.specular_color = v3(v),
-    ),
-    (
-        "extensions/KHR_materials_clearcoat/clearcoatFactor",
-        1,
-        |m, v| m.clearcoat_factor = v[0],
-    ),
-    (
-        "extensions/KHR_materials_clearcoat/clearcoatRoughnessFactor",
-        1,
-        |m, v| m.clearcoat_roughness = v[0],
-    ),
-    (
-        "extensions/KHR_materials_clearcoat/clearcoatNormalTexture/scale",
-        1,
-        |m, v| m.clearcoat_normal_scale = v[0],
-    ),
-    (
-        "extensions/KHR_materials_sheen/sheenColorFactor",
-        3,
-        |m, v| m.sheen_color = v3(v),
-    ),
-    (
-        "extensions/KHR_materials_sheen/sheenRoughnessFactor",
-        1,
-        |m, v| m.sheen_roughness = v[0],
-    ),
-    (
-        "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionFactor",
-        1,
-        |m, v| m.diffuse_transmission = v[0],
-    ),
-    (
-        "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorFactor",
-        3,
-        |m, v| m.diffuse_transmission_color = v3(v),
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceFactor",
-        1,
-        |m, v| m.iridescence = v[0],
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceIor",
-        1,
-        |m, v| m.iridescence_ior = v[0],
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceThicknessMinimum",
-        1,
-        |m, v| m.iridescence_thickness_min = v[0],
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceThicknessMaximum",
-        1,
-        |m, v| m.iridescence_thickness_max = v[0],
-    ),
-    (
-        "extensions/KHR_materials_anisotropy/anisotropyStrength",
-        1,
-        |m, v| m.anisotropy_strength = v[0],
-    ),
-    (
-        "extensions/KHR_materials_anisotropy/anisotropyRotation",
-        1,
-        |m, v| m.anisotropy_rotation = v[0],
-    ),
-    (
-        "extensions/KHR_materials_dispersion/dispersion",
-        1,
-        |m, v| m.dispersion = v[0],
-    ),
-];
-
-type SlotOf = fn(&mut Material) -> &mut Option<TextureRef>;
-
-/// The texture infos whose KHR_texture_transform a pointer may animate:
-/// the path below `/materials/N/`, and the material's reference.
-pub const TEXTURE_SLOTS: &[(&str, SlotOf)] = &[
-    ("pbrMetallicRoughness/baseColorTexture", |m| {
-        &mut m.base_color_texture
-    }),
-    ("pbrMetallicRoughness/metallicRoughnessTexture", |m| {
-        &mut m.metallic_roughness_texture
-    }),
-    ("normalTexture", |m| &mut m.normal_texture),
-    ("occlusionTexture", |m| &mut m.occlusion_texture),
-    ("emissiveTexture", |m| &mut m.emissive_texture),
-    (
-        "extensions/KHR_materials_transmission/transmissionTexture",
-        |m| &mut m.transmission_texture,
-    ),
-    ("extensions/KHR_materials_specular/specularTexture", |m| {
-        &mut m.specular_texture
-    }),
-    (
-        "extensions/KHR_materials_specular/specularColorTexture",
-        |m| &mut m.specular_color_texture,
-    ),
-    ("extensions/KHR_materials_clearcoat/clearcoatTexture", |m| {
-        &mut m.clearcoat_texture
-    }),
-    (
-        "extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture",
-        |m| &mut m.clearcoat_roughness_texture,
-    ),
-    (
-        "extensions/KHR_materials_clearcoat/clearcoatNormalTexture",
-        |m| &mut m.clearcoat_normal_texture,
-    ),
-    ("extensions/KHR_materials_sheen/sheenColorTexture", |m| {
-        &mut m.sheen_color_texture
-    }),
-    (
-        "extensions/KHR_materials_sheen/sheenRoughnessTexture",
-        |m| &mut m.sheen_roughness_texture,
-    ),
-    (
-        "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionTexture",
-        |m| &mut m.diffuse_transmission_texture,
-    ),
-    (
-        "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorTexture",
-        |m| &mut m.diffuse_transmission_color_texture,
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceTexture",
-        |m| &mut m.iridescence_texture,
-    ),
-    (
-        "extensions/KHR_materials_iridescence/iridescenceThicknessTexture",
-        |m| &mut m.iridescence_thickness_texture,
-    ),
-    (
-        "extensions/KHR_materials_anisotropy/anisotropyTexture",
-        |m| &mut m.anisotropy_texture,
-    ),
-];
 
 impl ValueTarget {
     /// Floats per key.
     pub fn width(&self) -> usize {
         match *self {
-            ValueTarget::MaterialFactor { factor, .. } => MATERIAL_FACTORS[factor].1,
+            ValueTarget::MaterialFactor { factor, .. } => FACTORS[factor].width(),
             ValueTarget::TextureTransform { part, .. } => match part {
                 TransformPart::Rotation => 1,
                 TransformPart::Offset | TransformPart::Scale => 2,
@@ -393,7 +201,9 @@ impl ValueTarget {
         match *self {
             ValueTarget::MaterialFactor { material, factor } => {
                 if let Some(m) = materials.get_mut(material) {
-                    (MATERIAL_FACTORS[factor].2)(m, v);
+                    FACTORS[factor]
+                        .components(m)
+                        .copy_from_slice(&v[..FACTORS[factor].width()]);
                 }
             }
             ValueTarget::TextureTransform {
@@ -404,7 +214,7 @@ impl ValueTarget {
                 let Some(m) = materials.get_mut(material) else {
                     return;
                 };
-                let Some(reference) = (TEXTURE_SLOTS[slot].1)(m).as_mut() else {
+                let Some(reference) = slot.of_mut(m).as_mut() else {
                     return;
                 };
                 // A texture without KHR_texture_transform has the identity.
@@ -478,13 +288,14 @@ pub(crate) fn resolve(
         if !exists(&format!("/materials/{material}")) {
             return Err(format!("the file has no material {material}"));
         }
-        if let Some(factor) = MATERIAL_FACTORS.iter().position(|f| f.0 == property) {
+        if let Some(factor) = FACTORS.iter().position(|f| f.path == property) {
             return Ok(Resolved::Value(ValueTarget::MaterialFactor {
                 material,
                 factor,
             }));
         }
-        for (slot, (path, _)) in TEXTURE_SLOTS.iter().enumerate() {
+        for slot in Slot::ALL {
+            let path = slot.path();
             let Some(part) = property
                 .strip_prefix(path)
                 .and_then(|p| p.strip_prefix("/extensions/KHR_texture_transform/"))
@@ -797,7 +608,7 @@ mod tests {
         ));
         assert!(matches!(
             r("/materials/0/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform/offset"),
-            Ok(Resolved::Value(ValueTarget::TextureTransform { material: 0, slot: 0, part: TransformPart::Offset }))
+            Ok(Resolved::Value(ValueTarget::TextureTransform { material: 0, slot: Slot::BaseColor, part: TransformPart::Offset }))
         ));
         assert!(matches!(
             r("/extensions/KHR_lights_punctual/lights/0/intensity"),

@@ -11,6 +11,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 use super::camera::{CameraDef, Projection, DEFAULT_YFOV};
 use super::light::{LightDef, LightKind};
 use super::material::Material;
+use super::material_params::FACTORS;
 
 fn label(kind: &str, index: usize, name: Option<&str>) -> String {
     match name {
@@ -179,75 +180,29 @@ pub(crate) fn light(index: usize, light: &mut LightDef, warnings: &mut Vec<Strin
 pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String>) {
     let what = label("material", index, m.name.as_deref());
     let w = warnings;
-    core_factors(w, &what, m);
-    transmission_and_volume(w, &what, m);
-    specular(w, &what, m);
-    clearcoat_and_sheen(w, &what, m);
-    diffuse_transmission(w, &what, m);
-    iridescence(w, &what, m);
-    anisotropy_and_dispersion(w, &what, m);
-    if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
-        w.push(format!(
-            "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",
-            m.attenuation_distance
-        ));
-        m.attenuation_distance = f32::INFINITY;
+    // KHR_materials_ior: 0 is an infinite index (a perfect mirror), which
+    // the largest finite index stands for here.
+    if m.ior == 0.0 {
+        m.ior = 1.0e6;
     }
-}
-
-/// The core glTF factors, and the normal scale and alpha cutoff.
-fn core_factors(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    for (c, name) in m.base_color_factor.iter_mut().zip([
-        "baseColorFactor.r",
-        "baseColorFactor.g",
-        "baseColorFactor.b",
-        "baseColorFactor.a",
-    ]) {
-        clamp(w, what, name, c, 0.0, 1.0, 1.0);
+    let mut defaults = Material::default();
+    for factor in FACTORS {
+        let Some((lo, hi)) = factor.range else {
+            continue;
+        };
+        let default = factor.components(&mut defaults)[0];
+        let name = factor.name();
+        let components = factor.components(m);
+        let single = components.len() == 1;
+        for (c, suffix) in components.iter_mut().zip([".r", ".g", ".b", ".a"]) {
+            let property = if single {
+                name.clone()
+            } else {
+                format!("{name}{suffix}")
+            };
+            clamp(w, &what, &property, c, lo, hi, default);
+        }
     }
-    clamp(
-        w,
-        what,
-        "metallicFactor",
-        &mut m.metallic_factor,
-        0.0,
-        1.0,
-        1.0,
-    );
-    clamp(
-        w,
-        what,
-        "roughnessFactor",
-        &mut m.roughness_factor,
-        0.0,
-        1.0,
-        1.0,
-    );
-    for (c, name) in m.emissive_factor.iter_mut().zip([
-        "emissiveFactor.r",
-        "emissiveFactor.g",
-        "emissiveFactor.b",
-    ]) {
-        clamp(w, what, name, c, 0.0, 1.0, 0.0);
-    }
-    clamp(
-        w,
-        what,
-        "emissiveStrength",
-        &mut m.emissive_strength,
-        0.0,
-        f32::MAX,
-        1.0,
-    );
-    clamp(
-        w,
-        what,
-        "occlusionTexture.strength",
-        &mut m.occlusion_strength,
-        0.0,
-        1.0,
-        1.0,
-    );
     if !m.normal_scale.is_finite() {
         w.push(format!(
             "{what}: normalTexture.scale {} is not finite; 1 is used",
@@ -255,204 +210,11 @@ fn core_factors(w: &mut Vec<String>, what: &str, m: &mut Material) {
         ));
         m.normal_scale = 1.0;
     }
-    clamp(
-        w,
-        what,
-        "alphaCutoff",
-        &mut m.alpha_cutoff,
-        0.0,
-        f32::MAX,
-        0.5,
-    );
-}
-
-/// KHR_materials_transmission, _ior and _volume (but attenuationDistance,
-/// checked last).
-fn transmission_and_volume(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    clamp(
-        w,
-        what,
-        "KHR_materials_transmission transmissionFactor",
-        &mut m.transmission_factor,
-        0.0,
-        1.0,
-        0.0,
-    );
-    // KHR_materials_ior: 1 or more, or 0 for an infinite index (a perfect
-    // mirror), which the largest finite index stands for here.
-    if m.ior == 0.0 {
-        m.ior = 1.0e6;
+    if m.attenuation_distance.is_nan() || m.attenuation_distance <= 0.0 {
+        w.push(format!(
+            "{what}: KHR_materials_volume attenuationDistance {} is not above 0; infinity (no attenuation) is used",
+            m.attenuation_distance
+        ));
+        m.attenuation_distance = f32::INFINITY;
     }
-    clamp(
-        w,
-        what,
-        "KHR_materials_ior ior",
-        &mut m.ior,
-        1.0,
-        f32::MAX,
-        1.5,
-    );
-    clamp(
-        w,
-        what,
-        "KHR_materials_volume thicknessFactor",
-        &mut m.thickness_factor,
-        0.0,
-        f32::MAX,
-        0.0,
-    );
-    for (c, name) in m.attenuation_color.iter_mut().zip([
-        "KHR_materials_volume attenuationColor.r",
-        "KHR_materials_volume attenuationColor.g",
-        "KHR_materials_volume attenuationColor.b",
-    ]) {
-        clamp(w, what, name, c, 0.0, 1.0, 1.0);
-    }
-}
-
-/// KHR_materials_specular.
-fn specular(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    clamp(
-        w,
-        what,
-        "KHR_materials_specular specularFactor",
-        &mut m.specular_factor,
-        0.0,
-        1.0,
-        1.0,
-    );
-    for (c, name) in m.specular_color.iter_mut().zip([
-        "KHR_materials_specular specularColorFactor.r",
-        "KHR_materials_specular specularColorFactor.g",
-        "KHR_materials_specular specularColorFactor.b",
-    ]) {
-        clamp(w, what, name, c, 0.0, f32::MAX, 1.0);
-    }
-}
-
-/// KHR_materials_clearcoat and _sheen.
-fn clearcoat_and_sheen(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    for (v, name) in [
-        (
-            &mut m.clearcoat_factor,
-            "KHR_materials_clearcoat clearcoatFactor",
-        ),
-        (
-            &mut m.clearcoat_roughness,
-            "KHR_materials_clearcoat clearcoatRoughnessFactor",
-        ),
-        (
-            &mut m.sheen_roughness,
-            "KHR_materials_sheen sheenRoughnessFactor",
-        ),
-    ] {
-        clamp(w, what, name, v, 0.0, 1.0, 0.0);
-    }
-    for (c, name) in m.sheen_color.iter_mut().zip([
-        "KHR_materials_sheen sheenColorFactor.r",
-        "KHR_materials_sheen sheenColorFactor.g",
-        "KHR_materials_sheen sheenColorFactor.b",
-    ]) {
-        clamp(w, what, name, c, 0.0, 1.0, 0.0);
-    }
-}
-
-/// KHR_materials_diffuse_transmission.
-fn diffuse_transmission(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    clamp(
-        w,
-        what,
-        "KHR_materials_diffuse_transmission diffuseTransmissionFactor",
-        &mut m.diffuse_transmission,
-        0.0,
-        1.0,
-        0.0,
-    );
-    for (c, name) in m.diffuse_transmission_color.iter_mut().zip([
-        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.r",
-        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.g",
-        "KHR_materials_diffuse_transmission diffuseTransmissionColorFactor.b",
-    ]) {
-        clamp(w, what, name, c, 0.0, 1.0, 1.0);
-    }
-}
-
-/// KHR_materials_iridescence.
-fn iridescence(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    clamp(
-        w,
-        what,
-        "KHR_materials_iridescence iridescenceFactor",
-        &mut m.iridescence,
-        0.0,
-        1.0,
-        0.0,
-    );
-    // Real films have indices of 1 to about 4; the bound keeps the film's
-    // optical path (index times thickness) finite.
-    clamp(
-        w,
-        what,
-        "KHR_materials_iridescence iridescenceIor",
-        &mut m.iridescence_ior,
-        1.0,
-        100.0,
-        1.3,
-    );
-    // Films are nanometres thick: anything above 100 µm is a mistake, and
-    // the interference terms vanish long before.
-    clamp(
-        w,
-        what,
-        "KHR_materials_iridescence iridescenceThicknessMinimum",
-        &mut m.iridescence_thickness_min,
-        0.0,
-        1.0e5,
-        100.0,
-    );
-    clamp(
-        w,
-        what,
-        "KHR_materials_iridescence iridescenceThicknessMaximum",
-        &mut m.iridescence_thickness_max,
-        0.0,
-        1.0e5,
-        400.0,
-    );
-}
-
-/// KHR_materials_anisotropy and _dispersion.
-fn anisotropy_and_dispersion(w: &mut Vec<String>, what: &str, m: &mut Material) {
-    clamp(
-        w,
-        what,
-        "KHR_materials_anisotropy anisotropyStrength",
-        &mut m.anisotropy_strength,
-        0.0,
-        1.0,
-        0.0,
-    );
-    // 1 is an Abbe number of 20, about the lowest of real materials; the
-    // extension allows more to exaggerate, and 20 (Abbe number 1) is far
-    // beyond any material.
-    clamp(
-        w,
-        what,
-        "KHR_materials_dispersion dispersion",
-        &mut m.dispersion,
-        0.0,
-        20.0,
-        0.0,
-    );
-    // A turn is 2 pi; beyond 1e4 radians an f32 angle is coarser than a
-    // thousandth of a radian, and an infinite one has no cosine.
-    clamp(
-        w,
-        what,
-        "KHR_materials_anisotropy anisotropyRotation",
-        &mut m.anisotropy_rotation,
-        -1.0e4,
-        1.0e4,
-        0.0,
-    );
 }

@@ -27,6 +27,7 @@
 //! ("lower left quadrant, rotated clockwise 90°"; glTF issue #1563: the GLSL
 //! listing in the extension text rotates the other way).
 
+pub use crate::scene::material_params::Slot;
 use std::cell::OnceCell;
 
 use bytemuck::{Pod, Zeroable};
@@ -141,66 +142,11 @@ pub fn transform_matrix(t: Option<&TextureTransform>) -> [f32; 6] {
     [c * sx, s * sy, ox, -s * sx, c * sy, oy]
 }
 
-/// A material's texture slots.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Slot {
-    BaseColor,
-    MetallicRoughness,
-    Normal,
-    Occlusion,
-    Emissive,
-    /// KHR_materials_transmission `transmissionTexture`.
-    Transmission,
-    /// KHR_materials_specular `specularTexture`.
-    Specular,
-    /// KHR_materials_specular `specularColorTexture`.
-    SpecularColor,
-    /// KHR_materials_clearcoat `clearcoatTexture`.
-    Clearcoat,
-    /// KHR_materials_clearcoat `clearcoatRoughnessTexture`.
-    ClearcoatRoughness,
-    /// KHR_materials_clearcoat `clearcoatNormalTexture`.
-    ClearcoatNormal,
-    /// KHR_materials_sheen `sheenColorTexture`.
-    SheenColor,
-    /// KHR_materials_sheen `sheenRoughnessTexture`.
-    SheenRoughness,
-    /// KHR_materials_diffuse_transmission `diffuseTransmissionTexture`.
-    DiffuseTransmission,
-    /// KHR_materials_diffuse_transmission `diffuseTransmissionColorTexture`.
-    DiffuseTransmissionColor,
-    /// KHR_materials_iridescence `iridescenceTexture`.
-    Iridescence,
-    /// KHR_materials_iridescence `iridescenceThicknessTexture`.
-    IridescenceThickness,
-    /// KHR_materials_anisotropy `anisotropyTexture`.
-    Anisotropy,
-}
-
+/// How the tracer binds the slots.
 impl Slot {
-    pub const ALL: [Slot; 18] = [
-        Slot::BaseColor,
-        Slot::MetallicRoughness,
-        Slot::Normal,
-        Slot::Occlusion,
-        Slot::Emissive,
-        Slot::Transmission,
-        Slot::Specular,
-        Slot::SpecularColor,
-        Slot::Clearcoat,
-        Slot::ClearcoatRoughness,
-        Slot::ClearcoatNormal,
-        Slot::SheenColor,
-        Slot::SheenRoughness,
-        Slot::DiffuseTransmission,
-        Slot::DiffuseTransmissionColor,
-        Slot::Iridescence,
-        Slot::IridescenceThickness,
-        Slot::Anisotropy,
-    ];
     /// The slots a path tracer shades with: all but occlusion.
-    pub const SHADED: [Slot; 17] = {
-        let mut shaded = [Slot::BaseColor; 17];
+    pub const SHADED: [Slot; Slot::COUNT - 1] = {
+        let mut shaded = [Slot::BaseColor; Slot::COUNT - 1];
         let (mut i, mut j) = (0, 0);
         while i < Slot::ALL.len() {
             if !matches!(Slot::ALL[i], Slot::Occlusion) {
@@ -250,69 +196,6 @@ impl Slot {
         [Slot::DiffuseTransmission, Slot::DiffuseTransmissionColor];
     pub const IRIDESCENCE: [Slot; 2] = [Slot::Iridescence, Slot::IridescenceThickness];
     pub const ANISOTROPY: [Slot; 1] = [Slot::Anisotropy];
-
-    /// The glTF property name, for messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Slot::BaseColor => "baseColorTexture",
-            Slot::MetallicRoughness => "metallicRoughnessTexture",
-            Slot::Normal => "normalTexture",
-            Slot::Occlusion => "occlusionTexture",
-            Slot::Emissive => "emissiveTexture",
-            Slot::Transmission => "KHR_materials_transmission transmissionTexture",
-            Slot::Specular => "KHR_materials_specular specularTexture",
-            Slot::SpecularColor => "KHR_materials_specular specularColorTexture",
-            Slot::Clearcoat => "KHR_materials_clearcoat clearcoatTexture",
-            Slot::ClearcoatRoughness => "KHR_materials_clearcoat clearcoatRoughnessTexture",
-            Slot::ClearcoatNormal => "KHR_materials_clearcoat clearcoatNormalTexture",
-            Slot::SheenColor => "KHR_materials_sheen sheenColorTexture",
-            Slot::SheenRoughness => "KHR_materials_sheen sheenRoughnessTexture",
-            Slot::DiffuseTransmission => {
-                "KHR_materials_diffuse_transmission diffuseTransmissionTexture"
-            }
-            Slot::DiffuseTransmissionColor => {
-                "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture"
-            }
-            Slot::Iridescence => "KHR_materials_iridescence iridescenceTexture",
-            Slot::IridescenceThickness => "KHR_materials_iridescence iridescenceThicknessTexture",
-            Slot::Anisotropy => "KHR_materials_anisotropy anisotropyTexture",
-        }
-    }
-
-    /// Whether the glTF specification says the slot's RGB is sRGB-encoded.
-    pub fn is_srgb(self) -> bool {
-        matches!(
-            self,
-            Slot::BaseColor
-                | Slot::Emissive
-                | Slot::SpecularColor
-                | Slot::SheenColor
-                | Slot::DiffuseTransmissionColor
-        )
-    }
-
-    pub fn of(self, m: &Material) -> Option<&TextureRef> {
-        match self {
-            Slot::BaseColor => m.base_color_texture.as_ref(),
-            Slot::MetallicRoughness => m.metallic_roughness_texture.as_ref(),
-            Slot::Normal => m.normal_texture.as_ref(),
-            Slot::Occlusion => m.occlusion_texture.as_ref(),
-            Slot::Emissive => m.emissive_texture.as_ref(),
-            Slot::Transmission => m.transmission_texture.as_ref(),
-            Slot::Specular => m.specular_texture.as_ref(),
-            Slot::SpecularColor => m.specular_color_texture.as_ref(),
-            Slot::Clearcoat => m.clearcoat_texture.as_ref(),
-            Slot::ClearcoatRoughness => m.clearcoat_roughness_texture.as_ref(),
-            Slot::ClearcoatNormal => m.clearcoat_normal_texture.as_ref(),
-            Slot::SheenColor => m.sheen_color_texture.as_ref(),
-            Slot::SheenRoughness => m.sheen_roughness_texture.as_ref(),
-            Slot::DiffuseTransmission => m.diffuse_transmission_texture.as_ref(),
-            Slot::DiffuseTransmissionColor => m.diffuse_transmission_color_texture.as_ref(),
-            Slot::Iridescence => m.iridescence_texture.as_ref(),
-            Slot::IridescenceThickness => m.iridescence_thickness_texture.as_ref(),
-            Slot::Anisotropy => m.anisotropy_texture.as_ref(),
-        }
-    }
 }
 
 /// Why textures could not be prepared or uploaded.

@@ -5,6 +5,8 @@ use serde_json::{Map, Value};
 
 use super::{array, as_u32, describe, fail, items, object, uint, Check};
 use crate::scene::error::Result;
+use crate::scene::material_load::SPECULAR_GLOSSINESS_TEXTURES;
+use crate::scene::material_params::Slot;
 
 pub(super) fn check_scenes(c: &Check, root: &Map<String, Value>) -> Result<()> {
     let file = c.file;
@@ -87,30 +89,17 @@ pub(super) fn check_textures(c: &Check, root: &Map<String, Value>) -> Result<()>
 pub(super) fn check_materials(c: &Check, root: &Map<String, Value>) -> Result<()> {
     let file = c.file;
     for (i, m) in items(file, root, "materials")?.iter().enumerate() {
-        let pbr = m.get("pbrMetallicRoughness").and_then(Value::as_object);
-        let mut slots: Vec<(String, Option<&Value>)> = vec![
-            (
-                "pbrMetallicRoughness.baseColorTexture".to_owned(),
-                pbr.and_then(|p| p.get("baseColorTexture")),
-            ),
-            (
-                "pbrMetallicRoughness.metallicRoughnessTexture".to_owned(),
-                pbr.and_then(|p| p.get("metallicRoughnessTexture")),
-            ),
-            ("normalTexture".to_owned(), m.get("normalTexture")),
-            ("occlusionTexture".to_owned(), m.get("occlusionTexture")),
-            ("emissiveTexture".to_owned(), m.get("emissiveTexture")),
-        ];
-        slots.extend(
-            crate::scene::material_load::EXTENSION_TEXTURES
-                .iter()
-                .map(|&(ext, key)| {
-                    (
-                        format!("extensions.{ext}.{key}"),
-                        extension_texture_info(m, ext, key),
-                    )
-                }),
-        );
+        // Every texture soupray reads, and those spec-gloss converts.
+        let at_path = |path: &str| {
+            let mut keys = path.split('/');
+            let first = m.get(keys.next()?)?;
+            keys.try_fold(first, |v, key| v.get(key))
+        };
+        let slots = Slot::ALL
+            .iter()
+            .map(|s| s.path())
+            .chain(SPECULAR_GLOSSINESS_TEXTURES.iter().copied())
+            .map(|path| (path.replace('/', "."), at_path(path)));
         for (slot, info) in slots {
             let Some(info) = info else { continue };
             let at = || format!("material {i} {slot}");
@@ -144,15 +133,6 @@ pub(super) fn check_materials(c: &Check, root: &Map<String, Value>) -> Result<()
     }
 
     Ok(())
-}
-
-/// A material extension's texture info object (`materials[i].extensions.EXT.KEY`).
-fn extension_texture_info<'j>(
-    material: &'j serde_json::Map<String, Value>,
-    ext: &str,
-    key: &str,
-) -> Option<&'j Value> {
-    material.get("extensions")?.get(ext)?.get(key)
 }
 
 /// Meshes: each has primitives, whose attributes, indices, material and
