@@ -80,7 +80,7 @@ pub trait DeviceStruct {
 /// One shared constant, defined by [`device_consts!`].
 #[derive(Clone, Debug)]
 pub struct ConstDef {
-    pub name: &'static str,
+    pub name: std::borrow::Cow<'static, str>,
     pub value: u32,
     pub doc: Vec<&'static str>,
 }
@@ -183,7 +183,7 @@ macro_rules! device_consts {
         /// The constants above, for the generated kernel header.
         pub fn $list() -> Vec<$crate::device_struct::ConstDef> {
             vec![$($crate::device_struct::ConstDef {
-                name: stringify!($name),
+                name: stringify!($name).into(),
                 value: $name,
                 doc: vec![$($doc),*],
             }),*]

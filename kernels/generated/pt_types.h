@@ -28,6 +28,20 @@
 // `--backface-culling`: rays pass through the material's back faces, as a
 // rasterizer culls them (set on single-sided materials only).
 #define MAT_CULL_BACK 32u
+// Indices into `PtMaterialExt.tex`, one per `Slot::EXT` (src/scene/material_params.rs).
+#define TEX_TRANSMISSION 0u
+#define TEX_SPECULAR 1u
+#define TEX_SPECULAR_COLOR 2u
+#define TEX_CLEARCOAT 3u
+#define TEX_CLEARCOAT_ROUGHNESS 4u
+#define TEX_CLEARCOAT_NORMAL 5u
+#define TEX_SHEEN_COLOR 6u
+#define TEX_SHEEN_ROUGHNESS 7u
+#define TEX_DIFFUSE_TRANSMISSION 8u
+#define TEX_DIFFUSE_TRANSMISSION_COLOR 9u
+#define TEX_IRIDESCENCE 10u
+#define TEX_IRIDESCENCE_THICKNESS 11u
+#define TEX_ANISOTROPY 12u
 // `PtLight.kind`: a KHR_lights_punctual point light.
 #define LIGHT_POINT 0u
 #define LIGHT_SPOT 1u
@@ -139,7 +153,7 @@ typedef struct {
 // A material's extension factors (dielectric, coats, sheen, diffuse
 // transmission, iridescence, anisotropy, dispersion), in a table beside
 // the materials that only kernels built with `HAS_MATERIAL_EXT` read.
-// `DeviceMaterialExt` in src/trace/material/mod.rs (192 bytes).
+// `DeviceMaterialExt` in src/trace/material/mod.rs (184 bytes).
 typedef struct {
     // KHR_materials_transmission `transmissionFactor`.
     float transmission;
@@ -155,37 +169,18 @@ typedef struct {
     float sigma[4];
     // KHR_materials_specular `specularColorFactor` (rgb, 0).
     float specular_color[4];
-    // Texture binding indices (-1: none) of `transmissionTexture` (R),
-    // `specularTexture` (A) and `specularColorTexture` (RGB, sRGB).
-    int transmission_tex;
-    int specular_tex;
-    int specular_color_tex;
     // KHR_materials_clearcoat `clearcoatFactor`.
     float clearcoat;
     // KHR_materials_clearcoat `clearcoatRoughnessFactor`.
     float clearcoat_roughness;
     // KHR_materials_sheen `sheenRoughnessFactor`.
     float sheen_roughness;
-    // Texture binding indices (-1: none) of `clearcoatTexture` (R) and
-    // `clearcoatRoughnessTexture` (G).
-    int clearcoat_tex;
-    int clearcoat_roughness_tex;
     // KHR_materials_sheen `sheenColorFactor` (rgb, 0).
     float sheen_color[4];
-    // Texture binding indices (-1: none) of `sheenColorTexture` (RGB,
-    // sRGB), `sheenRoughnessTexture` (A) and `clearcoatNormalTexture`.
-    int sheen_color_tex;
-    int sheen_roughness_tex;
-    int clearcoat_normal_tex;
     // `clearcoatNormalTexture.scale`.
     float clearcoat_normal_scale;
     // KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
     float diffuse_transmission;
-    // Texture binding indices (-1: none) of `diffuseTransmissionTexture`
-    // (A) and `diffuseTransmissionColorTexture` (RGB, sRGB).
-    int diffuse_transmission_tex;
-    int diffuse_transmission_color_tex;
-    float pad;
     // KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
     // (rgb, 0).
     float diffuse_transmission_color[4];
@@ -195,22 +190,18 @@ typedef struct {
     float iridescence_ior;
     float iridescence_thickness_min;
     float iridescence_thickness_max;
-    // Texture binding indices (-1: none) of `iridescenceTexture` (R) and
-    // `iridescenceThicknessTexture` (G).
-    int iridescence_tex;
-    int iridescence_thickness_tex;
     // KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
     // sine of `anisotropyRotation` (counter-clockwise from the tangent),
     // taken here once rather than at every hit.
     float anisotropy_strength;
     float anisotropy_cos;
     float anisotropy_sin;
-    // Texture binding index (-1: none) of `anisotropyTexture` (RG: the
-    // direction in tangent space, B: the strength).
-    int anisotropy_tex;
     // KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
     float dispersion;
-    float pad2;
+    // Texture binding indices (-1: none) of the extensions' textures, in
+    // `Slot::EXT` order; the kernels index it with the generated
+    // `TEX_<SLOT>` defines.
+    int tex[13];
 } PtMaterialExt;
 
 // One punctual light.

@@ -630,11 +630,11 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     float coat_roughness = mx.clearcoat_roughness;
     float3 nc = sf.n_unmapped;
 #ifdef HAS_TEXTURES
-    if (mx.clearcoat_tex >= 0) clearcoat *= pt_texture(mx.clearcoat_tex, sf.at TEX_PASS).x;
-    if (mx.clearcoat_roughness_tex >= 0)
-        coat_roughness *= pt_texture(mx.clearcoat_roughness_tex, sf.at TEX_PASS).y;
-    if (layered && mx.clearcoat_normal_tex >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
-        nc = pt_normal_map(s, mx.clearcoat_normal_tex, mx.clearcoat_normal_scale, sf.prim,
+    if (mx.tex[TEX_CLEARCOAT] >= 0) clearcoat *= pt_texture(mx.tex[TEX_CLEARCOAT], sf.at TEX_PASS).x;
+    if (mx.tex[TEX_CLEARCOAT_ROUGHNESS] >= 0)
+        coat_roughness *= pt_texture(mx.tex[TEX_CLEARCOAT_ROUGHNESS], sf.at TEX_PASS).y;
+    if (layered && mx.tex[TEX_CLEARCOAT_NORMAL] >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
+        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], mx.clearcoat_normal_scale, sf.prim,
                            sf.front ? nc : -nc, sf.front, sf.at TEX_PASS);
         nc = pt_facing(nc, wo_w, sf.ng);
     }
@@ -649,9 +649,9 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     float3 sheen_color = (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2]);
     float sheen_roughness = mx.sheen_roughness;
 #ifdef HAS_TEXTURES
-    if (mx.sheen_color_tex >= 0) sheen_color *= pt_texture(mx.sheen_color_tex, sf.at TEX_PASS).xyz;
-    if (mx.sheen_roughness_tex >= 0)
-        sheen_roughness *= pt_texture(mx.sheen_roughness_tex, sf.at TEX_PASS).w;
+    if (mx.tex[TEX_SHEEN_COLOR] >= 0) sheen_color *= pt_texture(mx.tex[TEX_SHEEN_COLOR], sf.at TEX_PASS).xyz;
+    if (mx.tex[TEX_SHEEN_ROUGHNESS] >= 0)
+        sheen_roughness *= pt_texture(mx.tex[TEX_SHEEN_ROUGHNESS], sf.at TEX_PASS).w;
 #endif
     bp->sheen_color = layered ? sheen_color : (float3)(0.0f);
     bp->sheen_roughness = sheen_roughness;
@@ -701,22 +701,22 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #ifdef HAS_TEXTURES
     // The extensions' textures scale their factors: transmission by R,
     // specular by A, the specular colour by RGB (sRGB-decoded).
-    if (mx.transmission_tex >= 0) transmission *= pt_texture(mx.transmission_tex, at TEX_PASS).x;
-    if (mx.specular_tex >= 0) specular *= pt_texture(mx.specular_tex, at TEX_PASS).w;
-    if (mx.specular_color_tex >= 0)
-        specular_color *= pt_texture(mx.specular_color_tex, at TEX_PASS).xyz;
+    if (mx.tex[TEX_TRANSMISSION] >= 0) transmission *= pt_texture(mx.tex[TEX_TRANSMISSION], at TEX_PASS).x;
+    if (mx.tex[TEX_SPECULAR] >= 0) specular *= pt_texture(mx.tex[TEX_SPECULAR], at TEX_PASS).w;
+    if (mx.tex[TEX_SPECULAR_COLOR] >= 0)
+        specular_color *= pt_texture(mx.tex[TEX_SPECULAR_COLOR], at TEX_PASS).xyz;
 #ifdef HAS_DIFFUSE_TRANSMISSION
     // Diffuse transmission by A, its colour by RGB (sRGB-decoded).
-    if (mx.diffuse_transmission_tex >= 0)
-        diffuse_transmission *= pt_texture(mx.diffuse_transmission_tex, at TEX_PASS).w;
-    if (mx.diffuse_transmission_color_tex >= 0)
-        diffuse_transmission_color *= pt_texture(mx.diffuse_transmission_color_tex, at TEX_PASS).xyz;
+    if (mx.tex[TEX_DIFFUSE_TRANSMISSION] >= 0)
+        diffuse_transmission *= pt_texture(mx.tex[TEX_DIFFUSE_TRANSMISSION], at TEX_PASS).w;
+    if (mx.tex[TEX_DIFFUSE_TRANSMISSION_COLOR] >= 0)
+        diffuse_transmission_color *= pt_texture(mx.tex[TEX_DIFFUSE_TRANSMISSION_COLOR], at TEX_PASS).xyz;
 #endif
 #ifdef HAS_IRIDESCENCE
     // Iridescence by R; the thickness between its minimum and maximum by G.
-    if (mx.iridescence_tex >= 0) iridescence *= pt_texture(mx.iridescence_tex, at TEX_PASS).x;
-    if (mx.iridescence_thickness_tex >= 0) {
-        float g = pt_texture(mx.iridescence_thickness_tex, at TEX_PASS).y;
+    if (mx.tex[TEX_IRIDESCENCE] >= 0) iridescence *= pt_texture(mx.tex[TEX_IRIDESCENCE], at TEX_PASS).x;
+    if (mx.tex[TEX_IRIDESCENCE_THICKNESS] >= 0) {
+        float g = pt_texture(mx.tex[TEX_IRIDESCENCE_THICKNESS], at TEX_PASS).y;
         thickness = mx.iridescence_thickness_min +
                     (mx.iridescence_thickness_max - mx.iridescence_thickness_min) * g;
     }
@@ -747,8 +747,8 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     float strength = mx.anisotropy_strength;
     float2 dir = (float2)(1.0f, 0.0f);
 #ifdef HAS_TEXTURES
-    if (mx.anisotropy_tex >= 0) {
-        float4 a = pt_texture(mx.anisotropy_tex, at TEX_PASS);
+    if (mx.tex[TEX_ANISOTROPY] >= 0) {
+        float4 a = pt_texture(mx.tex[TEX_ANISOTROPY], at TEX_PASS);
         dir = (float2)(a.x * 2.0f - 1.0f, a.y * 2.0f - 1.0f);
         strength *= a.z;
         if (!(dot(dir, dir) > 0.0f)) strength = 0.0f;

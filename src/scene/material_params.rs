@@ -9,9 +9,12 @@ use super::material::{Material, TextureRef};
 
 /// Declares [`Slot`] from one row per texture use: the variant, the
 /// `Material` field, the path below `/materials/N/` in the file, the name
-/// messages give it, and whether its RGB is sRGB-encoded.
+/// messages give it, whether its RGB is sRGB-encoded, and for an
+/// extension's texture the kernel define under which it is read.
 macro_rules! texture_slots {
-    ($($(#[$doc:meta])* $variant:ident: $field:ident at $path:literal as $name:literal, $srgb:literal;)*) => {
+    (@feature) => { None };
+    (@feature $feature:literal) => { Some($feature) };
+    ($($(#[$doc:meta])* $variant:ident: $field:ident at $path:literal as $name:literal, $srgb:literal $(, $feature:literal)?;)*) => {
         /// A texture use of a material.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum Slot {
@@ -43,6 +46,15 @@ macro_rules! texture_slots {
             pub fn is_srgb(self) -> bool {
                 match self {
                     $(Slot::$variant => $srgb,)*
+                }
+            }
+
+            /// The kernel define that compiles the code reading an
+            /// extension's texture (`PtMaterialExt.tex`); `None` for the
+            /// core textures (`PtMaterial`).
+            pub const fn feature(self) -> Option<&'static str> {
+                match self {
+                    $(Slot::$variant => texture_slots!(@feature $($feature)?),)*
                 }
             }
 
@@ -79,55 +91,55 @@ texture_slots! {
     /// R scales the transmission factor.
     Transmission: transmission_texture
         at "extensions/KHR_materials_transmission/transmissionTexture"
-        as "KHR_materials_transmission transmissionTexture", false;
+        as "KHR_materials_transmission transmissionTexture", false, "HAS_TRANSMISSION";
     /// A scales the specular factor.
     Specular: specular_texture
         at "extensions/KHR_materials_specular/specularTexture"
-        as "KHR_materials_specular specularTexture", false;
+        as "KHR_materials_specular specularTexture", false, "HAS_TRANSMISSION";
     /// RGB scales the specular colour.
     SpecularColor: specular_color_texture
         at "extensions/KHR_materials_specular/specularColorTexture"
-        as "KHR_materials_specular specularColorTexture", true;
+        as "KHR_materials_specular specularColorTexture", true, "HAS_TRANSMISSION";
     /// R scales the clear coat factor.
     Clearcoat: clearcoat_texture
         at "extensions/KHR_materials_clearcoat/clearcoatTexture"
-        as "KHR_materials_clearcoat clearcoatTexture", false;
+        as "KHR_materials_clearcoat clearcoatTexture", false, "HAS_CLEARCOAT";
     /// G scales the clear coat's roughness.
     ClearcoatRoughness: clearcoat_roughness_texture
         at "extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture"
-        as "KHR_materials_clearcoat clearcoatRoughnessTexture", false;
+        as "KHR_materials_clearcoat clearcoatRoughnessTexture", false, "HAS_CLEARCOAT";
     /// The coat's own normal map.
     ClearcoatNormal: clearcoat_normal_texture
         at "extensions/KHR_materials_clearcoat/clearcoatNormalTexture"
-        as "KHR_materials_clearcoat clearcoatNormalTexture", false;
+        as "KHR_materials_clearcoat clearcoatNormalTexture", false, "HAS_CLEARCOAT";
     /// RGB scales the sheen colour.
     SheenColor: sheen_color_texture
         at "extensions/KHR_materials_sheen/sheenColorTexture"
-        as "KHR_materials_sheen sheenColorTexture", true;
+        as "KHR_materials_sheen sheenColorTexture", true, "HAS_SHEEN";
     /// A scales the sheen roughness.
     SheenRoughness: sheen_roughness_texture
         at "extensions/KHR_materials_sheen/sheenRoughnessTexture"
-        as "KHR_materials_sheen sheenRoughnessTexture", false;
+        as "KHR_materials_sheen sheenRoughnessTexture", false, "HAS_SHEEN";
     /// A scales the diffuse transmission factor.
     DiffuseTransmission: diffuse_transmission_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionTexture"
-        as "KHR_materials_diffuse_transmission diffuseTransmissionTexture", false;
+        as "KHR_materials_diffuse_transmission diffuseTransmissionTexture", false, "HAS_DIFFUSE_TRANSMISSION";
     /// RGB scales the diffuse transmission colour.
     DiffuseTransmissionColor: diffuse_transmission_color_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorTexture"
-        as "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture", true;
+        as "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture", true, "HAS_DIFFUSE_TRANSMISSION";
     /// R scales the iridescence factor.
     Iridescence: iridescence_texture
         at "extensions/KHR_materials_iridescence/iridescenceTexture"
-        as "KHR_materials_iridescence iridescenceTexture", false;
+        as "KHR_materials_iridescence iridescenceTexture", false, "HAS_IRIDESCENCE";
     /// G picks the film's thickness between its minimum and maximum.
     IridescenceThickness: iridescence_thickness_texture
         at "extensions/KHR_materials_iridescence/iridescenceThicknessTexture"
-        as "KHR_materials_iridescence iridescenceThicknessTexture", false;
+        as "KHR_materials_iridescence iridescenceThicknessTexture", false, "HAS_IRIDESCENCE";
     /// RG: the direction in tangent space; B scales the strength.
     Anisotropy: anisotropy_texture
         at "extensions/KHR_materials_anisotropy/anisotropyTexture"
-        as "KHR_materials_anisotropy anisotropyTexture", false;
+        as "KHR_materials_anisotropy anisotropyTexture", false, "HAS_ANISOTROPY";
 }
 
 impl Slot {

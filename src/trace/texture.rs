@@ -164,38 +164,39 @@ impl Slot {
         Slot::Normal,
         Slot::Emissive,
     ];
-    /// The slots of `PtMaterialExt` (thirteen bindings per material, after
-    /// every material's four), in binding order: the dielectric ones, read
-    /// by `HAS_TRANSMISSION` kernels, the clear coat's (`HAS_CLEARCOAT`),
-    /// the sheen's (`HAS_SHEEN`), diffuse transmission's
-    /// (`HAS_DIFFUSE_TRANSMISSION`), the thin film's (`HAS_IRIDESCENCE`) and
-    /// the anisotropy's (`HAS_ANISOTROPY`).
-    pub const EXT: [Slot; 13] = [
-        Slot::Transmission,
-        Slot::Specular,
-        Slot::SpecularColor,
-        Slot::Clearcoat,
-        Slot::ClearcoatRoughness,
-        Slot::ClearcoatNormal,
-        Slot::SheenColor,
-        Slot::SheenRoughness,
-        Slot::DiffuseTransmission,
-        Slot::DiffuseTransmissionColor,
-        Slot::Iridescence,
-        Slot::IridescenceThickness,
-        Slot::Anisotropy,
-    ];
-    pub const DIELECTRIC: [Slot; 3] = [Slot::Transmission, Slot::Specular, Slot::SpecularColor];
-    pub const CLEARCOAT: [Slot; 3] = [
-        Slot::Clearcoat,
-        Slot::ClearcoatRoughness,
-        Slot::ClearcoatNormal,
-    ];
-    pub const SHEEN: [Slot; 2] = [Slot::SheenColor, Slot::SheenRoughness];
-    pub const DIFFUSE_TRANSMISSION: [Slot; 2] =
-        [Slot::DiffuseTransmission, Slot::DiffuseTransmissionColor];
-    pub const IRIDESCENCE: [Slot; 2] = [Slot::Iridescence, Slot::IridescenceThickness];
-    pub const ANISOTROPY: [Slot; 1] = [Slot::Anisotropy];
+    /// How many slots `PtMaterialExt` binds: the extensions' textures.
+    pub const EXT_COUNT: usize = {
+        let (mut i, mut n) = (0, 0);
+        while i < Slot::ALL.len() {
+            if Slot::ALL[i].feature().is_some() {
+                n += 1;
+            }
+            i += 1;
+        }
+        n
+    };
+    /// The slots of `PtMaterialExt` (`tex`, after every material's four
+    /// bindings), in the table's order: every extension's texture, read by
+    /// the kernels compiled with its `feature`.
+    pub const EXT: [Slot; Slot::EXT_COUNT] = {
+        let mut ext = [Slot::BaseColor; Slot::EXT_COUNT];
+        let (mut i, mut j) = (0, 0);
+        while i < Slot::ALL.len() {
+            if Slot::ALL[i].feature().is_some() {
+                ext[j] = Slot::ALL[i];
+                j += 1;
+            }
+            i += 1;
+        }
+        ext
+    };
+
+    /// The extension slots the kernels compiled with `define` read.
+    pub fn read_under(define: &str) -> impl Iterator<Item = Slot> + '_ {
+        Slot::EXT
+            .into_iter()
+            .filter(move |s| s.feature() == Some(define))
+    }
 }
 
 /// Why textures could not be prepared or uploaded.

@@ -46,8 +46,10 @@ pub use dielectric::{
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::device_struct::ConstDef;
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::{AlphaMode, Material, MaterialTable};
+use crate::trace::texture::Slot;
 
 device_consts! {
     fn material_consts;
@@ -166,37 +168,18 @@ pub struct DeviceMaterialExt as "PtMaterialExt" {
     pub sigma: [f32; 4],
     /// KHR_materials_specular `specularColorFactor` (rgb, 0).
     pub specular_color: [f32; 4],
-    /// Texture binding indices (-1: none) of `transmissionTexture` (R),
-    /// `specularTexture` (A) and `specularColorTexture` (RGB, sRGB).
-    pub transmission_tex: i32,
-    pub specular_tex: i32,
-    pub specular_color_tex: i32,
     /// KHR_materials_clearcoat `clearcoatFactor`.
     pub clearcoat: f32,
     /// KHR_materials_clearcoat `clearcoatRoughnessFactor`.
     pub clearcoat_roughness: f32,
     /// KHR_materials_sheen `sheenRoughnessFactor`.
     pub sheen_roughness: f32,
-    /// Texture binding indices (-1: none) of `clearcoatTexture` (R) and
-    /// `clearcoatRoughnessTexture` (G).
-    pub clearcoat_tex: i32,
-    pub clearcoat_roughness_tex: i32,
     /// KHR_materials_sheen `sheenColorFactor` (rgb, 0).
     pub sheen_color: [f32; 4],
-    /// Texture binding indices (-1: none) of `sheenColorTexture` (RGB,
-    /// sRGB), `sheenRoughnessTexture` (A) and `clearcoatNormalTexture`.
-    pub sheen_color_tex: i32,
-    pub sheen_roughness_tex: i32,
-    pub clearcoat_normal_tex: i32,
     /// `clearcoatNormalTexture.scale`.
     pub clearcoat_normal_scale: f32,
     /// KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
     pub diffuse_transmission: f32,
-    /// Texture binding indices (-1: none) of `diffuseTransmissionTexture`
-    /// (A) and `diffuseTransmissionColorTexture` (RGB, sRGB).
-    pub diffuse_transmission_tex: i32,
-    pub diffuse_transmission_color_tex: i32,
-    pub pad: f32,
     /// KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
     /// (rgb, 0).
     pub diffuse_transmission_color: [f32; 4],
@@ -206,26 +189,46 @@ pub struct DeviceMaterialExt as "PtMaterialExt" {
     pub iridescence_ior: f32,
     pub iridescence_thickness_min: f32,
     pub iridescence_thickness_max: f32,
-    /// Texture binding indices (-1: none) of `iridescenceTexture` (R) and
-    /// `iridescenceThicknessTexture` (G).
-    pub iridescence_tex: i32,
-    pub iridescence_thickness_tex: i32,
     /// KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
     /// sine of `anisotropyRotation` (counter-clockwise from the tangent),
     /// taken here once rather than at every hit.
     pub anisotropy_strength: f32,
     pub anisotropy_cos: f32,
     pub anisotropy_sin: f32,
-    /// Texture binding index (-1: none) of `anisotropyTexture` (RG: the
-    /// direction in tangent space, B: the strength).
-    pub anisotropy_tex: i32,
     /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
     pub dispersion: f32,
-    pub pad2: f32,
+    /// Texture binding indices (-1: none) of the extensions' textures, in
+    /// `Slot::EXT` order; the kernels index it with the generated
+    /// `TEX_<SLOT>` defines.
+    pub tex: [i32; Slot::EXT_COUNT],
 }
 }
 
-const _: () = assert!(std::mem::size_of::<DeviceMaterialExt>() == 192);
+/// `TEX_<SLOT>`: each extension texture's index in `PtMaterialExt.tex`.
+pub fn ext_texture_consts() -> Vec<ConstDef> {
+    Slot::EXT
+        .iter()
+        .enumerate()
+        .map(|(i, slot)| {
+            let mut name = String::from("TEX");
+            for c in format!("{slot:?}").chars() {
+                if c.is_ascii_uppercase() {
+                    name.push('_');
+                }
+                name.push(c.to_ascii_uppercase());
+            }
+            ConstDef {
+                name: name.into(),
+                value: i as u32,
+                doc: if i == 0 {
+                    vec![" Indices into `PtMaterialExt.tex`, one per `Slot::EXT` (src/scene/material_params.rs)."]
+                } else {
+                    Vec::new()
+                },
+            }
+        })
+        .collect()
+}
 
 impl DeviceMaterialExt {
     pub fn from_material(m: &Material) -> DeviceMaterialExt {
@@ -252,23 +255,12 @@ impl DeviceMaterialExt {
                 m.specular_color[2],
                 0.0,
             ],
-            transmission_tex: -1,
-            specular_tex: -1,
-            specular_color_tex: -1,
             clearcoat: m.clearcoat_factor,
             clearcoat_roughness: m.clearcoat_roughness,
             sheen_roughness: m.sheen_roughness,
-            clearcoat_tex: -1,
-            clearcoat_roughness_tex: -1,
             sheen_color: [m.sheen_color[0], m.sheen_color[1], m.sheen_color[2], 0.0],
-            sheen_color_tex: -1,
-            sheen_roughness_tex: -1,
-            clearcoat_normal_tex: -1,
             clearcoat_normal_scale: m.clearcoat_normal_scale,
             diffuse_transmission: m.diffuse_transmission,
-            diffuse_transmission_tex: -1,
-            diffuse_transmission_color_tex: -1,
-            pad: 0.0,
             diffuse_transmission_color: [
                 m.diffuse_transmission_color[0],
                 m.diffuse_transmission_color[1],
@@ -279,14 +271,11 @@ impl DeviceMaterialExt {
             iridescence_ior: m.iridescence_ior,
             iridescence_thickness_min: m.iridescence_thickness_min,
             iridescence_thickness_max: m.iridescence_thickness_max,
-            iridescence_tex: -1,
-            iridescence_thickness_tex: -1,
             anisotropy_strength: m.anisotropy_strength,
             anisotropy_cos: m.anisotropy_rotation.cos(),
             anisotropy_sin: m.anisotropy_rotation.sin(),
-            anisotropy_tex: -1,
             dispersion: m.dispersion,
-            pad2: 0.0,
+            tex: [-1; Slot::EXT_COUNT],
         }
     }
 }

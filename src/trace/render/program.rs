@@ -11,7 +11,6 @@ use crate::device::Device;
 use crate::scene::{Material, MaterialTable};
 use crate::trace::sampling::Sampler;
 use crate::trace::settings::{Layering, RenderSettings, Traversal};
-use crate::trace::texture::Slot;
 use crate::trace::TraceError;
 
 pub(super) struct Kernels {
@@ -105,7 +104,7 @@ pub fn layering_defines(
 
 /// A lobe of the BSDF compiled into the path tracer only where some
 /// material has it: one row of [`LOBES`]. A new lobe is a new row; the
-/// host's defines, the texture slots it uploads, the frame log's features
+/// host's defines, the frame log's features
 /// and the portability test's variants all read this table.
 pub struct Lobe {
     /// The define `bsdf.h` tests.
@@ -114,8 +113,6 @@ pub struct Lobe {
     pub name: &'static str,
     /// Whether a material has it.
     pub used_by: fn(&Material) -> bool,
-    /// The texture slots only its code reads.
-    pub slots: &'static [Slot],
     /// Its code builds on the dielectric extensions: `bsdf.h` compiles
     /// `HAS_TRANSMISSION` with it, and a material that has it needs them.
     pub with_transmission: bool,
@@ -130,42 +127,36 @@ pub const LOBES: [Lobe; 6] = [
         define: "HAS_CLEARCOAT",
         name: "clearcoat",
         used_by: Material::has_clearcoat,
-        slots: &Slot::CLEARCOAT,
         with_transmission: false,
     },
     Lobe {
         define: "HAS_SHEEN",
         name: "sheen",
         used_by: Material::has_sheen,
-        slots: &Slot::SHEEN,
         with_transmission: false,
     },
     Lobe {
         define: "HAS_DIFFUSE_TRANSMISSION",
         name: "diffuse_transmission",
         used_by: Material::has_diffuse_transmission,
-        slots: &Slot::DIFFUSE_TRANSMISSION,
         with_transmission: true,
     },
     Lobe {
         define: "HAS_IRIDESCENCE",
         name: "iridescence",
         used_by: Material::has_iridescence,
-        slots: &Slot::IRIDESCENCE,
         with_transmission: true,
     },
     Lobe {
         define: "HAS_ANISOTROPY",
         name: "anisotropy",
         used_by: Material::has_anisotropy,
-        slots: &Slot::ANISOTROPY,
         with_transmission: true,
     },
     Lobe {
         define: "HAS_DISPERSION",
         name: "dispersion",
         used_by: Material::has_dispersion,
-        slots: &[],
         with_transmission: true,
     },
 ];

@@ -115,10 +115,10 @@ pub(super) fn host_materials(
 pub(super) fn texture_slots(transmission: bool, lobes: &Lobes) -> Vec<Slot> {
     let mut slots: Vec<Slot> = Slot::BASE.to_vec();
     if transmission {
-        slots.extend(Slot::DIELECTRIC);
+        slots.extend(Slot::read_under("HAS_TRANSMISSION"));
     }
     for lobe in lobes.iter() {
-        slots.extend(lobe.slots);
+        slots.extend(Slot::read_under(lobe.define));
     }
     slots
 }

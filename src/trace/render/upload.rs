@@ -109,19 +109,9 @@ pub(super) fn bind_textures(
         for (i, m) in materials.iter().enumerate() {
             let x = &mut exts[i];
             let at = 4 * n + Slot::EXT.len() * i;
-            x.transmission_tex = bind(m, Slot::Transmission, at);
-            x.specular_tex = bind(m, Slot::Specular, at + 1);
-            x.specular_color_tex = bind(m, Slot::SpecularColor, at + 2);
-            x.clearcoat_tex = bind(m, Slot::Clearcoat, at + 3);
-            x.clearcoat_roughness_tex = bind(m, Slot::ClearcoatRoughness, at + 4);
-            x.clearcoat_normal_tex = bind(m, Slot::ClearcoatNormal, at + 5);
-            x.sheen_color_tex = bind(m, Slot::SheenColor, at + 6);
-            x.sheen_roughness_tex = bind(m, Slot::SheenRoughness, at + 7);
-            x.diffuse_transmission_tex = bind(m, Slot::DiffuseTransmission, at + 8);
-            x.diffuse_transmission_color_tex = bind(m, Slot::DiffuseTransmissionColor, at + 9);
-            x.iridescence_tex = bind(m, Slot::Iridescence, at + 10);
-            x.iridescence_thickness_tex = bind(m, Slot::IridescenceThickness, at + 11);
-            x.anisotropy_tex = bind(m, Slot::Anisotropy, at + 12);
+            for (j, slot) in Slot::EXT.into_iter().enumerate() {
+                x.tex[j] = bind(m, slot, at + j);
+            }
         }
     }
     bindings
