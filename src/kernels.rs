@@ -111,7 +111,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
             consts: [
                 render::frame_consts(),
                 material::material_consts(),
-                material::ext_texture_consts(),
+                material::material_ext_consts(),
                 lights::light_consts(),
                 light_tree::light_tree_consts(),
                 crate::scene::compositing::compositing_consts(),

@@ -71,7 +71,10 @@ fn headers_carry_docs_and_vector_types() {
     let pt = headers.iter().find(|h| h.file == "pt_types.h").unwrap();
     let text = header_text(pt);
     assert!(text.contains(
-        "    // KHR_materials_sheen `sheenRoughnessFactor`.\n    float sheen_roughness;"
+        "    // 1 when transmissive with a volume (refraction, attenuation), 0\n    // thin-walled.\n    float volume;"
     ));
+    // The material table's defines: a factor's offset and a slot's index.
+    assert!(text.contains("#define F_SHEEN_ROUGHNESS "), "{text}");
+    assert!(text.contains("#define TEX_SHEEN_ROUGHNESS "), "{text}");
     assert!(text.contains("    float sigma[4];"));
 }

@@ -28,7 +28,23 @@
 // `--backface-culling`: rays pass through the material's back faces, as a
 // rasterizer culls them (set on single-sided materials only).
 #define MAT_CULL_BACK 32u
-// Indices into `PtMaterialExt.tex`, one per `Slot::EXT` (src/scene/material_params.rs).
+#define F_TRANSMISSION 0u
+#define F_IOR 1u
+#define F_SPECULAR 2u
+#define F_SPECULAR_COLOR 3u
+#define F_CLEARCOAT 6u
+#define F_CLEARCOAT_ROUGHNESS 7u
+#define F_CLEARCOAT_NORMAL_TEXTURE_SCALE 8u
+#define F_SHEEN_COLOR 9u
+#define F_SHEEN_ROUGHNESS 12u
+#define F_DIFFUSE_TRANSMISSION 13u
+#define F_DIFFUSE_TRANSMISSION_COLOR 14u
+#define F_IRIDESCENCE 17u
+#define F_IRIDESCENCE_IOR 18u
+#define F_IRIDESCENCE_THICKNESS_MINIMUM 19u
+#define F_IRIDESCENCE_THICKNESS_MAXIMUM 20u
+#define F_ANISOTROPY_STRENGTH 21u
+#define F_DISPERSION 22u
 #define TEX_TRANSMISSION 0u
 #define TEX_SPECULAR 1u
 #define TEX_SPECULAR_COLOR 2u
@@ -153,53 +169,26 @@ typedef struct {
 // A material's extension factors (dielectric, coats, sheen, diffuse
 // transmission, iridescence, anisotropy, dispersion), in a table beside
 // the materials that only kernels built with `HAS_MATERIAL_EXT` read.
-// `DeviceMaterialExt` in src/trace/material/mod.rs (184 bytes).
+// `DeviceMaterialExt` in src/trace/material/mod.rs (172 bytes).
 typedef struct {
-    // KHR_materials_transmission `transmissionFactor`.
-    float transmission;
-    // KHR_materials_ior `ior`.
-    float ior;
+    // The factors the kernels read as the file sets them: each row of
+    // `scene::material_params::FACTORS` marked `on_device`, in the table's
+    // order (a colour takes three floats). The kernels index it with the
+    // generated `F_<KEY>` defines.
+    float factor[23];
     // 1 when transmissive with a volume (refraction, attenuation), 0
     // thin-walled.
     float volume;
-    // KHR_materials_specular `specularFactor`.
-    float specular;
     // The volume's attenuation coefficient per unit length,
     // `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
     float sigma[4];
-    // KHR_materials_specular `specularColorFactor` (rgb, 0).
-    float specular_color[4];
-    // KHR_materials_clearcoat `clearcoatFactor`.
-    float clearcoat;
-    // KHR_materials_clearcoat `clearcoatRoughnessFactor`.
-    float clearcoat_roughness;
-    // KHR_materials_sheen `sheenRoughnessFactor`.
-    float sheen_roughness;
-    // KHR_materials_sheen `sheenColorFactor` (rgb, 0).
-    float sheen_color[4];
-    // `clearcoatNormalTexture.scale`.
-    float clearcoat_normal_scale;
-    // KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
-    float diffuse_transmission;
-    // KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
-    // (rgb, 0).
-    float diffuse_transmission_color[4];
-    // KHR_materials_iridescence `iridescenceFactor`, `iridescenceIor`,
-    // `iridescenceThicknessMinimum` and `iridescenceThicknessMaximum` (nm).
-    float iridescence;
-    float iridescence_ior;
-    float iridescence_thickness_min;
-    float iridescence_thickness_max;
-    // KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
-    // sine of `anisotropyRotation` (counter-clockwise from the tangent),
-    // taken here once rather than at every hit.
-    float anisotropy_strength;
+    // The cosine and sine of KHR_materials_anisotropy's
+    // `anisotropyRotation` (counter-clockwise from the tangent), taken
+    // here once rather than at every hit.
     float anisotropy_cos;
     float anisotropy_sin;
-    // KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
-    float dispersion;
     // Texture binding indices (-1: none) of the extensions' textures, in
-    // `Slot::EXT` order; the kernels index it with the generated
+    // `Slot::EXT` order. The kernels index it with the generated
     // `TEX_<SLOT>` defines.
     int tex[13];
 } PtMaterialExt;

@@ -17,7 +17,7 @@ inline bool pt_maybe_clear(const PtScene* s, PtMaterial m, uint prim) {
         !(ggx_smooth(ggx_alpha(m.roughness)) || m.metallic_roughness_tex >= 0))
         return false;
     PtMaterialExt mx = pt_material_ext(s, prim);
-    return mx.volume == 0.0f && mx.transmission > 0.0f;
+    return mx.volume == 0.0f && mx.factor[F_TRANSMISSION] > 0.0f;
 }
 
 // The transmittance of the shadow segment org + t dir, t in (0, tmax),

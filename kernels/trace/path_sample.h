@@ -479,7 +479,7 @@ inline void pt_interface(PtScene* s, PtMaterialExt mx, uint mat, bool volume, Pt
     // times as strong (unbiased per channel), with that channel's indices
     // from here on. The light set's fourth number is unused by light
     // sampling.
-    if (*channel < 0 && volume && mx.dispersion > 0.0f && mx.transmission > 0.0f &&
+    if (*channel < 0 && volume && mx.factor[F_DISPERSION] > 0.0f && mx.factor[F_TRANSMISSION] > 0.0f &&
         (s->frame.flags & FRAME_CLAY) == 0u) {
         float u = rng_4d(rng, set_bounce(bounce, SET_LIGHT)).w;
         *channel = min((int)(u * 3.0f), 2);

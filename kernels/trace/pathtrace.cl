@@ -165,7 +165,7 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         // At the depth limit only thin glass's straight-through lobe may
         // go on (a null crossing, which the vertex before counted on).
         bool last = p.depth >= max_depth;
-        if (last && !(mx.volume == 0.0f && mx.transmission > 0.0f)) break;
+        if (last && !(mx.volume == 0.0f && mx.factor[F_TRANSMISSION] > 0.0f)) break;
 #else
         bool last = false;
         if (p.depth >= max_depth) break;

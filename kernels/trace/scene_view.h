@@ -245,7 +245,7 @@ inline PtMaterialExt pt_material_ext(const PtScene* s, uint prim) {
 inline float pt_medium_ior(const PtScene* s, uint medium, int channel) {
     if (medium == NO_MEDIUM) return 1.0f;
     PtMaterialExt mx = s->material_exts[medium];
-    return media_channel_ior(mx.ior, mx.dispersion, channel);
+    return media_channel_ior(mx.factor[F_IOR], mx.factor[F_DISPERSION], channel);
 }
 
 // A volume's attenuation coefficient (NO_MEDIUM: none).
@@ -626,15 +626,15 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
                             float3 t, float3 b, BsdfParams* bp TEX_DECL) {
     bool layered = (s->frame.flags & FRAME_CLAY) == 0u;
 #ifdef HAS_CLEARCOAT
-    float clearcoat = mx.clearcoat;
-    float coat_roughness = mx.clearcoat_roughness;
+    float clearcoat = mx.factor[F_CLEARCOAT];
+    float coat_roughness = mx.factor[F_CLEARCOAT_ROUGHNESS];
     float3 nc = sf.n_unmapped;
 #ifdef HAS_TEXTURES
     if (mx.tex[TEX_CLEARCOAT] >= 0) clearcoat *= pt_texture(mx.tex[TEX_CLEARCOAT], sf.at TEX_PASS).x;
     if (mx.tex[TEX_CLEARCOAT_ROUGHNESS] >= 0)
         coat_roughness *= pt_texture(mx.tex[TEX_CLEARCOAT_ROUGHNESS], sf.at TEX_PASS).y;
     if (layered && mx.tex[TEX_CLEARCOAT_NORMAL] >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
-        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], mx.clearcoat_normal_scale, sf.prim,
+        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], mx.factor[F_CLEARCOAT_NORMAL_TEXTURE_SCALE], sf.prim,
                            sf.front ? nc : -nc, sf.front, sf.at TEX_PASS);
         nc = pt_facing(nc, wo_w, sf.ng);
     }
@@ -646,8 +646,8 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
         bp->coat_n = normalize(to_local(nc, t, b, sf.ns));
 #endif
 #ifdef HAS_SHEEN
-    float3 sheen_color = (float3)(mx.sheen_color[0], mx.sheen_color[1], mx.sheen_color[2]);
-    float sheen_roughness = mx.sheen_roughness;
+    float3 sheen_color = (float3)(mx.factor[F_SHEEN_COLOR], mx.factor[F_SHEEN_COLOR + 1], mx.factor[F_SHEEN_COLOR + 2]);
+    float sheen_roughness = mx.factor[F_SHEEN_ROUGHNESS];
 #ifdef HAS_TEXTURES
     if (mx.tex[TEX_SHEEN_COLOR] >= 0) sheen_color *= pt_texture(mx.tex[TEX_SHEEN_COLOR], sf.at TEX_PASS).xyz;
     if (mx.tex[TEX_SHEEN_ROUGHNESS] >= 0)
@@ -663,7 +663,7 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
 // The dielectric extensions' parameters at a surface of extension `mx`
 // (`volume`: refracting, seen from its front or back) with index
 // `n_other` on the surface's other side (for thin-walled surfaces: the
-// volume they are in). F0 comes from the relative index mx.ior / n_other
+// volume they are in). F0 comes from the relative index ior / n_other
 // (symmetric in the two indices); against air both are what a lone surface
 // has. Rust twin: trace::material::Dielectric::nested.
 inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume, bool front,
@@ -684,19 +684,19 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
         return;
     }
     float3 specular_color =
-        (float3)(mx.specular_color[0], mx.specular_color[1], mx.specular_color[2]);
-    float specular = mx.specular;
-    float transmission = mx.transmission;
+        (float3)(mx.factor[F_SPECULAR_COLOR], mx.factor[F_SPECULAR_COLOR + 1], mx.factor[F_SPECULAR_COLOR + 2]);
+    float specular = mx.factor[F_SPECULAR];
+    float transmission = mx.factor[F_TRANSMISSION];
 #ifdef HAS_IRIDESCENCE
     // Without a thickness texture the film is the range's maximum thick.
-    float iridescence = mx.iridescence;
-    float thickness = mx.iridescence_thickness_max;
+    float iridescence = mx.factor[F_IRIDESCENCE];
+    float thickness = mx.factor[F_IRIDESCENCE_THICKNESS_MAXIMUM];
 #endif
 #ifdef HAS_DIFFUSE_TRANSMISSION
-    float diffuse_transmission = mx.diffuse_transmission;
+    float diffuse_transmission = mx.factor[F_DIFFUSE_TRANSMISSION];
     float3 diffuse_transmission_color =
-        (float3)(mx.diffuse_transmission_color[0], mx.diffuse_transmission_color[1],
-                 mx.diffuse_transmission_color[2]);
+        (float3)(mx.factor[F_DIFFUSE_TRANSMISSION_COLOR], mx.factor[F_DIFFUSE_TRANSMISSION_COLOR + 1],
+                 mx.factor[F_DIFFUSE_TRANSMISSION_COLOR + 2]);
 #endif
 #ifdef HAS_TEXTURES
     // The extensions' textures scale their factors: transmission by R,
@@ -717,13 +717,13 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     if (mx.tex[TEX_IRIDESCENCE] >= 0) iridescence *= pt_texture(mx.tex[TEX_IRIDESCENCE], at TEX_PASS).x;
     if (mx.tex[TEX_IRIDESCENCE_THICKNESS] >= 0) {
         float g = pt_texture(mx.tex[TEX_IRIDESCENCE_THICKNESS], at TEX_PASS).y;
-        thickness = mx.iridescence_thickness_min +
-                    (mx.iridescence_thickness_max - mx.iridescence_thickness_min) * g;
+        thickness = mx.factor[F_IRIDESCENCE_THICKNESS_MINIMUM] +
+                    (mx.factor[F_IRIDESCENCE_THICKNESS_MAXIMUM] - mx.factor[F_IRIDESCENCE_THICKNESS_MINIMUM]) * g;
     }
 #endif
 #endif
     // Dispersion is the volume's: a thin-walled surface keeps its index.
-    float ior = volume ? media_channel_ior(mx.ior, mx.dispersion, channel) : mx.ior;
+    float ior = volume ? media_channel_ior(mx.factor[F_IOR], mx.factor[F_DISPERSION], channel) : mx.factor[F_IOR];
     bp->f0 = media_f0(ior, n_other);
     bp->f0_color = fmin((float3)(bp->f0) * specular_color, (float3)(1.0f));
     bp->specular = specular;
@@ -736,7 +736,7 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #endif
 #ifdef HAS_IRIDESCENCE
     bp->iridescence = clamp(iridescence, 0.0f, 1.0f);
-    bp->iridescence_ior = mx.iridescence_ior;
+    bp->iridescence_ior = mx.factor[F_IRIDESCENCE_IOR];
     bp->iridescence_thickness = thickness;
 #endif
 #ifdef HAS_ANISOTROPY
@@ -744,7 +744,7 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
     // anisotropyTexture's RG mapped to -1..1 (its B scales the strength),
     // turned counter-clockwise by anisotropyRotation. A texel of no
     // direction (RG 0.5) leaves the lobe isotropic.
-    float strength = mx.anisotropy_strength;
+    float strength = mx.factor[F_ANISOTROPY_STRENGTH];
     float2 dir = (float2)(1.0f, 0.0f);
 #ifdef HAS_TEXTURES
     if (mx.tex[TEX_ANISOTROPY] >= 0) {

@@ -168,11 +168,15 @@ pub struct Factor {
     /// with a warning (NaN: the default). `None`: checked by hand in
     /// `ranges`, or unbounded.
     pub range: Option<(f32, f32)>,
+    /// Whether the kernels read it as it is, from `PtMaterialExt.factor`
+    /// (the core factors are in `PtMaterial`; the rest reach the device
+    /// derived, as the volume's attenuation coefficient).
+    pub on_device: bool,
 }
 
 impl Factor {
     /// Floats in the value.
-    pub fn width(&self) -> usize {
+    pub const fn width(&self) -> usize {
         match self.field {
             FactorField::Scalar(_) => 1,
             FactorField::Rgb(_) => 3,
@@ -218,119 +222,142 @@ pub const FACTORS: &[Factor] = &[
         path: "pbrMetallicRoughness/baseColorFactor",
         field: FactorField::Rgba(|m| &mut m.base_color_factor),
         range: UNIT,
+        on_device: false,
     },
     Factor {
         path: "pbrMetallicRoughness/metallicFactor",
         field: FactorField::Scalar(|m| &mut m.metallic_factor),
         range: UNIT,
+        on_device: false,
     },
     Factor {
         path: "pbrMetallicRoughness/roughnessFactor",
         field: FactorField::Scalar(|m| &mut m.roughness_factor),
         range: UNIT,
+        on_device: false,
     },
     Factor {
         path: "emissiveFactor",
         field: FactorField::Rgb(|m| &mut m.emissive_factor),
         range: UNIT,
+        on_device: false,
     },
     Factor {
         path: "alphaCutoff",
         field: FactorField::Scalar(|m| &mut m.alpha_cutoff),
         range: NON_NEGATIVE,
+        on_device: false,
     },
     // Any finite scale is allowed; `ranges` replaces an infinite one.
     Factor {
         path: "normalTexture/scale",
         field: FactorField::Scalar(|m| &mut m.normal_scale),
         range: None,
+        on_device: false,
     },
     Factor {
         path: "occlusionTexture/strength",
         field: FactorField::Scalar(|m| &mut m.occlusion_strength),
         range: UNIT,
+        on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_emissive_strength/emissiveStrength",
         field: FactorField::Scalar(|m| &mut m.emissive_strength),
         range: NON_NEGATIVE,
+        on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_transmission/transmissionFactor",
         field: FactorField::Scalar(|m| &mut m.transmission_factor),
         range: UNIT,
+        on_device: true,
     },
     // 1 or more, or 0 for an infinite index, which `ranges` maps first.
     Factor {
         path: "extensions/KHR_materials_ior/ior",
         field: FactorField::Scalar(|m| &mut m.ior),
         range: Some((1.0, f32::MAX)),
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_volume/thicknessFactor",
         field: FactorField::Scalar(|m| &mut m.thickness_factor),
         range: NON_NEGATIVE,
+        on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_volume/attenuationColor",
         field: FactorField::Rgb(|m| &mut m.attenuation_color),
         range: UNIT,
+        on_device: false,
     },
     // Above 0, or infinite: checked last in `ranges`.
     Factor {
         path: "extensions/KHR_materials_volume/attenuationDistance",
         field: FactorField::Scalar(|m| &mut m.attenuation_distance),
         range: None,
+        on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_specular/specularFactor",
         field: FactorField::Scalar(|m| &mut m.specular_factor),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_specular/specularColorFactor",
         field: FactorField::Rgb(|m| &mut m.specular_color),
         range: NON_NEGATIVE,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatFactor",
         field: FactorField::Scalar(|m| &mut m.clearcoat_factor),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatRoughnessFactor",
         field: FactorField::Scalar(|m| &mut m.clearcoat_roughness),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatNormalTexture/scale",
         field: FactorField::Scalar(|m| &mut m.clearcoat_normal_scale),
         range: None,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_sheen/sheenColorFactor",
         field: FactorField::Rgb(|m| &mut m.sheen_color),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_sheen/sheenRoughnessFactor",
         field: FactorField::Scalar(|m| &mut m.sheen_roughness),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionFactor",
         field: FactorField::Scalar(|m| &mut m.diffuse_transmission),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorFactor",
         field: FactorField::Rgb(|m| &mut m.diffuse_transmission_color),
         range: UNIT,
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceFactor",
         field: FactorField::Scalar(|m| &mut m.iridescence),
         range: UNIT,
+        on_device: true,
     },
     // Real films have indices of 1 to about 4; the bound keeps the film's
     // optical path (index times thickness) finite.
@@ -338,6 +365,7 @@ pub const FACTORS: &[Factor] = &[
         path: "extensions/KHR_materials_iridescence/iridescenceIor",
         field: FactorField::Scalar(|m| &mut m.iridescence_ior),
         range: Some((1.0, 100.0)),
+        on_device: true,
     },
     // Films are nanometres thick: anything above 100 µm is a mistake, and
     // the interference terms vanish long before.
@@ -345,16 +373,19 @@ pub const FACTORS: &[Factor] = &[
         path: "extensions/KHR_materials_iridescence/iridescenceThicknessMinimum",
         field: FactorField::Scalar(|m| &mut m.iridescence_thickness_min),
         range: Some((0.0, 1.0e5)),
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceThicknessMaximum",
         field: FactorField::Scalar(|m| &mut m.iridescence_thickness_max),
         range: Some((0.0, 1.0e5)),
+        on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_anisotropy/anisotropyStrength",
         field: FactorField::Scalar(|m| &mut m.anisotropy_strength),
         range: UNIT,
+        on_device: true,
     },
     // A turn is 2 pi; beyond 1e4 radians an f32 angle is coarser than a
     // thousandth of a radian, and an infinite one has no cosine.
@@ -362,6 +393,7 @@ pub const FACTORS: &[Factor] = &[
         path: "extensions/KHR_materials_anisotropy/anisotropyRotation",
         field: FactorField::Scalar(|m| &mut m.anisotropy_rotation),
         range: Some((-1.0e4, 1.0e4)),
+        on_device: false,
     },
     // 1 is an Abbe number of 20, about the lowest of real materials; the
     // extension allows more to exaggerate, and 20 (Abbe number 1) is far
@@ -370,8 +402,46 @@ pub const FACTORS: &[Factor] = &[
         path: "extensions/KHR_materials_dispersion/dispersion",
         field: FactorField::Scalar(|m| &mut m.dispersion),
         range: Some((0.0, 20.0)),
+        on_device: true,
     },
 ];
+
+/// Floats in `PtMaterialExt.factor`: the factors the kernels read as
+/// they are, in the table's order.
+pub const DEVICE_FACTOR_FLOATS: usize = {
+    let (mut i, mut n) = (0, 0);
+    while i < FACTORS.len() {
+        if FACTORS[i].on_device {
+            n += FACTORS[i].width();
+        }
+        i += 1;
+    }
+    n
+};
+
+/// The factors the kernels read, each with its first float's index in
+/// `PtMaterialExt.factor` and its define's name (`F_SHEEN_ROUGHNESS` for
+/// `sheenRoughnessFactor`).
+pub fn device_factors() -> impl Iterator<Item = (usize, String, &'static Factor)> {
+    FACTORS.iter().filter(|f| f.on_device).scan(0, |at, f| {
+        let first = *at;
+        *at += f.width();
+        let key = f.extension_key().map_or(f.path, |(_, key)| key);
+        let key = key.strip_suffix("Factor").unwrap_or(key);
+        let mut name = String::from("F_");
+        for c in key.chars() {
+            match c {
+                '/' => name.push('_'),
+                c if c.is_ascii_uppercase() => {
+                    name.push('_');
+                    name.push(c);
+                }
+                c => name.push(c.to_ascii_uppercase()),
+            }
+        }
+        Some((first, name, f))
+    })
+}
 
 #[cfg(test)]
 mod tests {

@@ -48,6 +48,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::device_struct::ConstDef;
 use crate::device_struct::{device_consts, device_struct};
+use crate::scene::material_params::{device_factors, DEVICE_FACTOR_FLOATS};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 use crate::trace::texture::Slot;
 
@@ -154,78 +155,50 @@ device_struct! {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct DeviceMaterialExt as "PtMaterialExt" {
-    /// KHR_materials_transmission `transmissionFactor`.
-    pub transmission: f32,
-    /// KHR_materials_ior `ior`.
-    pub ior: f32,
+    /// The factors the kernels read as the file sets them: each row of
+    /// `scene::material_params::FACTORS` marked `on_device`, in the table's
+    /// order (a colour takes three floats). The kernels index it with the
+    /// generated `F_<KEY>` defines.
+    pub factor: [f32; DEVICE_FACTOR_FLOATS],
     /// 1 when transmissive with a volume (refraction, attenuation), 0
     /// thin-walled.
     pub volume: f32,
-    /// KHR_materials_specular `specularFactor`.
-    pub specular: f32,
     /// The volume's attenuation coefficient per unit length,
     /// `-ln(attenuationColor) / attenuationDistance` (rgb, 0).
     pub sigma: [f32; 4],
-    /// KHR_materials_specular `specularColorFactor` (rgb, 0).
-    pub specular_color: [f32; 4],
-    /// KHR_materials_clearcoat `clearcoatFactor`.
-    pub clearcoat: f32,
-    /// KHR_materials_clearcoat `clearcoatRoughnessFactor`.
-    pub clearcoat_roughness: f32,
-    /// KHR_materials_sheen `sheenRoughnessFactor`.
-    pub sheen_roughness: f32,
-    /// KHR_materials_sheen `sheenColorFactor` (rgb, 0).
-    pub sheen_color: [f32; 4],
-    /// `clearcoatNormalTexture.scale`.
-    pub clearcoat_normal_scale: f32,
-    /// KHR_materials_diffuse_transmission `diffuseTransmissionFactor`.
-    pub diffuse_transmission: f32,
-    /// KHR_materials_diffuse_transmission `diffuseTransmissionColorFactor`
-    /// (rgb, 0).
-    pub diffuse_transmission_color: [f32; 4],
-    /// KHR_materials_iridescence `iridescenceFactor`, `iridescenceIor`,
-    /// `iridescenceThicknessMinimum` and `iridescenceThicknessMaximum` (nm).
-    pub iridescence: f32,
-    pub iridescence_ior: f32,
-    pub iridescence_thickness_min: f32,
-    pub iridescence_thickness_max: f32,
-    /// KHR_materials_anisotropy `anisotropyStrength`, and the cosine and
-    /// sine of `anisotropyRotation` (counter-clockwise from the tangent),
-    /// taken here once rather than at every hit.
-    pub anisotropy_strength: f32,
+    /// The cosine and sine of KHR_materials_anisotropy's
+    /// `anisotropyRotation` (counter-clockwise from the tangent), taken
+    /// here once rather than at every hit.
     pub anisotropy_cos: f32,
     pub anisotropy_sin: f32,
-    /// KHR_materials_dispersion `dispersion` (20 / Abbe number, 0: none).
-    pub dispersion: f32,
     /// Texture binding indices (-1: none) of the extensions' textures, in
-    /// `Slot::EXT` order; the kernels index it with the generated
+    /// `Slot::EXT` order. The kernels index it with the generated
     /// `TEX_<SLOT>` defines.
     pub tex: [i32; Slot::EXT_COUNT],
 }
 }
 
-/// `TEX_<SLOT>`: each extension texture's index in `PtMaterialExt.tex`.
-pub fn ext_texture_consts() -> Vec<ConstDef> {
-    Slot::EXT
-        .iter()
-        .enumerate()
-        .map(|(i, slot)| {
-            let mut name = String::from("TEX");
-            for c in format!("{slot:?}").chars() {
-                if c.is_ascii_uppercase() {
-                    name.push('_');
-                }
-                name.push(c.to_ascii_uppercase());
+/// `F_<KEY>`: where each factor the kernels read starts in
+/// `PtMaterialExt.factor`; `TEX_<SLOT>`: each extension texture's index in
+/// `PtMaterialExt.tex`.
+pub fn material_ext_consts() -> Vec<ConstDef> {
+    let factors = device_factors().map(|(at, name, _)| (name, at));
+    let textures = Slot::EXT.iter().enumerate().map(|(i, slot)| {
+        let mut name = String::from("TEX");
+        for c in format!("{slot:?}").chars() {
+            if c.is_ascii_uppercase() {
+                name.push('_');
             }
-            ConstDef {
-                name: name.into(),
-                value: i as u32,
-                doc: if i == 0 {
-                    vec![" Indices into `PtMaterialExt.tex`, one per `Slot::EXT` (src/scene/material_params.rs)."]
-                } else {
-                    Vec::new()
-                },
-            }
+            name.push(c.to_ascii_uppercase());
+        }
+        (name, i)
+    });
+    factors
+        .chain(textures)
+        .map(|(name, value)| ConstDef {
+            name: name.into(),
+            value: value as u32,
+            doc: Vec::new(),
         })
         .collect()
 }
@@ -243,38 +216,18 @@ impl DeviceMaterialExt {
             }
         };
         let a = m.attenuation_color;
+        let mut factor = [0.0; DEVICE_FACTOR_FLOATS];
+        let mut values = m.clone();
+        for (at, _, f) in device_factors() {
+            let v = f.components(&mut values);
+            factor[at..at + v.len()].copy_from_slice(v);
+        }
         DeviceMaterialExt {
-            transmission: m.transmission_factor,
-            ior: m.ior,
+            factor,
             volume: if m.has_volume() { 1.0 } else { 0.0 },
-            specular: m.specular_factor,
             sigma: [sigma(a[0]), sigma(a[1]), sigma(a[2]), 0.0],
-            specular_color: [
-                m.specular_color[0],
-                m.specular_color[1],
-                m.specular_color[2],
-                0.0,
-            ],
-            clearcoat: m.clearcoat_factor,
-            clearcoat_roughness: m.clearcoat_roughness,
-            sheen_roughness: m.sheen_roughness,
-            sheen_color: [m.sheen_color[0], m.sheen_color[1], m.sheen_color[2], 0.0],
-            clearcoat_normal_scale: m.clearcoat_normal_scale,
-            diffuse_transmission: m.diffuse_transmission,
-            diffuse_transmission_color: [
-                m.diffuse_transmission_color[0],
-                m.diffuse_transmission_color[1],
-                m.diffuse_transmission_color[2],
-                0.0,
-            ],
-            iridescence: m.iridescence,
-            iridescence_ior: m.iridescence_ior,
-            iridescence_thickness_min: m.iridescence_thickness_min,
-            iridescence_thickness_max: m.iridescence_thickness_max,
-            anisotropy_strength: m.anisotropy_strength,
             anisotropy_cos: m.anisotropy_rotation.cos(),
             anisotropy_sin: m.anisotropy_rotation.sin(),
-            dispersion: m.dispersion,
             tex: [-1; Slot::EXT_COUNT],
         }
     }
