@@ -172,7 +172,7 @@ typedef struct {
 // `DeviceMaterialExt` in src/trace/material/mod.rs (172 bytes).
 typedef struct {
     // The factors the kernels read as the file sets them: each row of
-    // `scene::material_params::FACTORS` marked `on_device`, in the table's
+    // `scene::material::FACTORS` marked `on_device`, in the table's
     // order (a colour takes three floats). The kernels index it with the
     // generated `F_<KEY>` defines.
     float factor[23];

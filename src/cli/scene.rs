@@ -408,12 +408,12 @@ fn describe_materials(o: &mut String, scene: &Scene) {
 
 /// The material extensions' parameters `m` departs from the defaults in,
 /// by extension, as `soupray render` reads them (`tex` formats a texture
-/// reference): every extension row of `scene::material_params`.
+/// reference): every extension row of `scene::material`.
 fn material_extensions(
     m: &crate::scene::Material,
     tex: &dyn Fn(&Option<crate::scene::TextureRef>) -> String,
 ) -> Vec<String> {
-    use crate::scene::material_params::{Slot, FACTORS};
+    use crate::scene::material::{Slot, FACTORS};
     let mut by_extension: Vec<(&str, Vec<String>)> = Vec::new();
     let mut add =
         |ext: &'static str, item: String| match by_extension.iter_mut().find(|(e, _)| *e == ext) {

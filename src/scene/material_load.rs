@@ -7,7 +7,6 @@ use std::sync::OnceLock;
 
 use super::error::{Result, SceneError};
 use super::material::*;
-use super::material_params::{Slot, FACTORS};
 use super::source::{decode_base64, resolve_uri, Source};
 
 /// KHR_materials_pbrSpecularGlossiness, converted to soupray's
@@ -475,7 +474,7 @@ fn load_material(src: &Source, i: usize, m: &gltf::Material) -> Material {
 }
 
 /// The extensions' factors and textures, each row of the tables in
-/// `material_params` the file sets (the core ones come through `gltf`).
+/// `material` the file sets (the core ones come through `gltf`).
 fn read_extensions(src: &Source, i: usize, material: &mut Material) {
     for factor in FACTORS.iter().filter(|f| f.extension_key().is_some()) {
         let Some(value) = material_json(src, i, factor.path) else {

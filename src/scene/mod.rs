@@ -23,7 +23,6 @@ pub mod light;
 mod load;
 pub mod material;
 pub(crate) mod material_load;
-pub mod material_params;
 pub mod mattes;
 pub mod mesh;
 mod meshopt_views;

@@ -20,8 +20,7 @@ use std::borrow::Cow;
 use super::animation::{ClipTargets, Interpolation, Property};
 use super::camera::Projection;
 use super::light::{LightDef, LightKind};
-use super::material::{Material, TextureTransform};
-use super::material_params::{Slot, FACTORS};
+use super::material::{Material, Slot, TextureTransform, FACTORS};
 use super::Scene;
 
 pub(crate) const EXTENSION: &str = "KHR_animation_pointer";

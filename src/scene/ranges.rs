@@ -11,7 +11,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 use super::camera::{CameraDef, Projection, DEFAULT_YFOV};
 use super::light::{LightDef, LightKind};
 use super::material::Material;
-use super::material_params::FACTORS;
+use super::material::FACTORS;
 
 fn label(kind: &str, index: usize, name: Option<&str>) -> String {
     match name {

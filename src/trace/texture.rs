@@ -27,7 +27,7 @@
 //! ("lower left quadrant, rotated clockwise 90°"; glTF issue #1563: the GLSL
 //! listing in the extension text rotates the other way).
 
-pub use crate::scene::material_params::Slot;
+pub use crate::scene::material::Slot;
 use std::cell::OnceCell;
 
 use bytemuck::{Pod, Zeroable};

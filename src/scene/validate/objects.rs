@@ -5,8 +5,8 @@ use serde_json::{Map, Value};
 
 use super::{array, as_u32, describe, fail, items, object, uint, Check};
 use crate::scene::error::Result;
+use crate::scene::material::Slot;
 use crate::scene::material_load::SPECULAR_GLOSSINESS_TEXTURES;
-use crate::scene::material_params::Slot;
 
 pub(super) fn check_scenes(c: &Check, root: &Map<String, Value>) -> Result<()> {
     let file = c.file;

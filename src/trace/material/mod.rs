@@ -48,7 +48,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::device_struct::ConstDef;
 use crate::device_struct::{device_consts, device_struct};
-use crate::scene::material_params::{device_factors, DEVICE_FACTOR_FLOATS};
+use crate::scene::material::{device_factors, DEVICE_FACTOR_FLOATS};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 use crate::trace::texture::Slot;
 
@@ -156,7 +156,7 @@ device_struct! {
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct DeviceMaterialExt as "PtMaterialExt" {
     /// The factors the kernels read as the file sets them: each row of
-    /// `scene::material_params::FACTORS` marked `on_device`, in the table's
+    /// `scene::material::FACTORS` marked `on_device`, in the table's
     /// order (a colour takes three floats). The kernels index it with the
     /// generated `F_<KEY>` defines.
     pub factor: [f32; DEVICE_FACTOR_FLOATS],
