@@ -346,6 +346,73 @@ fn read_glb(path: &Path) -> Result<(serde_json::Value, Vec<u8>), String> {
     Ok((json, bin))
 }
 
+fn shift(v: &mut serde_json::Value, by: u64) {
+    if let Some(i) = v.as_u64() {
+        *v = json!(i + by);
+    }
+}
+
+/// Moves `obj[key]` where it is present (indexing would insert a null).
+fn shift_key(obj: &mut serde_json::Value, key: &str, by: u64) {
+    if let Some(v) = obj.get_mut(key) {
+        shift(v, by);
+    }
+}
+
+/// A material holds indices only in its texture references.
+fn shift_texture_indices(v: &mut serde_json::Value, by: u64) {
+    use serde_json::Value;
+    match v {
+        Value::Object(map) => {
+            for (k, v) in map.iter_mut() {
+                match v.as_u64() {
+                    Some(i) if k == "index" => *v = json!(i + by),
+                    _ => shift_texture_indices(v, by),
+                }
+            }
+        }
+        Value::Array(list) => list.iter_mut().for_each(|v| shift_texture_indices(v, by)),
+        _ => {}
+    }
+}
+
+/// Moves a merged mesh primitive's accessor and material indices past the
+/// document's own; returns its triangles (`src_accessors`: the merged
+/// file's accessors, which hold the counts).
+fn merged_primitive(
+    p: &mut serde_json::Value,
+    src_accessors: &serde_json::Value,
+    accessors: u64,
+    materials: u64,
+) -> usize {
+    use serde_json::Value;
+    // Counted before the shift: the indices are the merged file's.
+    let counted = p.get("indices").unwrap_or(&p["attributes"]["POSITION"]);
+    let count = counted
+        .as_u64()
+        .and_then(|i| src_accessors[i as usize]["count"].as_u64());
+    for a in p["attributes"]
+        .as_object_mut()
+        .into_iter()
+        .flat_map(|a| a.values_mut())
+    {
+        shift(a, accessors);
+    }
+    for t in p
+        .get_mut("targets")
+        .and_then(Value::as_array_mut)
+        .into_iter()
+        .flatten()
+    {
+        for a in t.as_object_mut().into_iter().flat_map(|a| a.values_mut()) {
+            shift(a, accessors);
+        }
+    }
+    shift_key(p, "indices", accessors);
+    shift_key(p, "material", materials);
+    count.unwrap_or(0) as usize / 3
+}
+
 /// Merges the glTF document `src`, whose one buffer is the file `bin` (URI,
 /// bytes), into `doc` under a new node at `place` (translation, uniform
 /// scale): every index it holds is moved past `doc`'s own. Returns the
@@ -371,17 +438,6 @@ fn merge_gltf(
         "nodes",
     ]
     .map(|k| base(doc, k));
-    let shift = |v: &mut Value, by: u64| {
-        if let Some(i) = v.as_u64() {
-            *v = json!(i + by);
-        }
-    };
-    // Moves `obj[key]` where it is present (indexing would insert a null).
-    let shift_key = |obj: &mut Value, key: &str, by: u64| {
-        if let Some(v) = obj.get_mut(key) {
-            shift(v, by);
-        }
-    };
     let items = |key: &str| src[key].as_array().cloned().unwrap_or_default();
     let push = |doc: &mut Value, key: &str, v: Value| {
         if !doc[key].is_array() {
@@ -417,21 +473,6 @@ fn merge_gltf(
         shift_key(&mut t, "source", images);
         push(doc, "textures", t);
     }
-    // A material holds indices only in its texture references.
-    fn shift_texture_indices(v: &mut Value, by: u64) {
-        match v {
-            Value::Object(map) => {
-                for (k, v) in map.iter_mut() {
-                    match v.as_u64() {
-                        Some(i) if k == "index" => *v = json!(i + by),
-                        _ => shift_texture_indices(v, by),
-                    }
-                }
-            }
-            Value::Array(list) => list.iter_mut().for_each(|v| shift_texture_indices(v, by)),
-            _ => {}
-        }
-    }
     for mut m in items("materials") {
         shift_texture_indices(&mut m, textures);
         push(doc, "materials", m);
@@ -439,30 +480,7 @@ fn merge_gltf(
     let mut triangles = 0;
     for mut m in items("meshes") {
         for p in m["primitives"].as_array_mut().into_iter().flatten() {
-            for a in p["attributes"]
-                .as_object_mut()
-                .into_iter()
-                .flat_map(|a| a.values_mut())
-            {
-                shift(a, accessors);
-            }
-            for t in p
-                .get_mut("targets")
-                .and_then(Value::as_array_mut)
-                .into_iter()
-                .flatten()
-            {
-                for a in t.as_object_mut().into_iter().flat_map(|a| a.values_mut()) {
-                    shift(a, accessors);
-                }
-            }
-            let counted = p.get("indices").unwrap_or(&p["attributes"]["POSITION"]);
-            let count = counted
-                .as_u64()
-                .and_then(|i| src["accessors"][i as usize]["count"].as_u64());
-            triangles += count.unwrap_or(0) as usize / 3;
-            shift_key(p, "indices", accessors);
-            shift_key(p, "material", materials);
+            triangles += merged_primitive(p, &src["accessors"], accessors, materials);
         }
         push(doc, "meshes", m);
     }
