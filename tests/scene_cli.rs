@@ -111,11 +111,13 @@ fn info_lists_the_material_extensions_as_read() {
     });
     let path = b.write(root, dir.path(), "exts", true);
     let text = describe(&load(&path, None));
+    // Each extension with the glTF properties the file sets, by name.
     for part in [
-        "transmission 1 [texture 0 uv0]",
-        "ior 1.33",
-        "volume (attenuation colour [0.5, 0.8, 0.9] per 2)",
-        "specular 0.5 colour [1.0, 1.0, 1.0] [texture 0 uv1]",
+        "KHR_materials_transmission transmissionFactor 1 transmissionTexture [texture 0 uv0]",
+        "KHR_materials_ior ior 1.33",
+        "KHR_materials_volume thicknessFactor 0.1 attenuationColor [0.5, 0.8, 0.9] attenuationDistance 2",
+        "KHR_materials_specular specularFactor 0.5 specularColorTexture [texture 0 uv1]",
+        "refracting volume",
         "material 1 \"sign\"",
         "    unlit",
     ] {
