@@ -75,13 +75,21 @@ fn render(scene: &Path, frame: i64, spp: u32, seed: u64, extra: &[&str]) -> Imag
     common::read_exr(&dir.path().join(format!("golden.{frame:04}.exr")))
 }
 
+/// Writes a reference. Chunks are compressed one after the other: the
+/// parallel writer stores them in the order its threads finish, so an
+/// unchanged image would come out as different bytes.
 fn write_exr(path: &Path, img: &Image) {
+    use exr::prelude::{SpecificChannels, Vec2, WritableImage};
     let w = img.width as usize;
-    exr::prelude::write_rgba_file(path, w, img.height as usize, |x, y| {
+    let pixels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
         let p = img.rgba[y * w + x];
         (p[0], p[1], p[2], p[3])
-    })
-    .unwrap();
+    });
+    exr::prelude::Image::from_channels((w, img.height as usize), pixels)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .unwrap();
 }
 
 fn write_png(path: &Path, rgb: &[u8], img: &Image) {
