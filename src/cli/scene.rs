@@ -420,15 +420,12 @@ fn material_extensions(
             Some((_, items)) => items.push(item),
             None => by_extension.push((ext, vec![item])),
         };
-    let (mut value, mut default) = (m.clone(), crate::scene::Material::default());
+    let default = crate::scene::Material::default();
     for factor in FACTORS {
         let Some((ext, key)) = factor.extension_key() else {
             continue;
         };
-        let (v, d) = (
-            factor.components(&mut value),
-            factor.components(&mut default),
-        );
+        let (v, d) = (factor.values(m), factor.values(&default));
         // The emissive strength is on the core line.
         if v != d && ext != "KHR_materials_emissive_strength" {
             let shown = match v {

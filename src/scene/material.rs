@@ -570,12 +570,26 @@ impl Slot {
     }
 }
 
-/// Where a factor's value lives in `Material`.
+/// Where a factor's value lives in `Material`: the field, to read and to
+/// write.
 #[derive(Clone, Copy)]
 pub enum FactorField {
-    Scalar(fn(&mut Material) -> &mut f32),
-    Rgb(fn(&mut Material) -> &mut [f32; 3]),
-    Rgba(fn(&mut Material) -> &mut [f32; 4]),
+    Scalar(fn(&Material) -> &f32, fn(&mut Material) -> &mut f32),
+    Rgb(
+        fn(&Material) -> &[f32; 3],
+        fn(&mut Material) -> &mut [f32; 3],
+    ),
+    Rgba(
+        fn(&Material) -> &[f32; 4],
+        fn(&mut Material) -> &mut [f32; 4],
+    ),
+}
+
+/// `FactorField::$kind` of `Material::$field`.
+macro_rules! factor_field {
+    ($kind:ident, $field:ident) => {
+        FactorField::$kind(|m| &m.$field, |m| &mut m.$field)
+    };
 }
 
 /// A number (or colour) a material sets.
@@ -598,18 +612,27 @@ impl Factor {
     /// Floats in the value.
     pub const fn width(&self) -> usize {
         match self.field {
-            FactorField::Scalar(_) => 1,
-            FactorField::Rgb(_) => 3,
-            FactorField::Rgba(_) => 4,
+            FactorField::Scalar(..) => 1,
+            FactorField::Rgb(..) => 3,
+            FactorField::Rgba(..) => 4,
         }
     }
 
     /// The value's components in `m`.
+    pub fn values<'m>(&self, m: &'m Material) -> &'m [f32] {
+        match self.field {
+            FactorField::Scalar(f, _) => std::slice::from_ref(f(m)),
+            FactorField::Rgb(f, _) => f(m),
+            FactorField::Rgba(f, _) => f(m),
+        }
+    }
+
+    /// The value's components in `m`, to change.
     pub fn components<'m>(&self, m: &'m mut Material) -> &'m mut [f32] {
         match self.field {
-            FactorField::Scalar(f) => std::slice::from_mut(f(m)),
-            FactorField::Rgb(f) => f(m),
-            FactorField::Rgba(f) => f(m),
+            FactorField::Scalar(_, f) => std::slice::from_mut(f(m)),
+            FactorField::Rgb(_, f) => f(m),
+            FactorField::Rgba(_, f) => f(m),
         }
     }
 
@@ -640,142 +663,142 @@ const NON_NEGATIVE: Option<(f32, f32)> = Some((0.0, f32::MAX));
 pub const FACTORS: &[Factor] = &[
     Factor {
         path: "pbrMetallicRoughness/baseColorFactor",
-        field: FactorField::Rgba(|m| &mut m.base_color_factor),
+        field: factor_field!(Rgba, base_color_factor),
         range: UNIT,
         on_device: false,
     },
     Factor {
         path: "pbrMetallicRoughness/metallicFactor",
-        field: FactorField::Scalar(|m| &mut m.metallic_factor),
+        field: factor_field!(Scalar, metallic_factor),
         range: UNIT,
         on_device: false,
     },
     Factor {
         path: "pbrMetallicRoughness/roughnessFactor",
-        field: FactorField::Scalar(|m| &mut m.roughness_factor),
+        field: factor_field!(Scalar, roughness_factor),
         range: UNIT,
         on_device: false,
     },
     Factor {
         path: "emissiveFactor",
-        field: FactorField::Rgb(|m| &mut m.emissive_factor),
+        field: factor_field!(Rgb, emissive_factor),
         range: UNIT,
         on_device: false,
     },
     Factor {
         path: "alphaCutoff",
-        field: FactorField::Scalar(|m| &mut m.alpha_cutoff),
+        field: factor_field!(Scalar, alpha_cutoff),
         range: NON_NEGATIVE,
         on_device: false,
     },
     // Any finite scale is allowed; `ranges` replaces an infinite one.
     Factor {
         path: "normalTexture/scale",
-        field: FactorField::Scalar(|m| &mut m.normal_scale),
+        field: factor_field!(Scalar, normal_scale),
         range: None,
         on_device: false,
     },
     Factor {
         path: "occlusionTexture/strength",
-        field: FactorField::Scalar(|m| &mut m.occlusion_strength),
+        field: factor_field!(Scalar, occlusion_strength),
         range: UNIT,
         on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_emissive_strength/emissiveStrength",
-        field: FactorField::Scalar(|m| &mut m.emissive_strength),
+        field: factor_field!(Scalar, emissive_strength),
         range: NON_NEGATIVE,
         on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_transmission/transmissionFactor",
-        field: FactorField::Scalar(|m| &mut m.transmission_factor),
+        field: factor_field!(Scalar, transmission_factor),
         range: UNIT,
         on_device: true,
     },
     // 1 or more, or 0 for an infinite index, which `ranges` maps first.
     Factor {
         path: "extensions/KHR_materials_ior/ior",
-        field: FactorField::Scalar(|m| &mut m.ior),
+        field: factor_field!(Scalar, ior),
         range: Some((1.0, f32::MAX)),
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_volume/thicknessFactor",
-        field: FactorField::Scalar(|m| &mut m.thickness_factor),
+        field: factor_field!(Scalar, thickness_factor),
         range: NON_NEGATIVE,
         on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_volume/attenuationColor",
-        field: FactorField::Rgb(|m| &mut m.attenuation_color),
+        field: factor_field!(Rgb, attenuation_color),
         range: UNIT,
         on_device: false,
     },
     // Above 0, or infinite: checked last in `ranges`.
     Factor {
         path: "extensions/KHR_materials_volume/attenuationDistance",
-        field: FactorField::Scalar(|m| &mut m.attenuation_distance),
+        field: factor_field!(Scalar, attenuation_distance),
         range: None,
         on_device: false,
     },
     Factor {
         path: "extensions/KHR_materials_specular/specularFactor",
-        field: FactorField::Scalar(|m| &mut m.specular_factor),
+        field: factor_field!(Scalar, specular_factor),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_specular/specularColorFactor",
-        field: FactorField::Rgb(|m| &mut m.specular_color),
+        field: factor_field!(Rgb, specular_color),
         range: NON_NEGATIVE,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatFactor",
-        field: FactorField::Scalar(|m| &mut m.clearcoat_factor),
+        field: factor_field!(Scalar, clearcoat_factor),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatRoughnessFactor",
-        field: FactorField::Scalar(|m| &mut m.clearcoat_roughness),
+        field: factor_field!(Scalar, clearcoat_roughness),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_clearcoat/clearcoatNormalTexture/scale",
-        field: FactorField::Scalar(|m| &mut m.clearcoat_normal_scale),
+        field: factor_field!(Scalar, clearcoat_normal_scale),
         range: None,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_sheen/sheenColorFactor",
-        field: FactorField::Rgb(|m| &mut m.sheen_color),
+        field: factor_field!(Rgb, sheen_color),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_sheen/sheenRoughnessFactor",
-        field: FactorField::Scalar(|m| &mut m.sheen_roughness),
+        field: factor_field!(Scalar, sheen_roughness),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionFactor",
-        field: FactorField::Scalar(|m| &mut m.diffuse_transmission),
+        field: factor_field!(Scalar, diffuse_transmission),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorFactor",
-        field: FactorField::Rgb(|m| &mut m.diffuse_transmission_color),
+        field: factor_field!(Rgb, diffuse_transmission_color),
         range: UNIT,
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceFactor",
-        field: FactorField::Scalar(|m| &mut m.iridescence),
+        field: factor_field!(Scalar, iridescence),
         range: UNIT,
         on_device: true,
     },
@@ -783,7 +806,7 @@ pub const FACTORS: &[Factor] = &[
     // optical path (index times thickness) finite.
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceIor",
-        field: FactorField::Scalar(|m| &mut m.iridescence_ior),
+        field: factor_field!(Scalar, iridescence_ior),
         range: Some((1.0, 100.0)),
         on_device: true,
     },
@@ -791,19 +814,19 @@ pub const FACTORS: &[Factor] = &[
     // the interference terms vanish long before.
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceThicknessMinimum",
-        field: FactorField::Scalar(|m| &mut m.iridescence_thickness_min),
+        field: factor_field!(Scalar, iridescence_thickness_min),
         range: Some((0.0, 1.0e5)),
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_iridescence/iridescenceThicknessMaximum",
-        field: FactorField::Scalar(|m| &mut m.iridescence_thickness_max),
+        field: factor_field!(Scalar, iridescence_thickness_max),
         range: Some((0.0, 1.0e5)),
         on_device: true,
     },
     Factor {
         path: "extensions/KHR_materials_anisotropy/anisotropyStrength",
-        field: FactorField::Scalar(|m| &mut m.anisotropy_strength),
+        field: factor_field!(Scalar, anisotropy_strength),
         range: UNIT,
         on_device: true,
     },
@@ -811,7 +834,7 @@ pub const FACTORS: &[Factor] = &[
     // thousandth of a radian, and an infinite one has no cosine.
     Factor {
         path: "extensions/KHR_materials_anisotropy/anisotropyRotation",
-        field: FactorField::Scalar(|m| &mut m.anisotropy_rotation),
+        field: factor_field!(Scalar, anisotropy_rotation),
         range: Some((-1.0e4, 1.0e4)),
         on_device: false,
     },
@@ -820,7 +843,7 @@ pub const FACTORS: &[Factor] = &[
     // beyond any material.
     Factor {
         path: "extensions/KHR_materials_dispersion/dispersion",
-        field: FactorField::Scalar(|m| &mut m.dispersion),
+        field: factor_field!(Scalar, dispersion),
         range: Some((0.0, 20.0)),
         on_device: true,
     },
@@ -848,19 +871,26 @@ pub fn device_factors() -> impl Iterator<Item = (usize, String, &'static Factor)
         *at += f.width();
         let key = f.extension_key().map_or(f.path, |(_, key)| key);
         let key = key.strip_suffix("Factor").unwrap_or(key);
-        let mut name = String::from("F_");
-        for c in key.chars() {
-            match c {
-                '/' => name.push('_'),
-                c if c.is_ascii_uppercase() => {
-                    name.push('_');
-                    name.push(c);
-                }
-                c => name.push(c.to_ascii_uppercase()),
-            }
-        }
-        Some((first, name, f))
+        Some((first, define_name("F", key), f))
     })
+}
+
+/// A kernel define's name for a table entry: `prefix`, then `camel` (a
+/// glTF key or a `Slot`'s name) in upper snake case, `/` as `_`:
+/// `define_name("F", "sheenRoughness")` is `F_SHEEN_ROUGHNESS`.
+pub fn define_name(prefix: &str, camel: &str) -> String {
+    let mut name = format!("{prefix}_");
+    for (i, c) in camel.chars().enumerate() {
+        match c {
+            '/' => name.push('_'),
+            c if c.is_ascii_uppercase() && i > 0 => {
+                name.push('_');
+                name.push(c);
+            }
+            c => name.push(c.to_ascii_uppercase()),
+        }
+    }
+    name
 }
 
 #[cfg(test)]

@@ -185,12 +185,12 @@ pub(crate) fn material(index: usize, m: &mut Material, warnings: &mut Vec<String
     if m.ior == 0.0 {
         m.ior = 1.0e6;
     }
-    let mut defaults = Material::default();
+    let defaults = Material::default();
     for factor in FACTORS {
         let Some((lo, hi)) = factor.range else {
             continue;
         };
-        let default = factor.components(&mut defaults)[0];
+        let default = factor.values(&defaults)[0];
         let name = factor.name();
         let components = factor.components(m);
         let single = components.len() == 1;

@@ -48,7 +48,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::device_struct::ConstDef;
 use crate::device_struct::{device_consts, device_struct};
-use crate::scene::material::{device_factors, DEVICE_FACTOR_FLOATS};
+use crate::scene::material::{define_name, device_factors, DEVICE_FACTOR_FLOATS};
 use crate::scene::{AlphaMode, Material, MaterialTable};
 use crate::trace::texture::Slot;
 
@@ -183,16 +183,8 @@ pub struct DeviceMaterialExt as "PtMaterialExt" {
 /// `PtMaterialExt.tex`.
 pub fn material_ext_consts() -> Vec<ConstDef> {
     let factors = device_factors().map(|(at, name, _)| (name, at));
-    let textures = Slot::EXT.iter().enumerate().map(|(i, slot)| {
-        let mut name = String::from("TEX");
-        for c in format!("{slot:?}").chars() {
-            if c.is_ascii_uppercase() {
-                name.push('_');
-            }
-            name.push(c.to_ascii_uppercase());
-        }
-        (name, i)
-    });
+    let textures = (Slot::EXT.iter().enumerate())
+        .map(|(i, slot)| (define_name("TEX", &format!("{slot:?}")), i));
     factors
         .chain(textures)
         .map(|(name, value)| ConstDef {
@@ -217,9 +209,8 @@ impl DeviceMaterialExt {
         };
         let a = m.attenuation_color;
         let mut factor = [0.0; DEVICE_FACTOR_FLOATS];
-        let mut values = m.clone();
         for (at, _, f) in device_factors() {
-            let v = f.components(&mut values);
+            let v = f.values(m);
             factor[at..at + v.len()].copy_from_slice(v);
         }
         DeviceMaterialExt {
