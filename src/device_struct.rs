@@ -200,6 +200,9 @@ pub struct GeneratedHeader {
     pub about: &'static str,
     pub consts: Vec<ConstDef>,
     pub structs: Vec<StructLayout>,
+    /// Generated C after the structs (kernel-only types and functions
+    /// made from Rust tables); empty for most headers.
+    pub code: String,
 }
 
 fn comment(out: &mut String, indent: &str, lines: &[&str]) {
@@ -253,6 +256,7 @@ pub fn header_text(h: &GeneratedHeader) -> String {
         }
         let _ = writeln!(s, "}} {};\n", st.c_name);
     }
+    s.push_str(&h.code);
     s.push_str("#endif\n");
     s
 }

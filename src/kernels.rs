@@ -74,6 +74,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 b::SplitResult::layout(),
                 b::SmallSubtree::layout(),
             ],
+            code: String::new(),
         },
         GeneratedHeader {
             file: "trace_types.h",
@@ -86,6 +87,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 wide::WideNode::layout(),
                 wide::Wide8Node::layout(),
             ],
+            code: String::new(),
         },
         GeneratedHeader {
             file: "soup_types.h",
@@ -95,6 +97,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 soup::device::SoupSegment::layout(),
                 soup::device::SoupInstancePose::layout(),
             ],
+            code: String::new(),
         },
         GeneratedHeader {
             file: "texture_types.h",
@@ -104,6 +107,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 texture::TextureInfo::layout(),
                 texture::TextureBinding::layout(),
             ],
+            code: String::new(),
         },
         GeneratedHeader {
             file: "pt_types.h",
@@ -127,6 +131,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 lights::DeviceEnv::layout(),
                 light_tree::DeviceLightNode::layout(),
             ],
+            code: material::inputs_struct_code() + &material::inputs_fill_code(),
         },
     ]
 }

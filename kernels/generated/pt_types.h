@@ -243,4 +243,77 @@ typedef struct {
     uint pad[2];
 } PtLightNode;
 
+// The extension factors at one surface point (`BsdfParams.in`): each
+// of `PtMaterialExt.factor`, times its texture's channel where the
+// material table gives it one (src/trace/material/inputs.rs).
+typedef struct {
+    float transmission;
+    float ior;
+    float specular;
+    float3 specular_color;
+    float clearcoat;
+    float clearcoat_roughness;
+    float clearcoat_normal_texture_scale;
+    float3 sheen_color;
+    float sheen_roughness;
+    float diffuse_transmission;
+    float3 diffuse_transmission_color;
+    float iridescence;
+    float iridescence_ior;
+    float iridescence_thickness_minimum;
+    float iridescence_thickness_maximum;
+    float anisotropy_strength;
+    float dispersion;
+} PtMaterialInputs;
+
+// PT_MATERIAL_FACTORS(v, mx): PtMaterialInputs `v` from material `mx`'s
+// factors; PT_MATERIAL_TEXTURES(v, mx, at): then each texture that
+// scales a factor applied at attributes `at` (src/scene/material.rs,
+// texture_slots!: the `scales` column). scene_view.h's
+// pt_material_inputs expands them. A texture of a lobe not compiled
+// in scales a factor no code reads, which the compiler drops.
+#define PT_MATERIAL_FACTORS(v, mx) \
+    (v).transmission = (mx).factor[F_TRANSMISSION]; \
+    (v).ior = (mx).factor[F_IOR]; \
+    (v).specular = (mx).factor[F_SPECULAR]; \
+    (v).specular_color = (float3)((mx).factor[F_SPECULAR_COLOR], (mx).factor[F_SPECULAR_COLOR + 1], (mx).factor[F_SPECULAR_COLOR + 2]); \
+    (v).clearcoat = (mx).factor[F_CLEARCOAT]; \
+    (v).clearcoat_roughness = (mx).factor[F_CLEARCOAT_ROUGHNESS]; \
+    (v).clearcoat_normal_texture_scale = (mx).factor[F_CLEARCOAT_NORMAL_TEXTURE_SCALE]; \
+    (v).sheen_color = (float3)((mx).factor[F_SHEEN_COLOR], (mx).factor[F_SHEEN_COLOR + 1], (mx).factor[F_SHEEN_COLOR + 2]); \
+    (v).sheen_roughness = (mx).factor[F_SHEEN_ROUGHNESS]; \
+    (v).diffuse_transmission = (mx).factor[F_DIFFUSE_TRANSMISSION]; \
+    (v).diffuse_transmission_color = (float3)((mx).factor[F_DIFFUSE_TRANSMISSION_COLOR], (mx).factor[F_DIFFUSE_TRANSMISSION_COLOR + 1], (mx).factor[F_DIFFUSE_TRANSMISSION_COLOR + 2]); \
+    (v).iridescence = (mx).factor[F_IRIDESCENCE]; \
+    (v).iridescence_ior = (mx).factor[F_IRIDESCENCE_IOR]; \
+    (v).iridescence_thickness_minimum = (mx).factor[F_IRIDESCENCE_THICKNESS_MINIMUM]; \
+    (v).iridescence_thickness_maximum = (mx).factor[F_IRIDESCENCE_THICKNESS_MAXIMUM]; \
+    (v).anisotropy_strength = (mx).factor[F_ANISOTROPY_STRENGTH]; \
+    (v).dispersion = (mx).factor[F_DISPERSION];
+#ifdef HAS_TEXTURES
+#define PT_MATERIAL_TEXTURES(v, mx, at) \
+    if ((mx).tex[TEX_TRANSMISSION] >= 0) \
+        (v).transmission *= pt_texture((mx).tex[TEX_TRANSMISSION], (at) TEX_PASS).x; \
+    if ((mx).tex[TEX_SPECULAR] >= 0) \
+        (v).specular *= pt_texture((mx).tex[TEX_SPECULAR], (at) TEX_PASS).w; \
+    if ((mx).tex[TEX_SPECULAR_COLOR] >= 0) \
+        (v).specular_color *= pt_texture((mx).tex[TEX_SPECULAR_COLOR], (at) TEX_PASS).xyz; \
+    if ((mx).tex[TEX_CLEARCOAT] >= 0) \
+        (v).clearcoat *= pt_texture((mx).tex[TEX_CLEARCOAT], (at) TEX_PASS).x; \
+    if ((mx).tex[TEX_CLEARCOAT_ROUGHNESS] >= 0) \
+        (v).clearcoat_roughness *= pt_texture((mx).tex[TEX_CLEARCOAT_ROUGHNESS], (at) TEX_PASS).y; \
+    if ((mx).tex[TEX_SHEEN_COLOR] >= 0) \
+        (v).sheen_color *= pt_texture((mx).tex[TEX_SHEEN_COLOR], (at) TEX_PASS).xyz; \
+    if ((mx).tex[TEX_SHEEN_ROUGHNESS] >= 0) \
+        (v).sheen_roughness *= pt_texture((mx).tex[TEX_SHEEN_ROUGHNESS], (at) TEX_PASS).w; \
+    if ((mx).tex[TEX_DIFFUSE_TRANSMISSION] >= 0) \
+        (v).diffuse_transmission *= pt_texture((mx).tex[TEX_DIFFUSE_TRANSMISSION], (at) TEX_PASS).w; \
+    if ((mx).tex[TEX_DIFFUSE_TRANSMISSION_COLOR] >= 0) \
+        (v).diffuse_transmission_color *= pt_texture((mx).tex[TEX_DIFFUSE_TRANSMISSION_COLOR], (at) TEX_PASS).xyz; \
+    if ((mx).tex[TEX_IRIDESCENCE] >= 0) \
+        (v).iridescence *= pt_texture((mx).tex[TEX_IRIDESCENCE], (at) TEX_PASS).x;
+#else
+#define PT_MATERIAL_TEXTURES(v, mx, at)
+#endif
+
 #endif

@@ -120,7 +120,13 @@ typedef struct {
 #endif
 #ifdef HAS_SHEEN
     float3 sheen_color; // sheenColorFactor (black: no sheen)
-    float sheen_roughness;
+#endif
+#ifdef HAS_MATERIAL_EXT
+    // The extension factors at the point, textures applied, as the file
+    // sets them (generated from the material tables): the lobes read a
+    // parameter here unless the fields above derive it (the coat's alpha,
+    // F0) or clay overrides it.
+    PtMaterialInputs in;
 #endif
 } BsdfParams;
 

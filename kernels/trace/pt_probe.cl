@@ -179,7 +179,7 @@ inline BsdfParams probe_layer_params(const __global float* c) {
     p.coat_n = (float3)(c[32], c[33], c[34]);
 #endif
 #ifdef HAS_SHEEN
-    p.sheen_roughness = c[14];
+    p.in.sheen_roughness = c[14];
     p.sheen_color = (float3)(c[16], c[17], c[18]);
 #endif
     return p;

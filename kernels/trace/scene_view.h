@@ -578,6 +578,18 @@ inline PtSurface pt_surface(const PtScene* s, PtMaterial m, Hit h, float3 dir TE
     return sf;
 }
 
+#ifdef HAS_MATERIAL_EXT
+// The extension factors of material `mx` at a point of attributes `at`,
+// each texture that scales one applied (generated from the material
+// tables into pt_types.h).
+inline PtMaterialInputs pt_material_inputs(PtMaterialExt mx, PtAttrs at TEX_DECL) {
+    PtMaterialInputs v;
+    PT_MATERIAL_FACTORS(v, mx);
+    PT_MATERIAL_TEXTURES(v, mx, at);
+    return v;
+}
+#endif
+
 inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, PtAttrs at, float3* albedo TEX_DECL) {
     BsdfParams p;
     if ((s->frame.flags & FRAME_CLAY) != 0u) {
@@ -617,44 +629,29 @@ inline BsdfParams pt_bsdf_params(const PtScene* s, PtMaterial m, PtAttrs at, flo
 
 #ifdef HAS_LAYERS
 // The clear coat and sheen of extension `mx` at surface `sf` seen along
-// `wo_w`, in the shading frame (t, b, sf.ns) (clay has neither). The
-// layers' textures scale their factors: clearcoat by R, its roughness by
-// G, the sheen colour by RGB (sRGB-decoded), its roughness by A. The coat's
-// normal is the unmapped interpolated normal, or clearcoatNormalTexture
-// applied to it.
+// `wo_w`, in the shading frame (t, b, sf.ns) (clay has neither), from the
+// textured factors in bp->in. The coat's normal is the unmapped
+// interpolated normal, or clearcoatNormalTexture applied to it.
 inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, float3 wo_w,
                             float3 t, float3 b, BsdfParams* bp TEX_DECL) {
     bool layered = (s->frame.flags & FRAME_CLAY) == 0u;
 #ifdef HAS_CLEARCOAT
-    float clearcoat = mx.factor[F_CLEARCOAT];
-    float coat_roughness = mx.factor[F_CLEARCOAT_ROUGHNESS];
     float3 nc = sf.n_unmapped;
 #ifdef HAS_TEXTURES
-    if (mx.tex[TEX_CLEARCOAT] >= 0) clearcoat *= pt_texture(mx.tex[TEX_CLEARCOAT], sf.at TEX_PASS).x;
-    if (mx.tex[TEX_CLEARCOAT_ROUGHNESS] >= 0)
-        coat_roughness *= pt_texture(mx.tex[TEX_CLEARCOAT_ROUGHNESS], sf.at TEX_PASS).y;
     if (layered && mx.tex[TEX_CLEARCOAT_NORMAL] >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
-        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], mx.factor[F_CLEARCOAT_NORMAL_TEXTURE_SCALE], sf.prim,
+        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], bp->in.clearcoat_normal_texture_scale, sf.prim,
                            sf.front ? nc : -nc, sf.front, sf.at TEX_PASS);
         nc = pt_facing(nc, wo_w, sf.ng);
     }
 #endif
-    bp->clearcoat = layered ? clearcoat : 0.0f;
-    bp->coat_alpha = ggx_alpha(coat_roughness);
+    bp->clearcoat = layered ? bp->in.clearcoat : 0.0f;
+    bp->coat_alpha = ggx_alpha(bp->in.clearcoat_roughness);
     bp->coat_n = (float3)(0.0f, 0.0f, 1.0f);
     if (layered && (nc.x != sf.ns.x || nc.y != sf.ns.y || nc.z != sf.ns.z))
         bp->coat_n = normalize(to_local(nc, t, b, sf.ns));
 #endif
 #ifdef HAS_SHEEN
-    float3 sheen_color = (float3)(mx.factor[F_SHEEN_COLOR], mx.factor[F_SHEEN_COLOR + 1], mx.factor[F_SHEEN_COLOR + 2]);
-    float sheen_roughness = mx.factor[F_SHEEN_ROUGHNESS];
-#ifdef HAS_TEXTURES
-    if (mx.tex[TEX_SHEEN_COLOR] >= 0) sheen_color *= pt_texture(mx.tex[TEX_SHEEN_COLOR], sf.at TEX_PASS).xyz;
-    if (mx.tex[TEX_SHEEN_ROUGHNESS] >= 0)
-        sheen_roughness *= pt_texture(mx.tex[TEX_SHEEN_ROUGHNESS], sf.at TEX_PASS).w;
-#endif
-    bp->sheen_color = layered ? sheen_color : (float3)(0.0f);
-    bp->sheen_roughness = sheen_roughness;
+    bp->sheen_color = layered ? bp->in.sheen_color : (float3)(0.0f);
 #endif
 }
 #endif
@@ -683,44 +680,26 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #endif
         return;
     }
-    float3 specular_color =
-        (float3)(mx.factor[F_SPECULAR_COLOR], mx.factor[F_SPECULAR_COLOR + 1], mx.factor[F_SPECULAR_COLOR + 2]);
-    float specular = mx.factor[F_SPECULAR];
-    float transmission = mx.factor[F_TRANSMISSION];
+    float3 specular_color = bp->in.specular_color;
+    float specular = bp->in.specular;
+    float transmission = bp->in.transmission;
 #ifdef HAS_IRIDESCENCE
     // Without a thickness texture the film is the range's maximum thick.
-    float iridescence = mx.factor[F_IRIDESCENCE];
+    float iridescence = bp->in.iridescence;
     float thickness = mx.factor[F_IRIDESCENCE_THICKNESS_MAXIMUM];
 #endif
 #ifdef HAS_DIFFUSE_TRANSMISSION
-    float diffuse_transmission = mx.factor[F_DIFFUSE_TRANSMISSION];
-    float3 diffuse_transmission_color =
-        (float3)(mx.factor[F_DIFFUSE_TRANSMISSION_COLOR], mx.factor[F_DIFFUSE_TRANSMISSION_COLOR + 1],
-                 mx.factor[F_DIFFUSE_TRANSMISSION_COLOR + 2]);
+    float diffuse_transmission = bp->in.diffuse_transmission;
+    float3 diffuse_transmission_color = bp->in.diffuse_transmission_color;
 #endif
-#ifdef HAS_TEXTURES
-    // The extensions' textures scale their factors: transmission by R,
-    // specular by A, the specular colour by RGB (sRGB-decoded).
-    if (mx.tex[TEX_TRANSMISSION] >= 0) transmission *= pt_texture(mx.tex[TEX_TRANSMISSION], at TEX_PASS).x;
-    if (mx.tex[TEX_SPECULAR] >= 0) specular *= pt_texture(mx.tex[TEX_SPECULAR], at TEX_PASS).w;
-    if (mx.tex[TEX_SPECULAR_COLOR] >= 0)
-        specular_color *= pt_texture(mx.tex[TEX_SPECULAR_COLOR], at TEX_PASS).xyz;
-#ifdef HAS_DIFFUSE_TRANSMISSION
-    // Diffuse transmission by A, its colour by RGB (sRGB-decoded).
-    if (mx.tex[TEX_DIFFUSE_TRANSMISSION] >= 0)
-        diffuse_transmission *= pt_texture(mx.tex[TEX_DIFFUSE_TRANSMISSION], at TEX_PASS).w;
-    if (mx.tex[TEX_DIFFUSE_TRANSMISSION_COLOR] >= 0)
-        diffuse_transmission_color *= pt_texture(mx.tex[TEX_DIFFUSE_TRANSMISSION_COLOR], at TEX_PASS).xyz;
-#endif
-#ifdef HAS_IRIDESCENCE
-    // Iridescence by R; the thickness between its minimum and maximum by G.
-    if (mx.tex[TEX_IRIDESCENCE] >= 0) iridescence *= pt_texture(mx.tex[TEX_IRIDESCENCE], at TEX_PASS).x;
+#if defined(HAS_TEXTURES) && defined(HAS_IRIDESCENCE)
+    // The film's thickness between its minimum and maximum by G (the
+    // textures that scale a factor are in bp->in already).
     if (mx.tex[TEX_IRIDESCENCE_THICKNESS] >= 0) {
         float g = pt_texture(mx.tex[TEX_IRIDESCENCE_THICKNESS], at TEX_PASS).y;
         thickness = mx.factor[F_IRIDESCENCE_THICKNESS_MINIMUM] +
                     (mx.factor[F_IRIDESCENCE_THICKNESS_MAXIMUM] - mx.factor[F_IRIDESCENCE_THICKNESS_MINIMUM]) * g;
     }
-#endif
 #endif
     // Dispersion is the volume's: a thin-walled surface keeps its index.
     float ior = volume ? media_channel_ior(mx.factor[F_IOR], mx.factor[F_DISPERSION], channel) : mx.factor[F_IOR];

@@ -434,7 +434,10 @@ impl MaterialTable {
 macro_rules! texture_slots {
     (@feature) => { None };
     (@feature $feature:literal) => { Some($feature) };
-    ($($(#[$doc:meta])* $variant:ident: $field:ident at $path:literal as $name:literal, $srgb:literal $(, $feature:literal)?;)*) => {
+    (@scales) => { None };
+    (@scales $factor:literal $channel:ident) => { Some(($factor, stringify!($channel))) };
+    ($($(#[$doc:meta])* $variant:ident: $field:ident at $path:literal as $name:literal, $srgb:literal
+       $(, $feature:literal)? $(, scales $factor:literal . $channel:ident)?;)*) => {
         /// A texture use of a material.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum Slot {
@@ -478,6 +481,18 @@ macro_rules! texture_slots {
                 }
             }
 
+            /// The factor whose value the texture scales, by its key in
+            /// the extension's object, and the channel that scales it
+            /// (`x`, `y`, `z`, `w` or `xyz`): the kernels' generated
+            /// `pt_material_inputs` applies it. `None`: read by hand (the
+            /// core textures, normal maps, the film's thickness, the
+            /// anisotropy's direction).
+            pub const fn scales(self) -> Option<(&'static str, &'static str)> {
+                match self {
+                    $(Slot::$variant => texture_slots!(@scales $($factor $channel)?),)*
+                }
+            }
+
             pub fn of(self, m: &Material) -> Option<&TextureRef> {
                 match self {
                     $(Slot::$variant => m.$field.as_ref(),)*
@@ -511,23 +526,28 @@ texture_slots! {
     /// R scales the transmission factor.
     Transmission: transmission_texture
         at "extensions/KHR_materials_transmission/transmissionTexture"
-        as "KHR_materials_transmission transmissionTexture", false, "HAS_TRANSMISSION";
+        as "KHR_materials_transmission transmissionTexture", false, "HAS_TRANSMISSION",
+        scales "transmissionFactor".x;
     /// A scales the specular factor.
     Specular: specular_texture
         at "extensions/KHR_materials_specular/specularTexture"
-        as "KHR_materials_specular specularTexture", false, "HAS_TRANSMISSION";
+        as "KHR_materials_specular specularTexture", false, "HAS_TRANSMISSION",
+        scales "specularFactor".w;
     /// RGB scales the specular colour.
     SpecularColor: specular_color_texture
         at "extensions/KHR_materials_specular/specularColorTexture"
-        as "KHR_materials_specular specularColorTexture", true, "HAS_TRANSMISSION";
+        as "KHR_materials_specular specularColorTexture", true, "HAS_TRANSMISSION",
+        scales "specularColorFactor".xyz;
     /// R scales the clear coat factor.
     Clearcoat: clearcoat_texture
         at "extensions/KHR_materials_clearcoat/clearcoatTexture"
-        as "KHR_materials_clearcoat clearcoatTexture", false, "HAS_CLEARCOAT";
+        as "KHR_materials_clearcoat clearcoatTexture", false, "HAS_CLEARCOAT",
+        scales "clearcoatFactor".x;
     /// G scales the clear coat's roughness.
     ClearcoatRoughness: clearcoat_roughness_texture
         at "extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture"
-        as "KHR_materials_clearcoat clearcoatRoughnessTexture", false, "HAS_CLEARCOAT";
+        as "KHR_materials_clearcoat clearcoatRoughnessTexture", false, "HAS_CLEARCOAT",
+        scales "clearcoatRoughnessFactor".y;
     /// The coat's own normal map.
     ClearcoatNormal: clearcoat_normal_texture
         at "extensions/KHR_materials_clearcoat/clearcoatNormalTexture"
@@ -535,23 +555,28 @@ texture_slots! {
     /// RGB scales the sheen colour.
     SheenColor: sheen_color_texture
         at "extensions/KHR_materials_sheen/sheenColorTexture"
-        as "KHR_materials_sheen sheenColorTexture", true, "HAS_SHEEN";
+        as "KHR_materials_sheen sheenColorTexture", true, "HAS_SHEEN",
+        scales "sheenColorFactor".xyz;
     /// A scales the sheen roughness.
     SheenRoughness: sheen_roughness_texture
         at "extensions/KHR_materials_sheen/sheenRoughnessTexture"
-        as "KHR_materials_sheen sheenRoughnessTexture", false, "HAS_SHEEN";
+        as "KHR_materials_sheen sheenRoughnessTexture", false, "HAS_SHEEN",
+        scales "sheenRoughnessFactor".w;
     /// A scales the diffuse transmission factor.
     DiffuseTransmission: diffuse_transmission_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionTexture"
-        as "KHR_materials_diffuse_transmission diffuseTransmissionTexture", false, "HAS_DIFFUSE_TRANSMISSION";
+        as "KHR_materials_diffuse_transmission diffuseTransmissionTexture", false, "HAS_DIFFUSE_TRANSMISSION",
+        scales "diffuseTransmissionFactor".w;
     /// RGB scales the diffuse transmission colour.
     DiffuseTransmissionColor: diffuse_transmission_color_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorTexture"
-        as "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture", true, "HAS_DIFFUSE_TRANSMISSION";
+        as "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture", true, "HAS_DIFFUSE_TRANSMISSION",
+        scales "diffuseTransmissionColorFactor".xyz;
     /// R scales the iridescence factor.
     Iridescence: iridescence_texture
         at "extensions/KHR_materials_iridescence/iridescenceTexture"
-        as "KHR_materials_iridescence iridescenceTexture", false, "HAS_IRIDESCENCE";
+        as "KHR_materials_iridescence iridescenceTexture", false, "HAS_IRIDESCENCE",
+        scales "iridescenceFactor".x;
     /// G picks the film's thickness between its minimum and maximum.
     IridescenceThickness: iridescence_thickness_texture
         at "extensions/KHR_materials_iridescence/iridescenceThicknessTexture"

@@ -31,7 +31,10 @@
 
 mod bsdf;
 mod dielectric;
+mod inputs;
 mod layering;
+
+pub use inputs::{inputs_fill_code, inputs_struct_code};
 
 pub use bsdf::{
     anisotropic_alpha, bsdf_eval, bsdf_eval_lobes, bsdf_only_delta, bsdf_pdf, bsdf_sample,
