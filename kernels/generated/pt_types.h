@@ -45,6 +45,7 @@
 #define F_IRIDESCENCE_THICKNESS_MAXIMUM 20u
 #define F_ANISOTROPY_STRENGTH 21u
 #define F_DISPERSION 22u
+#define F_DIFFUSE_ROUGHNESS 23u
 #define TEX_TRANSMISSION 0u
 #define TEX_SPECULAR 1u
 #define TEX_SPECULAR_COLOR 2u
@@ -58,6 +59,7 @@
 #define TEX_IRIDESCENCE 10u
 #define TEX_IRIDESCENCE_THICKNESS 11u
 #define TEX_ANISOTROPY 12u
+#define TEX_DIFFUSE_ROUGHNESS 13u
 // `PtLight.kind`: a KHR_lights_punctual point light.
 #define LIGHT_POINT 0u
 #define LIGHT_SPOT 1u
@@ -169,13 +171,13 @@ typedef struct {
 // A material's extension factors (dielectric, coats, sheen, diffuse
 // transmission, iridescence, anisotropy, dispersion), in a table beside
 // the materials that only kernels built with `HAS_MATERIAL_EXT` read.
-// `DeviceMaterialExt` in src/trace/material/mod.rs (172 bytes).
+// `DeviceMaterialExt` in src/trace/material/mod.rs (180 bytes).
 typedef struct {
     // The factors the kernels read as the file sets them: each row of
     // `scene::material::FACTORS` marked `on_device`, in the table's
     // order (a colour takes three floats). The kernels index it with the
     // generated `F_<KEY>` defines.
-    float factor[23];
+    float factor[24];
     // 1 when transmissive with a volume (refraction, attenuation), 0
     // thin-walled.
     float volume;
@@ -190,7 +192,7 @@ typedef struct {
     // Texture binding indices (-1: none) of the extensions' textures, in
     // `Slot::EXT` order. The kernels index it with the generated
     // `TEX_<SLOT>` defines.
-    int tex[13];
+    int tex[14];
 } PtMaterialExt;
 
 // One punctual light.
@@ -264,6 +266,7 @@ typedef struct {
     float iridescence_thickness_maximum;
     float anisotropy_strength;
     float dispersion;
+    float diffuse_roughness;
 } PtMaterialInputs;
 
 // PT_MATERIAL_FACTORS(v, mx): PtMaterialInputs `v` from material `mx`'s
@@ -289,7 +292,8 @@ typedef struct {
     (v).iridescence_thickness_minimum = (mx).factor[F_IRIDESCENCE_THICKNESS_MINIMUM]; \
     (v).iridescence_thickness_maximum = (mx).factor[F_IRIDESCENCE_THICKNESS_MAXIMUM]; \
     (v).anisotropy_strength = (mx).factor[F_ANISOTROPY_STRENGTH]; \
-    (v).dispersion = (mx).factor[F_DISPERSION];
+    (v).dispersion = (mx).factor[F_DISPERSION]; \
+    (v).diffuse_roughness = (mx).factor[F_DIFFUSE_ROUGHNESS];
 #ifdef HAS_TEXTURES
 #define PT_MATERIAL_TEXTURES(v, mx, at) \
     if ((mx).tex[TEX_TRANSMISSION] >= 0) \
@@ -311,7 +315,9 @@ typedef struct {
     if ((mx).tex[TEX_DIFFUSE_TRANSMISSION_COLOR] >= 0) \
         (v).diffuse_transmission_color *= pt_texture((mx).tex[TEX_DIFFUSE_TRANSMISSION_COLOR], (at) TEX_PASS).xyz; \
     if ((mx).tex[TEX_IRIDESCENCE] >= 0) \
-        (v).iridescence *= pt_texture((mx).tex[TEX_IRIDESCENCE], (at) TEX_PASS).x;
+        (v).iridescence *= pt_texture((mx).tex[TEX_IRIDESCENCE], (at) TEX_PASS).x; \
+    if ((mx).tex[TEX_DIFFUSE_ROUGHNESS] >= 0) \
+        (v).diffuse_roughness *= pt_texture((mx).tex[TEX_DIFFUSE_ROUGHNESS], (at) TEX_PASS).x;
 #else
 #define PT_MATERIAL_TEXTURES(v, mx, at)
 #endif

@@ -58,11 +58,11 @@ __kernel void bsdf_probe(__global const float* in, __global float* out, uint n) 
 // As bsdf_probe with the dielectric extensions: per case params (base rgb,
 // metallic, alpha, specular, f0, transmission), (eta, thin, f0 green,
 // f0 blue: the coloured F0 is (f0, green, blue)), wo,
-// wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION or HAS_IRIDESCENCE then
-// (diffuse transmission, its colour rgb), (iridescence, film ior, film
-// thickness nm, 0): 32. With HAS_ANISOTROPY, alpha_t is wo's fourth
+// wi, u: 24 floats; with HAS_DIFFUSE_TRANSMISSION, HAS_IRIDESCENCE or
+// HAS_DIFFUSE_ROUGHNESS then (diffuse transmission, its colour rgb),
+// (iridescence, film ior, film thickness nm, diffuse roughness): 32. With HAS_ANISOTROPY, alpha_t is wo's fourth
 // float. Out as bsdf_probe: 12 floats.
-#if defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE)
+#if defined(HAS_DIFFUSE_TRANSMISSION) || defined(HAS_IRIDESCENCE) || defined(HAS_DIFFUSE_ROUGHNESS)
 #define BSDF_EXT_PROBE_STRIDE 32u
 #else
 #define BSDF_EXT_PROBE_STRIDE 24u
@@ -89,6 +89,9 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     p.iridescence = c[28];
     p.iridescence_ior = c[29];
     p.iridescence_thickness = c[30];
+#endif
+#ifdef HAS_DIFFUSE_ROUGHNESS
+    p.in.diffuse_roughness = c[31];
 #endif
 #ifdef HAS_ANISOTROPY
     p.alpha_t = c[15];
@@ -146,8 +149,9 @@ __kernel void media_channel_probe(__global const float* in, __global float* out,
 
 // The BsdfParams of a layer probe's case `c` (bsdf_layer_probe): params
 // (base rgb, metallic, alpha, specular, f0, transmission), (eta, thin, f0
-// green, f0 blue), (clearcoat, coat alpha, sheen roughness, 0), (sheen rgb,
-// 0), wo, wi, u, (coat normal, 0): 36 floats, each read only where its
+// green, f0 blue), (clearcoat, coat alpha, sheen roughness, diffuse
+// roughness), (sheen rgb, 0), wo, wi, u, (coat normal, 0): 36 floats, each
+// read only where its
 // define is on (the dielectric ones with HAS_TRANSMISSION; with
 // HAS_ANISOTROPY alpha_t is wo's fourth float).
 inline BsdfParams probe_layer_params(const __global float* c) {
@@ -168,6 +172,9 @@ inline BsdfParams probe_layer_params(const __global float* c) {
 #endif
 #ifdef HAS_IRIDESCENCE
     p.iridescence = 0.0f;
+#endif
+#ifdef HAS_DIFFUSE_ROUGHNESS
+    p.in.diffuse_roughness = c[15];
 #endif
 #ifdef HAS_ANISOTROPY
     p.alpha_t = c[23];

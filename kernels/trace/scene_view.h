@@ -678,6 +678,7 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #ifdef HAS_IRIDESCENCE
         bp->iridescence = 0.0f;
 #endif
+        bp->in.diffuse_roughness = 0.0f;
         return;
     }
     float3 specular_color = bp->in.specular_color;

@@ -146,6 +146,11 @@ pub struct Material {
     pub anisotropy_texture: Option<TextureRef>,
     /// KHR_materials_dispersion `dispersion`: 20 / Abbe number (0: none).
     pub dispersion: f32,
+    /// KHR_materials_diffuse_roughness `diffuseRoughnessFactor` (0
+    /// without it: Lambert's diffuse lobe).
+    pub diffuse_roughness: f32,
+    /// `diffuseRoughnessTexture` (R scales the factor).
+    pub diffuse_roughness_texture: Option<TextureRef>,
 }
 
 impl Default for Material {
@@ -204,6 +209,8 @@ impl Default for Material {
             anisotropy_rotation: 0.0,
             anisotropy_texture: None,
             dispersion: 0.0,
+            diffuse_roughness: 0.0,
+            diffuse_roughness_texture: None,
         }
     }
 }
@@ -259,6 +266,12 @@ impl Material {
     /// KHR_materials_volume; thin-walled surfaces do not disperse).
     pub fn has_dispersion(&self) -> bool {
         self.dispersion > 0.0 && self.transmission_factor > 0.0 && self.has_volume()
+    }
+
+    /// Whether the diffuse lobe is rough (`HAS_DIFFUSE_ROUGHNESS`): a
+    /// roughness of 0 is Lambert's lobe.
+    pub fn has_diffuse_roughness(&self) -> bool {
+        self.diffuse_roughness > 0.0
     }
 
     /// Whether the material has a clear coat (`HAS_CLEARCOAT`).
@@ -585,6 +598,10 @@ texture_slots! {
     Anisotropy: anisotropy_texture
         at "extensions/KHR_materials_anisotropy/anisotropyTexture"
         as "KHR_materials_anisotropy anisotropyTexture", false, "HAS_ANISOTROPY";
+    DiffuseRoughness: diffuse_roughness_texture
+        at "extensions/KHR_materials_diffuse_roughness/diffuseRoughnessTexture"
+        as "KHR_materials_diffuse_roughness diffuseRoughnessTexture", false, "HAS_DIFFUSE_ROUGHNESS",
+        scales "diffuseRoughnessFactor".x;
 }
 
 impl Slot {
@@ -870,6 +887,12 @@ pub const FACTORS: &[Factor] = &[
         path: "extensions/KHR_materials_dispersion/dispersion",
         field: factor_field!(Scalar, dispersion),
         range: Some((0.0, 20.0)),
+        on_device: true,
+    },
+    Factor {
+        path: "extensions/KHR_materials_diffuse_roughness/diffuseRoughnessFactor",
+        field: factor_field!(Scalar, diffuse_roughness),
+        range: UNIT,
         on_device: true,
     },
 ];

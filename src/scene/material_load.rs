@@ -149,6 +149,7 @@ pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
     "KHR_materials_dispersion",
+    "KHR_materials_diffuse_roughness",
     SPECULAR_GLOSSINESS,
 ];
 

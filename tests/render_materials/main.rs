@@ -10,6 +10,7 @@ mod common;
 
 mod anisotropy;
 mod dielectric;
+mod diffuse_roughness;
 mod diffuse_transmission;
 mod dispersion;
 mod energy;
@@ -41,18 +42,19 @@ fn random_case(rng: &mut Rng) -> (Vec3, Vec3, [f32; 3]) {
 /// Runs `bsdf_ext_probe` (built with `defines`) on `cases` (parameters with
 /// the dielectric extensions, wo, wi, random numbers) and holds each to
 /// the Rust reference within `rel`. The kernel reads the parameters (12
-/// floats), wo, wi and u (12), and with the diffuse transmission or
-/// iridescence defines the diffuse transmission and its colour and the
-/// film's weight, index and thickness (8).
+/// floats), wo, wi and u (12), and with the diffuse transmission,
+/// iridescence or diffuse roughness defines the diffuse transmission and
+/// its colour, the film's weight, index and thickness, and the diffuse
+/// roughness (8).
 fn check_ext_probe(
     d: &soupray::device::Device,
     defines: &[&'static str],
     cases: &[(BsdfParams, Vec3, Vec3, [f32; 3])],
     rel: f32,
 ) -> BsdfProbeTally {
-    let extended = defines
-        .iter()
-        .any(|&k| k == "HAS_DIFFUSE_TRANSMISSION" || k == "HAS_IRIDESCENCE");
+    let extended = defines.iter().any(|&k| {
+        k == "HAS_DIFFUSE_TRANSMISSION" || k == "HAS_IRIDESCENCE" || k == "HAS_DIFFUSE_ROUGHNESS"
+    });
     let mut input = Vec::new();
     for (p, wo, wi, u) in cases {
         let dl = p.dielectric.unwrap();
@@ -67,7 +69,7 @@ fn check_ext_probe(
                 dl.iridescence,
                 dl.iridescence_ior,
                 dl.iridescence_thickness,
-                0.0,
+                dl.diffuse_roughness,
             ]);
         }
     }
@@ -207,7 +209,7 @@ fn render_square(
     let mut root = json!({
         "extensionsUsed": ["KHR_texture_transform", "KHR_materials_transmission", "KHR_materials_specular",
                            "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_diffuse_transmission",
-                           "KHR_materials_iridescence", "KHR_lights_punctual"],
+                           "KHR_materials_iridescence", "KHR_materials_diffuse_roughness", "KHR_lights_punctual"],
         "scene": 0,
         "scenes": [{"nodes": [0, 1]}],
         "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 0.0, 3.0]}],

@@ -37,6 +37,9 @@ pub struct Dielectric {
     pub iridescence: f32,
     pub iridescence_ior: f32,
     pub iridescence_thickness: f32,
+    /// KHR_materials_diffuse_roughness (`HAS_DIFFUSE_ROUGHNESS`): the
+    /// diffuse lobe's roughness, 0 (Lambert) without it.
+    pub diffuse_roughness: f32,
 }
 
 impl Dielectric {
@@ -75,6 +78,7 @@ impl Dielectric {
             iridescence: 0.0,
             iridescence_ior: 1.3,
             iridescence_thickness: 400.0,
+            diffuse_roughness: 0.0,
         }
     }
 }
@@ -105,6 +109,14 @@ impl Dielectric {
             iridescence: factor.clamp(0.0, 1.0),
             iridescence_ior: ior,
             iridescence_thickness: thickness,
+            ..self
+        }
+    }
+
+    /// With KHR_materials_diffuse_roughness's roughness.
+    pub fn with_diffuse_roughness(self, roughness: f32) -> Dielectric {
+        Dielectric {
+            diffuse_roughness: roughness.clamp(0.0, 1.0),
             ..self
         }
     }
@@ -356,9 +368,39 @@ pub(super) fn refraction_half(eta: f32, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32
     Some((h, oh, ih))
 }
 
+const EON_C1: f32 = 0.5 - 2.0 / (3.0 * PI);
+const EON_C2: f32 = 2.0 / 3.0 - 28.0 / (15.0 * PI);
+
+/// Fujii's Oren-Nayar directional albedo at cosine `mu` and roughness `r`,
+/// the EON paper's polynomial fit.
+pub fn eon_fon_albedo(mu: f32, r: f32) -> f32 {
+    let m = 1.0 - mu;
+    let g = m * (0.057_108_53 + m * (0.491_881_87 + m * (-0.332_181_44 + m * 0.071_442_99)));
+    (1.0 + r * g) / (1.0 + EON_C1 * r)
+}
+
+/// KHR_materials_diffuse_roughness's lobe: the energy-preserving
+/// Oren-Nayar BRDF (EON: Portsmouth, Kutz and Hill 2024, Listing 1, as
+/// OpenPBR's diffuse) of albedo `rho` and roughness `r`, for wo and wi
+/// above the surface: Fujii's Oren-Nayar single scattering plus the
+/// multiple scattering that makes a white lobe reflect everything. It
+/// stands where Lambert's `rho / pi` would.
+pub fn eon_eval(rho: Vec3, r: f32, wo: Vec3, wi: Vec3) -> Vec3 {
+    let s = wi.dot(wo) - wi.z * wo.z;
+    let s_over_t = if s > 0.0 { s / wi.z.max(wo.z) } else { s };
+    let af = 1.0 / (1.0 + EON_C1 * r);
+    let single = rho * ((INV_PI * af) * (1.0 + r * s_over_t));
+    let e_avg = af * (1.0 + EON_C2 * r);
+    let rho_ms = ((rho * rho) * e_avg) / (Vec3::ONE - rho * (1.0 - e_avg));
+    let k = ((1.0 - eon_fon_albedo(wo.z, r)).max(1.0e-7)
+        * (1.0 - eon_fon_albedo(wi.z, r)).max(1.0e-7))
+        / (1.0 - e_avg).max(1.0e-7);
+    single + rho_ms * (INV_PI * k)
+}
+
 /// The dielectric's diffuse reflection lobe for wi above the surface,
 /// under the specular layer of Fresnel `layer` at the half vector; before
-/// the (1 - metallic) mix.
+/// the (1 - metallic) mix. Lambert's, or with a diffuse roughness EON's.
 pub(super) fn dielectric_diffuse(
     p: &BsdfParams,
     d: &Dielectric,
@@ -366,6 +408,16 @@ pub(super) fn dielectric_diffuse(
     wi: Vec3,
     layer: Vec3,
 ) -> Vec3 {
+    if d.diffuse_roughness > 0.0 {
+        let f = eon_eval(p.base, d.diffuse_roughness, wo, wi);
+        // Under the layer it keeps 1 - E_spec(wo) (see the kernel's
+        // dielectric_diffuse for why not Lambert's reciprocal scaling).
+        return if energy_layered(p, Some(d)) {
+            f * layer_transmittance(p, Some(d), wo) * diffuse_share(d, 0.0)
+        } else {
+            f * diffuse_share(d, max3(layer))
+        };
+    }
     if energy_layered(p, Some(d)) {
         p.base * lambert_scaling(p, Some(d), wo, wi) * (diffuse_share(d, 0.0) * INV_PI)
     } else {

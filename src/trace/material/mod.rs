@@ -43,8 +43,8 @@ pub use bsdf::{
     MIN_GGX_ALPHA, SHEEN_MIN_ROUGHNESS, SMOOTH_GGX_ALPHA,
 };
 pub use dielectric::{
-    f0_of_ior, fresnel_dielectric, fresnel_dielectric3, lobe_probabilities, thin_film_fresnel,
-    Dielectric,
+    eon_eval, eon_fon_albedo, f0_of_ior, fresnel_dielectric, fresnel_dielectric3,
+    lobe_probabilities, thin_film_fresnel, Dielectric,
 };
 
 use bytemuck::{Pod, Zeroable};

@@ -120,9 +120,9 @@ pub struct Lobe {
 
 /// The optional lobes, in the order their defines are passed: the layers
 /// over the BSDF (clear coat, sheen), the diffuse transmission under it, the
-/// thin film on its Fresnel, the anisotropic specular lobes and the
-/// per-channel indices of dispersive volumes.
-pub const LOBES: [Lobe; 6] = [
+/// thin film on its Fresnel, the anisotropic specular lobes, the
+/// per-channel indices of dispersive volumes and the rough diffuse lobe.
+pub const LOBES: [Lobe; 7] = [
     Lobe {
         define: "HAS_CLEARCOAT",
         name: "clearcoat",
@@ -157,6 +157,12 @@ pub const LOBES: [Lobe; 6] = [
         define: "HAS_DISPERSION",
         name: "dispersion",
         used_by: Material::has_dispersion,
+        with_transmission: true,
+    },
+    Lobe {
+        define: "HAS_DIFFUSE_ROUGHNESS",
+        name: "diffuse_roughness",
+        used_by: Material::has_diffuse_roughness,
         with_transmission: true,
     },
 ];
