@@ -134,24 +134,18 @@ pub(super) fn add_roughness_textures(
 }
 
 /// The `KHR_materials_*` extensions soupray renders (the rest are named in
-/// a warning when a scene uses them).
-pub const SUPPORTED_MATERIAL_EXTENSIONS: &[&str] = &[
-    "KHR_materials_emissive_strength",
-    "KHR_materials_transmission",
-    "KHR_materials_ior",
-    "KHR_materials_volume",
-    "KHR_materials_unlit",
-    "KHR_materials_specular",
-    "KHR_materials_variants",
-    "KHR_materials_clearcoat",
-    "KHR_materials_sheen",
-    "KHR_materials_diffuse_transmission",
-    "KHR_materials_iridescence",
-    "KHR_materials_anisotropy",
-    "KHR_materials_dispersion",
-    "KHR_materials_diffuse_roughness",
-    SPECULAR_GLOSSINESS,
-];
+/// a warning when a scene uses them): those whose factors and textures
+/// the material tables read, and the three that change the material
+/// otherwise.
+pub fn supported_material_extensions() -> Vec<&'static str> {
+    let mut names = table_extensions();
+    names.extend([
+        "KHR_materials_unlit",
+        "KHR_materials_variants",
+        SPECULAR_GLOSSINESS,
+    ]);
+    names
+}
 
 /// The textures of KHR_materials_pbrSpecularGlossiness, below
 /// `/materials/N/`: what `validate` checks beside the `Slot`s.
@@ -164,6 +158,7 @@ pub(crate) const SPECULAR_GLOSSINESS_TEXTURES: &[&str] = &[
 /// material, or in `extensionsUsed`) that soupray does not render, naming
 /// it and the first material using it.
 pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<String> {
+    let supported = supported_material_extensions();
     // extension -> (first material index, name, count)
     let mut users: std::collections::BTreeMap<String, (Option<usize>, Option<String>, usize)> =
         Default::default();
@@ -181,7 +176,7 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
             // Supported ones are rendered with their textures (except
             // KHR_materials_volume's thicknessTexture, which a path tracer
             // does not need: it measures the distance through the mesh).
-            if SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext.as_str()) {
+            if supported.contains(&ext.as_str()) {
                 continue;
             }
             let e = users
@@ -192,7 +187,7 @@ pub(crate) fn ignored_material_extensions(json: &serde_json::Value) -> Vec<Strin
     }
     let used = json.get("extensionsUsed").and_then(|u| u.as_array());
     for ext in used.into_iter().flatten().filter_map(|e| e.as_str()) {
-        if ext.starts_with("KHR_materials_") && !SUPPORTED_MATERIAL_EXTENSIONS.contains(&ext) {
+        if ext.starts_with("KHR_materials_") && !supported.contains(&ext) {
             users.entry(ext.to_owned()).or_insert((None, None, 0));
         }
     }

@@ -47,7 +47,7 @@ pub use material::{AlphaMode, Material, MaterialTable, TextureRef, TextureTransf
 pub use mattes::MatteTable;
 pub use mesh::{Influences, Mesh, MorphTarget, Primitive};
 pub use pose::Pose;
-pub use source::SUPPORTED_EXTENSIONS;
+pub use source::supported_extensions;
 
 /// The words that mark an error produced by catching a panic inside
 /// loading (see [`Scene::load`]); tests assert no input reaches it.

@@ -10,62 +10,48 @@ use std::path::{Path, PathBuf};
 use super::error::{Result, SceneError};
 use super::texture_source;
 
-/// Extensions whose semantics soupray implements; any other name in
-/// `extensionsRequired` is refused. (Names in `extensionsUsed` only are
-/// optional by definition and are ignored when unknown.)
-pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+/// Extensions other than the materials' whose semantics soupray
+/// implements ([`supported_extensions`] adds those).
+const GEOMETRY_SCENE_AND_TEXTURE_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_animation_pointer",
     "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
-    "KHR_materials_anisotropy",
-    "KHR_materials_clearcoat",
-    "KHR_materials_diffuse_roughness",
-    "KHR_materials_diffuse_transmission",
-    "KHR_materials_dispersion",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_ior",
-    "KHR_materials_iridescence",
-    "KHR_materials_pbrSpecularGlossiness",
-    "KHR_materials_sheen",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_unlit",
-    "KHR_materials_variants",
-    "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
     "EXT_texture_webp",
     "KHR_texture_basisu",
 ];
 
+/// Every extension whose semantics soupray implements, sorted; any other
+/// name in `extensionsRequired` is refused. (Names in `extensionsUsed`
+/// only are optional by definition and are ignored when unknown.)
+pub fn supported_extensions() -> Vec<&'static str> {
+    let mut names = GEOMETRY_SCENE_AND_TEXTURE_EXTENSIONS.to_vec();
+    names.extend(super::material_load::supported_material_extensions());
+    names.sort_unstable();
+    names
+}
+
 /// Supported extensions read from the raw JSON rather than by the `gltf`
-/// crate (`scene::material`; `scene::mesh` for the geometry ones).
+/// crate: every material extension (`scene::material`), and these
+/// (`scene::mesh` for the geometry ones).
 const READ_FROM_RAW_JSON: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "KHR_animation_pointer",
     "KHR_draco_mesh_compression",
-    "KHR_materials_anisotropy",
-    "KHR_materials_clearcoat",
-    "KHR_materials_diffuse_roughness",
-    "KHR_materials_diffuse_transmission",
-    "KHR_materials_dispersion",
-    "KHR_materials_ior",
-    "KHR_materials_iridescence",
-    "KHR_materials_pbrSpecularGlossiness",
-    "KHR_materials_sheen",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_unlit",
-    "KHR_materials_variants",
-    "KHR_materials_volume",
     "KHR_mesh_quantization",
     texture_source::KHR_TEXTURE_BASISU,
     texture_source::EXT_TEXTURE_WEBP,
     texture_source::EXT_TEXTURE_AVIF,
 ];
+
+fn read_from_raw_json(name: &str) -> bool {
+    READ_FROM_RAW_JSON.contains(&name)
+        || super::material_load::supported_material_extensions().contains(&name)
+}
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -223,11 +209,12 @@ fn check_required_extensions(file: &str, json: &serde_json::Value) -> Result<()>
             let name = extension.as_str().unwrap_or("(not a string)");
             // Required AVIF is honoured where every AVIF texture has a
             // fallback image; `choose_texture_images` refuses the rest.
-            if !SUPPORTED_EXTENSIONS.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
+            let supported = supported_extensions();
+            if !supported.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
                 return Err(SceneError::UnsupportedExtension {
                     file: file.to_owned(),
                     extension: name.to_owned(),
-                    supported: SUPPORTED_EXTENSIONS.join(", "),
+                    supported: supported.join(", "),
                 });
             }
         }
@@ -246,10 +233,7 @@ fn json_for_crate(json: &serde_json::Value) -> serde_json::Value {
         .get_mut("extensionsRequired")
         .and_then(|r| r.as_array_mut())
     {
-        required.retain(|e| {
-            !e.as_str()
-                .is_some_and(|name| READ_FROM_RAW_JSON.contains(&name))
-        });
+        required.retain(|e| !e.as_str().is_some_and(read_from_raw_json));
     }
     // KHR_animation_pointer channels (`scene::pointer`) are read from the
     // raw JSON; the crate knows no "pointer" path.
