@@ -40,6 +40,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "trace.cl"),
     kernel!("trace" / "texture.h"),
     kernel!("trace" / "texture_probe.cl"),
+    kernel!("trace" / "eon.h"),
     kernel!("trace" / "bsdf.h"),
     kernel!("trace" / "layering.h"),
     kernel!("trace" / "bsdf_layers.h"),

@@ -536,27 +536,22 @@ texture_slots! {
     Normal: normal_texture at "normalTexture" as "normalTexture", false;
     Occlusion: occlusion_texture at "occlusionTexture" as "occlusionTexture", false;
     Emissive: emissive_texture at "emissiveTexture" as "emissiveTexture", true;
-    /// R scales the transmission factor.
     Transmission: transmission_texture
         at "extensions/KHR_materials_transmission/transmissionTexture"
         as "KHR_materials_transmission transmissionTexture", false, "HAS_TRANSMISSION",
         scales "transmissionFactor".x;
-    /// A scales the specular factor.
     Specular: specular_texture
         at "extensions/KHR_materials_specular/specularTexture"
         as "KHR_materials_specular specularTexture", false, "HAS_TRANSMISSION",
         scales "specularFactor".w;
-    /// RGB scales the specular colour.
     SpecularColor: specular_color_texture
         at "extensions/KHR_materials_specular/specularColorTexture"
         as "KHR_materials_specular specularColorTexture", true, "HAS_TRANSMISSION",
         scales "specularColorFactor".xyz;
-    /// R scales the clear coat factor.
     Clearcoat: clearcoat_texture
         at "extensions/KHR_materials_clearcoat/clearcoatTexture"
         as "KHR_materials_clearcoat clearcoatTexture", false, "HAS_CLEARCOAT",
         scales "clearcoatFactor".x;
-    /// G scales the clear coat's roughness.
     ClearcoatRoughness: clearcoat_roughness_texture
         at "extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture"
         as "KHR_materials_clearcoat clearcoatRoughnessTexture", false, "HAS_CLEARCOAT",
@@ -565,27 +560,22 @@ texture_slots! {
     ClearcoatNormal: clearcoat_normal_texture
         at "extensions/KHR_materials_clearcoat/clearcoatNormalTexture"
         as "KHR_materials_clearcoat clearcoatNormalTexture", false, "HAS_CLEARCOAT";
-    /// RGB scales the sheen colour.
     SheenColor: sheen_color_texture
         at "extensions/KHR_materials_sheen/sheenColorTexture"
         as "KHR_materials_sheen sheenColorTexture", true, "HAS_SHEEN",
         scales "sheenColorFactor".xyz;
-    /// A scales the sheen roughness.
     SheenRoughness: sheen_roughness_texture
         at "extensions/KHR_materials_sheen/sheenRoughnessTexture"
         as "KHR_materials_sheen sheenRoughnessTexture", false, "HAS_SHEEN",
         scales "sheenRoughnessFactor".w;
-    /// A scales the diffuse transmission factor.
     DiffuseTransmission: diffuse_transmission_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionTexture"
         as "KHR_materials_diffuse_transmission diffuseTransmissionTexture", false, "HAS_DIFFUSE_TRANSMISSION",
         scales "diffuseTransmissionFactor".w;
-    /// RGB scales the diffuse transmission colour.
     DiffuseTransmissionColor: diffuse_transmission_color_texture
         at "extensions/KHR_materials_diffuse_transmission/diffuseTransmissionColorTexture"
         as "KHR_materials_diffuse_transmission diffuseTransmissionColorTexture", true, "HAS_DIFFUSE_TRANSMISSION",
         scales "diffuseTransmissionColorFactor".xyz;
-    /// R scales the iridescence factor.
     Iridescence: iridescence_texture
         at "extensions/KHR_materials_iridescence/iridescenceTexture"
         as "KHR_materials_iridescence iridescenceTexture", false, "HAS_IRIDESCENCE",
@@ -602,20 +592,6 @@ texture_slots! {
         at "extensions/KHR_materials_diffuse_roughness/diffuseRoughnessTexture"
         as "KHR_materials_diffuse_roughness diffuseRoughnessTexture", false, "HAS_DIFFUSE_ROUGHNESS",
         scales "diffuseRoughnessFactor".x;
-}
-
-/// The `KHR_materials_*` extensions the tables read (every one that sets
-/// a factor or a texture), each once, in table order.
-pub fn table_extensions() -> Vec<&'static str> {
-    let factors = FACTORS.iter().filter_map(|f| f.extension_key());
-    let slots = Slot::ALL.into_iter().filter_map(|s| s.extension_key());
-    let mut names: Vec<&'static str> = Vec::new();
-    for (ext, _) in factors.chain(slots) {
-        if !names.contains(&ext) {
-            names.push(ext);
-        }
-    }
-    names
 }
 
 impl Slot {
@@ -967,27 +943,6 @@ mod tests {
                 None => assert!(slot.path().ends_with(slot.name()), "{slot:?}"),
             }
         }
-    }
-
-    #[test]
-    fn the_tables_name_every_rendered_material_extension() {
-        let mut names = table_extensions();
-        names.sort_unstable();
-        let want = [
-            "KHR_materials_anisotropy",
-            "KHR_materials_clearcoat",
-            "KHR_materials_diffuse_roughness",
-            "KHR_materials_diffuse_transmission",
-            "KHR_materials_dispersion",
-            "KHR_materials_emissive_strength",
-            "KHR_materials_ior",
-            "KHR_materials_iridescence",
-            "KHR_materials_sheen",
-            "KHR_materials_specular",
-            "KHR_materials_transmission",
-            "KHR_materials_volume",
-        ];
-        assert_eq!(names, want);
     }
 
     #[test]

@@ -133,6 +133,20 @@ pub(super) fn add_roughness_textures(
     }
 }
 
+/// The `KHR_materials_*` extensions the tables read (every one that sets
+/// a factor or a texture), each once, in table order.
+fn table_extensions() -> Vec<&'static str> {
+    let factors = FACTORS.iter().filter_map(|f| f.extension_key());
+    let slots = Slot::ALL.into_iter().filter_map(|s| s.extension_key());
+    let mut names: Vec<&'static str> = Vec::new();
+    for (ext, _) in factors.chain(slots) {
+        if !names.contains(&ext) {
+            names.push(ext);
+        }
+    }
+    names
+}
+
 /// The `KHR_materials_*` extensions soupray renders (the rest are named in
 /// a warning when a scene uses them): those whose factors and textures
 /// the material tables read, and the three that change the material
@@ -574,4 +588,30 @@ fn load_images(src: &Source) -> Result<Vec<Image>> {
         });
     }
     Ok(images)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tables_name_every_rendered_material_extension() {
+        let mut names = table_extensions();
+        names.sort_unstable();
+        let want = [
+            "KHR_materials_anisotropy",
+            "KHR_materials_clearcoat",
+            "KHR_materials_diffuse_roughness",
+            "KHR_materials_diffuse_transmission",
+            "KHR_materials_dispersion",
+            "KHR_materials_emissive_strength",
+            "KHR_materials_ior",
+            "KHR_materials_iridescence",
+            "KHR_materials_sheen",
+            "KHR_materials_specular",
+            "KHR_materials_transmission",
+            "KHR_materials_volume",
+        ];
+        assert_eq!(names, want);
+    }
 }
