@@ -10,7 +10,7 @@ use soupray::cli::frames::{check_output_dir, frame_paths, NamePattern};
 use soupray::film::{Aovs, Image, BACKGROUND_DEPTH};
 use soupray::output::{
     is_complete_exr, is_frame_done, write_atomic, write_exr, write_log, write_png_preview,
-    FrameLog, FrameMetadata, OutputError,
+    ExrFormat, FrameLog, FrameMetadata, OutputError,
 };
 use std::collections::HashMap;
 use std::path::Path;
@@ -97,11 +97,52 @@ fn is_f16(layer: &ReadLayer, name: &str) -> bool {
 }
 
 #[test]
+fn every_exr_compression_is_lossless_and_recorded_in_the_header() {
+    use soupray::output::ExrCompression;
+    let dir = tempfile::tempdir().unwrap();
+    let img = test_image(Aovs::ALL);
+    let mut sizes = Vec::new();
+    for name in ExrCompression::NAMES {
+        let compression: ExrCompression = name.parse().unwrap();
+        assert_eq!(compression.name(), name);
+        let path = dir.path().join(format!("{name}.exr"));
+        let format = ExrFormat {
+            half: false,
+            compression,
+        };
+        write_exr(&path, &img, &meta(), format).unwrap();
+        let (layer, _, _) = read_back(&path);
+        let want = match name {
+            "zip" => exr::compression::Compression::ZIP16,
+            "zips" => exr::compression::Compression::ZIP1,
+            "piz" => exr::compression::Compression::PIZ,
+            "rle" => exr::compression::Compression::RLE,
+            _ => exr::compression::Compression::Uncompressed,
+        };
+        assert_eq!(layer.encoding.compression, want, "{name}");
+        for (c, channel) in ["R", "G", "B", "A"].into_iter().enumerate() {
+            let expect: Vec<f32> = img.rgba.iter().map(|p| p[c]).collect();
+            let got: Vec<f32> = (layer.channel_data.list.iter())
+                .find(|ch| ch.name.to_string() == channel)
+                .unwrap()
+                .sample_data
+                .values_as_f32()
+                .collect();
+            assert_eq!(got, expect, "{name} {channel}");
+        }
+        sizes.push(std::fs::metadata(&path).unwrap().len());
+    }
+    assert!("lz4".parse::<ExrCompression>().is_err());
+    assert_eq!(ExrCompression::default(), ExrCompression::Zip);
+    eprintln!("file sizes {:?}: {sizes:?}", ExrCompression::NAMES);
+}
+
+#[test]
 fn exr_round_trip_with_aovs() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("shot.-012.exr");
     let img = test_image(Aovs::ALL);
-    write_exr(&path, &img, &meta(), false).unwrap();
+    write_exr(&path, &img, &meta(), ExrFormat::FLOAT).unwrap();
 
     let (layer, attrs, image) = read_back(&path);
     let mut names: Vec<String> = layer
@@ -176,7 +217,7 @@ fn exr_half_keeps_depth_in_f32() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("h.exr");
     let img = test_image(Aovs::ALL);
-    write_exr(&path, &img, &meta(), true).unwrap();
+    write_exr(&path, &img, &meta(), ExrFormat::HALF).unwrap();
     let (layer, attrs, _) = read_back(&path);
     for name in [
         "R", "G", "B", "A", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B",
@@ -197,7 +238,7 @@ fn exr_half_keeps_depth_in_f32() {
     );
     // Half is smaller than full float for the same image.
     let full = dir.path().join("f.exr");
-    write_exr(&full, &img, &meta(), false).unwrap();
+    write_exr(&full, &img, &meta(), ExrFormat::FLOAT).unwrap();
     assert!(std::fs::metadata(&path).unwrap().len() < std::fs::metadata(&full).unwrap().len());
 }
 
@@ -218,7 +259,7 @@ fn exr_counts_and_estimates_stay_f32_with_half() {
         img.noise.as_mut().unwrap()[i] = 1e-5 * (i as f32 + 1.0 / 3.0);
         img.rays.as_mut().unwrap()[i] = 100_003.0 * i as f32;
     }
-    write_exr(&path, &img, &meta(), true).unwrap();
+    write_exr(&path, &img, &meta(), ExrFormat::HALF).unwrap();
     let (layer, _, _) = read_back(&path);
     for (name, buf) in [
         ("sample_count", &img.sample_count),
@@ -235,7 +276,7 @@ fn exr_counts_and_estimates_stay_f32_with_half() {
 fn exr_without_aovs_is_plain_rgba() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.exr");
-    write_exr(&path, &test_image(Aovs::NONE), &meta(), false).unwrap();
+    write_exr(&path, &test_image(Aovs::NONE), &meta(), ExrFormat::FLOAT).unwrap();
     let (layer, _, _) = read_back(&path);
     let names: Vec<String> = layer
         .channel_data
@@ -257,7 +298,7 @@ fn truncated_or_foreign_exr_is_incomplete() {
         x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
         *p = [(x >> 8) as f32 / 16_777_216.0, 0.5, 0.25, 1.0];
     }
-    write_exr(&path, &img, &meta(), false).unwrap();
+    write_exr(&path, &img, &meta(), ExrFormat::FLOAT).unwrap();
     assert!(is_complete_exr(&path));
     let bytes = std::fs::read(&path).unwrap();
     let cut = dir.path().join("cut.exr");
@@ -294,7 +335,13 @@ fn frame_is_done_only_with_exr_and_log() {
     let pattern = NamePattern::new("s.####.exr", 2).unwrap();
     let paths = frame_paths(dir.path(), &pattern, 3);
     assert!(!is_frame_done(&paths.exr, &paths.log));
-    write_exr(&paths.exr, &test_image(Aovs::NONE), &meta(), false).unwrap();
+    write_exr(
+        &paths.exr,
+        &test_image(Aovs::NONE),
+        &meta(),
+        ExrFormat::FLOAT,
+    )
+    .unwrap();
     assert!(
         !is_frame_done(&paths.exr, &paths.log),
         "killed before the log"
@@ -321,7 +368,7 @@ fn listing(dir: &Path) -> Vec<String> {
 fn atomic_writes_leave_no_temporaries_and_no_partial_files() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a.0001.exr");
-    write_exr(&path, &test_image(Aovs::ALL), &meta(), false).unwrap();
+    write_exr(&path, &test_image(Aovs::ALL), &meta(), ExrFormat::FLOAT).unwrap();
     write_png_preview(
         &path.with_extension("png"),
         &test_image(Aovs::NONE),
@@ -357,7 +404,7 @@ fn atomic_writes_leave_no_temporaries_and_no_partial_files() {
     let before = std::fs::read(&path).unwrap();
     let mut broken = test_image(Aovs::NONE);
     broken.rgba.pop();
-    let e = write_exr(&path, &broken, &meta(), false).unwrap_err();
+    let e = write_exr(&path, &broken, &meta(), ExrFormat::FLOAT).unwrap_err();
     assert!(e.to_string().contains("a.0001.exr"), "{e}");
     assert_eq!(std::fs::read(&path).unwrap(), before);
     assert_eq!(
@@ -367,7 +414,7 @@ fn atomic_writes_leave_no_temporaries_and_no_partial_files() {
 
     // A directory that does not exist: a clear error naming the file.
     let nowhere = dir.path().join("no/such/dir/c.exr");
-    let e = write_exr(&nowhere, &test_image(Aovs::NONE), &meta(), false).unwrap_err();
+    let e = write_exr(&nowhere, &test_image(Aovs::NONE), &meta(), ExrFormat::FLOAT).unwrap_err();
     let msg = e.to_string();
     assert!(msg.contains("c.exr") && msg.contains("writable"), "{msg}");
 }

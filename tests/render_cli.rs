@@ -230,6 +230,56 @@ fn a_killed_run_leaves_no_partial_frame_and_resumes() {
 }
 
 #[test]
+fn exr_compression_is_chosen_logged_and_keeps_the_pixels() {
+    // The same frame with ZIP (the default) and RLE: the same pixels in
+    // every channel, the log naming the compression; an unknown one is a
+    // usage error naming the choices.
+    let (zip, rle) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let Some(out) = render(zip.path(), &["--frame", "0"]) else {
+        return;
+    };
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = render(rle.path(), &["--frame", "0", "--exr-compression", "rle"]).unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let exr = |dir: &Path| {
+        let name = files(dir)
+            .into_iter()
+            .find(|n| n.ends_with(".exr"))
+            .unwrap();
+        dir.join(name)
+    };
+    assert_eq!(exr_pixels(&exr(zip.path())), exr_pixels(&exr(rle.path())));
+    let log = |dir: &Path| {
+        let name = files(dir)
+            .into_iter()
+            .find(|n| n.ends_with(".json"))
+            .unwrap();
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["output"]["compression"].as_str().unwrap().to_owned()
+    };
+    assert_eq!(
+        (log(zip.path()), log(rle.path())),
+        ("zip".into(), "rle".into())
+    );
+    let out = render(rle.path(), &["--frame", "0", "--exr-compression", "lz4"]).unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--exr-compression \"lz4\": use one of zip, zips, piz, rle, none"),
+        "{err}"
+    );
+}
+
+#[test]
 fn exit_codes_come_from_their_causes() {
     let dir = tempfile::tempdir().unwrap();
     // 2: usage.

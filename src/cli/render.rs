@@ -111,6 +111,18 @@ pub struct RenderArgs {
     /// Write half-float (f16) colour channels instead of f32.
     #[arg(long, help_heading = "Output")]
     pub half: bool,
+    /// The EXR's lossless compression: zip (zlib over 16 scan lines, the
+    /// smallest files), zips (zlib per scan line), piz (wavelet, for grainy
+    /// images), rle (run lengths: quick to write, larger files) or none.
+    /// With many passes on few cores, rle leaves the trace more of the CPU.
+    /// docs/output.md
+    #[arg(
+        long,
+        default_value = "zip",
+        value_name = "KIND",
+        help_heading = "Output"
+    )]
+    pub exr_compression: String,
     /// Extra EXR channels, comma-separated: depth (Z), normal (N.X N.Y N.Z),
     /// albedo (albedo.R albedo.G albedo.B), sample_count (samples each pixel
     /// took), noise (each pixel's estimated relative error), rays (rays each
@@ -540,6 +552,7 @@ fn render_frame(
         exr: paths.exr.display().to_string(),
         png: None,
         half: false,
+        compression: String::new(),
         aovs: job.aov_names.clone(),
         cryptomatte: done
             .image
@@ -591,7 +604,7 @@ type Written = (i64, Result<String, String>);
 /// How the writer thread writes each frame.
 #[derive(Clone, Copy)]
 struct WriteOptions {
-    half: bool,
+    format: output::ExrFormat,
     png: bool,
     /// `--transparent`: previews are composited over a neutral grey.
     transparent: bool,
@@ -640,7 +653,7 @@ fn spawn_writer(
 /// Writes one frame's EXR, preview and log, and records the write time.
 fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), output::OutputError> {
     let WriteOptions {
-        half,
+        format,
         png,
         transparent,
         spp,
@@ -658,7 +671,7 @@ fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), outp
         &done.image,
         done.denoised.as_deref(),
         &meta,
-        half,
+        format,
     )?;
     if png {
         // The preview shows the final (denoised) beauty.
@@ -673,7 +686,8 @@ fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), outp
         output::write_png_preview(&done.paths.png, &preview, 0.0, transparent)?;
         done.log.output.png = Some(done.paths.png.display().to_string());
     }
-    done.log.output.half = half;
+    done.log.output.half = format.half;
+    done.log.output.compression = format.compression.name().to_owned();
     done.log.timings_ms.write = ms(t);
     done.log.timings_ms.total = ms(done.started);
     output::write_log(&done.paths.log, &done.log)
@@ -904,7 +918,10 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     signals.deferred();
     signals.check()?;
     let (writer, writer_done) = spawn_writer(WriteOptions {
-        half: args.half,
+        format: output::ExrFormat {
+            half: args.half,
+            compression: job.exr_compression,
+        },
         png: args.png,
         transparent: args.transparent,
         spp,

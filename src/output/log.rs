@@ -259,6 +259,8 @@ pub struct OutputLog {
     pub png: Option<String>,
     /// Whether the EXR's colour channels are f16 (`--half`).
     pub half: bool,
+    /// The EXR's compression, as `--exr-compression` names it.
+    pub compression: String,
     /// The AOVs in the EXR, as `--aov` names them.
     pub aovs: Vec<String>,
     /// The Cryptomatte layers in the EXR (`CryptoObject`, ...), and the

@@ -9,7 +9,8 @@
 //! the temporary is removed. A run killed mid-write can leave a hidden
 //! `.NAME.PID.tmp`, which is never mistaken for a frame and may be deleted.
 //!
-//! **EXR layout.** One part, scan lines, ZIP (16 lines) compression,
+//! **EXR layout.** One part, scan lines, ZIP (16 lines) compression
+//! unless `--exr-compression` chooses another lossless one (`ExrFormat`),
 //! display window = data window = the frame, Rec.709 primaries with a D65
 //! white (glTF's linear sRGB). Channels: `R`, `G`, `B`, `A` (linear,
 //! premultiplied by coverage), and with the AOVs `Z` (camera distance),
@@ -61,6 +62,79 @@ use std::path::{Path, PathBuf};
 /// The soupray version written into every file.
 /// The soupray version written into every file.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The lossless EXR compressions soupray writes (`--exr-compression`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ExrCompression {
+    /// zlib over 16 scan lines: the smallest files, the default (as in
+    /// Cycles and Nuke).
+    #[default]
+    Zip,
+    /// zlib per scan line: ZIP's ratio, in smaller blocks.
+    Zips,
+    /// Wavelet and Huffman coding: for grainy images.
+    Piz,
+    /// Run lengths: fast, larger files.
+    Rle,
+    /// Stored as they are: the largest files.
+    None,
+}
+
+impl ExrCompression {
+    /// The names `--exr-compression` takes, in the order above.
+    pub const NAMES: [&'static str; 5] = ["zip", "zips", "piz", "rle", "none"];
+    const ALL: [ExrCompression; 5] = [
+        ExrCompression::Zip,
+        ExrCompression::Zips,
+        ExrCompression::Piz,
+        ExrCompression::Rle,
+        ExrCompression::None,
+    ];
+
+    /// Its `--exr-compression` name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES[Self::ALL.iter().position(|&c| c == self).unwrap_or(0)]
+    }
+
+    fn exr(self) -> Compression {
+        match self {
+            ExrCompression::Zip => Compression::ZIP16,
+            ExrCompression::Zips => Compression::ZIP1,
+            ExrCompression::Piz => Compression::PIZ,
+            ExrCompression::Rle => Compression::RLE,
+            ExrCompression::None => Compression::Uncompressed,
+        }
+    }
+}
+
+impl std::str::FromStr for ExrCompression {
+    type Err = ();
+    fn from_str(s: &str) -> Result<ExrCompression, ()> {
+        let i = Self::NAMES.iter().position(|&n| n == s).ok_or(())?;
+        Ok(Self::ALL[i])
+    }
+}
+
+/// How the EXR stores its samples: `--half` and `--exr-compression`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExrFormat {
+    /// f16 colour channels (every channel but `Z` and the counts).
+    pub half: bool,
+    pub compression: ExrCompression,
+}
+
+impl ExrFormat {
+    /// f32 channels, ZIP: the default.
+    pub const FLOAT: ExrFormat = ExrFormat {
+        half: false,
+        compression: ExrCompression::Zip,
+    };
+    /// f16 channels, ZIP (`--half`).
+    pub const HALF: ExrFormat = ExrFormat {
+        half: true,
+        compression: ExrCompression::Zip,
+    };
+}
 
 /// What the EXR header records about how the frame was made.
 #[derive(Debug, Clone, PartialEq)]
@@ -127,9 +201,9 @@ pub fn write_exr(
     path: &Path,
     image: &Image,
     meta: &FrameMetadata,
-    half: bool,
+    format: ExrFormat,
 ) -> Result<(), OutputError> {
-    write_exr_denoised(path, image, None, meta, half)
+    write_exr_denoised(path, image, None, meta, format)
 }
 
 /// `write_exr`, with the denoised beauty `denoised` (one RGB per pixel)
@@ -140,7 +214,7 @@ pub fn write_exr_denoised(
     image: &Image,
     denoised: Option<&[[f32; 3]]>,
     meta: &FrameMetadata,
-    half: bool,
+    format: ExrFormat,
 ) -> Result<(), OutputError> {
     let n = image.width as usize * image.height as usize;
     if image.rgba.len() != n {
@@ -157,12 +231,12 @@ pub fn write_exr_denoised(
             message: format!("denoised image holds a different number of pixels than {n}"),
         });
     }
-    let channels = exr_channels(image, denoised, half);
+    let channels = exr_channels(image, denoised, format.half);
     let attrs = exr_attributes(image, meta);
 
     let size = (image.width as usize, image.height as usize);
     let encoding = Encoding {
-        compression: Compression::ZIP16,
+        compression: format.compression.exr(),
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
@@ -535,7 +609,7 @@ mod tests {
         let files: Vec<Vec<u8>> = (0..6)
             .map(|i| {
                 let p = dir.path().join(format!("f{i}.exr"));
-                write_exr(&p, &img, &meta, false).unwrap();
+                write_exr(&p, &img, &meta, ExrFormat::FLOAT).unwrap();
                 std::fs::read(&p).unwrap()
             })
             .collect();

@@ -28,6 +28,8 @@ pub(super) struct Job {
     pub settings: FrameSettings,
     /// The AOVs written to the EXR, by name, for the log.
     pub aov_names: Vec<String>,
+    /// `--exr-compression`.
+    pub exr_compression: crate::output::ExrCompression,
 }
 
 fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
@@ -88,6 +90,13 @@ pub(super) fn resolve_job(
     }
     let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
     let layering = layering(args)?;
+    let exr_compression = args.exr_compression.parse().map_err(|_| {
+        UsageError(format!(
+            "--exr-compression {:?}: use one of {}",
+            args.exr_compression,
+            crate::output::ExrCompression::NAMES.join(", ")
+        ))
+    })?;
     let environment = environment(args, scene)?;
     let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?
         .with_light_passes(args.passes.as_deref().unwrap_or(""))?;
@@ -161,6 +170,7 @@ pub(super) fn resolve_job(
             focus_node: focus_node(args, scene)?,
         },
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
+        exr_compression,
     })
 }
 
