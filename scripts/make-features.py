@@ -389,6 +389,7 @@ MATERIAL_EXTENSIONS = [
     ("KHR_materials_unlit", {}),
     ("KHR_materials_diffuse_transmission", {"diffuseTransmissionFactor": 0.7,
                                             "diffuseTransmissionColorFactor": [0.9, 0.5, 0.2]}),
+    ("KHR_materials_diffuse_roughness", {"diffuseRoughnessFactor": 0.9}),
 ]
 
 

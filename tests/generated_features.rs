@@ -217,6 +217,10 @@ fn each_material_extension_is_read() {
         by_name("KHR_materials_diffuse_transmission").diffuse_transmission,
         0.7
     );
+    assert_eq!(
+        by_name("KHR_materials_diffuse_roughness").diffuse_roughness,
+        0.9
+    );
 }
 
 #[test]
