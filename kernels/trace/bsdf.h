@@ -126,7 +126,8 @@ typedef struct {
     // sets them (generated from the material tables): the lobes read a
     // parameter here unless the fields above derive it (the coat's alpha,
     // F0) or clay overrides it.
-    PtMaterialInputs in;
+    // A pointer, so that passing BsdfParams by value does not copy them.
+    PtMaterialInputs* in;
 #endif
 } BsdfParams;
 
@@ -525,8 +526,8 @@ inline float3 dielectric_diffuse(BsdfParams p, float3 wo, float3 wi, float3 laye
     // wo, 1 - E_spec(wo): Lambert's reciprocal scaling assumes the base
     // spreads light as cos / pi, and under EON's back-scattering it lost 4 %
     // of a white base at grazing views.
-    if (p.in.diffuse_roughness > 0.0f) {
-        float3 f = eon_eval(p.base, p.in.diffuse_roughness, wo, wi);
+    if (p.in->diffuse_roughness > 0.0f) {
+        float3 f = eon_eval(p.base, p.in->diffuse_roughness, wo, wi);
 #ifdef ENERGY_LAYERING
         if (energy_layered(p)) return f * layer_transmittance(p, wo) * diffuse_share(p, 0.0f);
 #endif

@@ -112,7 +112,7 @@ inline float sheen_lobe(float roughness, float3 wo, float3 wi) {
 inline float sheen_max3(float3 v) { return fmax(fmax(v.x, v.y), v.z); }
 
 inline float sheen_probability(BsdfParams p, float cos_o) {
-    return clamp(sheen_max3(p.sheen_color) * sheen_albedo(p.in.sheen_roughness, cos_o), 0.0f, 1.0f);
+    return clamp(sheen_max3(p.sheen_color) * sheen_albedo(p.in->sheen_roughness, cos_o), 0.0f, 1.0f);
 }
 
 // The extension's albedo scaling of the base under the sheen; with
@@ -121,10 +121,10 @@ inline float sheen_probability(BsdfParams p, float cos_o) {
 inline float sheen_scaling(BsdfParams p, float cos_o, float cos_i) {
     float m = sheen_max3(p.sheen_color);
 #ifdef ENERGY_LAYERING
-    return 1.0f - m * sheen_albedo(p.in.sheen_roughness, cos_o);
+    return 1.0f - m * sheen_albedo(p.in->sheen_roughness, cos_o);
 #endif
-    return fmin(1.0f - m * sheen_albedo(p.in.sheen_roughness, cos_o),
-                1.0f - m * sheen_albedo(p.in.sheen_roughness, cos_i));
+    return fmin(1.0f - m * sheen_albedo(p.in->sheen_roughness, cos_o),
+                1.0f - m * sheen_albedo(p.in->sheen_roughness, cos_i));
 }
 #endif
 
@@ -133,7 +133,7 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float3 under = base_bsdf_eval(p, wo, wi);
 #ifdef HAS_SHEEN
     under = under * sheen_scaling(p, wo.z, fabs(wi.z)) +
-            p.sheen_color * sheen_lobe(p.in.sheen_roughness, wo, wi);
+            p.sheen_color * sheen_lobe(p.in->sheen_roughness, wo, wi);
 #endif
 #ifdef HAS_CLEARCOAT
     float wc = coat_weight(p, coat_cos(p, wo));
@@ -156,7 +156,7 @@ inline void bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
     base_bsdf_lobe_parts(p, wo, wi, &d, &t);
 #ifdef HAS_SHEEN
     float scaling = sheen_scaling(p, wo.z, fabs(wi.z));
-    d = d * scaling + p.sheen_color * sheen_lobe(p.in.sheen_roughness, wo, wi);
+    d = d * scaling + p.sheen_color * sheen_lobe(p.in->sheen_roughness, wo, wi);
     t = t * scaling;
 #endif
 #ifdef HAS_CLEARCOAT

@@ -61,7 +61,8 @@ inline float3 pt_shadow_transmittance(PtScene* s, float3 org, float3 dir, float 
         PtSurface sf = pt_surface(s, m, h, d TEX_PASS);
         float3 albedo;
         BsdfParams bp = pt_bsdf_params(s, m, sf.at, &albedo TEX_PASS);
-        bp.in = pt_material_inputs(mx, sf.at TEX_PASS);
+        PtMaterialInputs inputs = pt_material_inputs(mx, sf.at TEX_PASS);
+        bp.in = &inputs;
         pt_dielectric_params(s, mx, false, sf.front, n_medium, channel, sf.at, &bp TEX_PASS);
         float3 t, b;
         onb(sf.ns, &t, &b);

@@ -177,7 +177,8 @@ inline PtSample pt_path(PtScene* s, __global const PtCamera* cam, __global const
         float3 wo = to_local(wo_w, t, b, sf.ns);
         float3 above = offset_ray_origin_scaled(sf.p, sf.ng, offset_scale(SGEOM(s), h.prim));
 #ifdef HAS_MATERIAL_EXT
-        bp.in = pt_material_inputs(mx, sf.at TEX_PASS);
+        PtMaterialInputs inputs = pt_material_inputs(mx, sf.at TEX_PASS);
+        bp.in = &inputs;
 #endif
 #ifdef HAS_TRANSMISSION
         sf.below = offset_ray_origin_scaled(sf.p, -sf.ng, offset_scale(SGEOM(s), h.prim));

@@ -90,8 +90,10 @@ __kernel void bsdf_ext_probe(__global const float* in, __global float* out, uint
     p.iridescence_ior = c[29];
     p.iridescence_thickness = c[30];
 #endif
+    PtMaterialInputs inputs;
+    p.in = &inputs;
 #ifdef HAS_DIFFUSE_ROUGHNESS
-    p.in.diffuse_roughness = c[31];
+    p.in->diffuse_roughness = c[31];
 #endif
 #ifdef HAS_ANISOTROPY
     p.alpha_t = c[15];
@@ -154,8 +156,11 @@ __kernel void media_channel_probe(__global const float* in, __global float* out,
 // read only where its
 // define is on (the dielectric ones with HAS_TRANSMISSION; with
 // HAS_ANISOTROPY alpha_t is wo's fourth float).
-inline BsdfParams probe_layer_params(const __global float* c) {
+inline BsdfParams probe_layer_params(const __global float* c, PtMaterialInputs* inputs) {
     BsdfParams p;
+#ifdef HAS_MATERIAL_EXT
+    p.in = inputs;
+#endif
     p.base = (float3)(c[0], c[1], c[2]);
     p.metallic = c[3];
     p.alpha = c[4];
@@ -174,7 +179,7 @@ inline BsdfParams probe_layer_params(const __global float* c) {
     p.iridescence = 0.0f;
 #endif
 #ifdef HAS_DIFFUSE_ROUGHNESS
-    p.in.diffuse_roughness = c[15];
+    p.in->diffuse_roughness = c[15];
 #endif
 #ifdef HAS_ANISOTROPY
     p.alpha_t = c[23];
@@ -186,7 +191,7 @@ inline BsdfParams probe_layer_params(const __global float* c) {
     p.coat_n = (float3)(c[32], c[33], c[34]);
 #endif
 #ifdef HAS_SHEEN
-    p.in.sheen_roughness = c[14];
+    p.in->sheen_roughness = c[14];
     p.sheen_color = (float3)(c[16], c[17], c[18]);
 #endif
     return p;
@@ -203,7 +208,8 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
     uint i = get_global_id(0);
     if (i >= n) return;
     const __global float* c = in + (size_t)i * 36u;
-    BsdfParams p = probe_layer_params(c);
+    PtMaterialInputs inputs;
+    BsdfParams p = probe_layer_params(c, &inputs);
     float3 wo = probe_layer_wo(c);
     float3 wi = probe_layer_wi(c);
     __global float* o = out + (size_t)i * 13u;
@@ -219,7 +225,8 @@ __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, ui
     uint i = get_global_id(0);
     if (i >= n) return;
     const __global float* c = in + (size_t)i * 36u;
-    BsdfParams p = probe_layer_params(c);
+    PtMaterialInputs inputs;
+    BsdfParams p = probe_layer_params(c, &inputs);
     float3 wo = probe_layer_wo(c);
     float3 wi = probe_layer_wi(c);
     float3 d, t;

@@ -639,19 +639,19 @@ inline void pt_layer_params(const PtScene* s, PtMaterialExt mx, PtSurface sf, fl
     float3 nc = sf.n_unmapped;
 #ifdef HAS_TEXTURES
     if (layered && mx.tex[TEX_CLEARCOAT_NORMAL] >= 0 && (s->frame.flags & FRAME_UVS) != 0u) {
-        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], bp->in.clearcoat_normal_texture_scale, sf.prim,
+        nc = pt_normal_map(s, mx.tex[TEX_CLEARCOAT_NORMAL], bp->in->clearcoat_normal_texture_scale, sf.prim,
                            sf.front ? nc : -nc, sf.front, sf.at TEX_PASS);
         nc = pt_facing(nc, wo_w, sf.ng);
     }
 #endif
-    bp->clearcoat = layered ? bp->in.clearcoat : 0.0f;
-    bp->coat_alpha = ggx_alpha(bp->in.clearcoat_roughness);
+    bp->clearcoat = layered ? bp->in->clearcoat : 0.0f;
+    bp->coat_alpha = ggx_alpha(bp->in->clearcoat_roughness);
     bp->coat_n = (float3)(0.0f, 0.0f, 1.0f);
     if (layered && (nc.x != sf.ns.x || nc.y != sf.ns.y || nc.z != sf.ns.z))
         bp->coat_n = normalize(to_local(nc, t, b, sf.ns));
 #endif
 #ifdef HAS_SHEEN
-    bp->sheen_color = layered ? bp->in.sheen_color : (float3)(0.0f);
+    bp->sheen_color = layered ? bp->in->sheen_color : (float3)(0.0f);
 #endif
 }
 #endif
@@ -678,20 +678,20 @@ inline void pt_dielectric_params(const PtScene* s, PtMaterialExt mx, bool volume
 #ifdef HAS_IRIDESCENCE
         bp->iridescence = 0.0f;
 #endif
-        bp->in.diffuse_roughness = 0.0f;
+        bp->in->diffuse_roughness = 0.0f;
         return;
     }
-    float3 specular_color = bp->in.specular_color;
-    float specular = bp->in.specular;
-    float transmission = bp->in.transmission;
+    float3 specular_color = bp->in->specular_color;
+    float specular = bp->in->specular;
+    float transmission = bp->in->transmission;
 #ifdef HAS_IRIDESCENCE
     // Without a thickness texture the film is the range's maximum thick.
-    float iridescence = bp->in.iridescence;
+    float iridescence = bp->in->iridescence;
     float thickness = mx.factor[F_IRIDESCENCE_THICKNESS_MAXIMUM];
 #endif
 #ifdef HAS_DIFFUSE_TRANSMISSION
-    float diffuse_transmission = bp->in.diffuse_transmission;
-    float3 diffuse_transmission_color = bp->in.diffuse_transmission_color;
+    float diffuse_transmission = bp->in->diffuse_transmission;
+    float3 diffuse_transmission_color = bp->in->diffuse_transmission_color;
 #endif
 #if defined(HAS_TEXTURES) && defined(HAS_IRIDESCENCE)
     // The film's thickness between its minimum and maximum by G (the
