@@ -81,8 +81,6 @@ pub enum ExrCompression {
 }
 
 impl ExrCompression {
-    /// The names `--exr-compression` takes, in the order above.
-    pub const NAMES: [&'static str; 5] = ["zip", "zips", "piz", "rle", "none"];
     const ALL: [ExrCompression; 5] = [
         ExrCompression::Zip,
         ExrCompression::Zips,
@@ -91,9 +89,26 @@ impl ExrCompression {
         ExrCompression::None,
     ];
 
+    /// The names `--exr-compression` takes, in the order above.
+    pub const NAMES: [&'static str; 5] = {
+        let mut names = [""; 5];
+        let mut i = 0;
+        while i < names.len() {
+            names[i] = Self::ALL[i].name();
+            i += 1;
+        }
+        names
+    };
+
     /// Its `--exr-compression` name.
-    pub fn name(self) -> &'static str {
-        Self::NAMES[Self::ALL.iter().position(|&c| c == self).unwrap_or(0)]
+    pub const fn name(self) -> &'static str {
+        match self {
+            ExrCompression::Zip => "zip",
+            ExrCompression::Zips => "zips",
+            ExrCompression::Piz => "piz",
+            ExrCompression::Rle => "rle",
+            ExrCompression::None => "none",
+        }
     }
 
     fn exr(self) -> Compression {
@@ -110,8 +125,7 @@ impl ExrCompression {
 impl std::str::FromStr for ExrCompression {
     type Err = ();
     fn from_str(s: &str) -> Result<ExrCompression, ()> {
-        let i = Self::NAMES.iter().position(|&n| n == s).ok_or(())?;
-        Ok(Self::ALL[i])
+        Self::ALL.into_iter().find(|c| c.name() == s).ok_or(())
     }
 }
 

@@ -48,11 +48,6 @@ const READ_FROM_RAW_JSON: &[&str] = &[
     texture_source::EXT_TEXTURE_AVIF,
 ];
 
-fn read_from_raw_json(name: &str) -> bool {
-    READ_FROM_RAW_JSON.contains(&name)
-        || super::material_load::supported_material_extensions().contains(&name)
-}
-
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
@@ -205,11 +200,11 @@ pub fn load(path: &Path) -> Result<Source> {
 /// Every extension the file requires must be one soupray reads.
 fn check_required_extensions(file: &str, json: &serde_json::Value) -> Result<()> {
     if let Some(required) = json.get("extensionsRequired").and_then(|r| r.as_array()) {
+        let supported = supported_extensions();
         for extension in required {
             let name = extension.as_str().unwrap_or("(not a string)");
             // Required AVIF is honoured where every AVIF texture has a
             // fallback image; `choose_texture_images` refuses the rest.
-            let supported = supported_extensions();
             if !supported.contains(&name) && name != texture_source::EXT_TEXTURE_AVIF {
                 return Err(SceneError::UnsupportedExtension {
                     file: file.to_owned(),
@@ -233,7 +228,9 @@ fn json_for_crate(json: &serde_json::Value) -> serde_json::Value {
         .get_mut("extensionsRequired")
         .and_then(|r| r.as_array_mut())
     {
-        required.retain(|e| !e.as_str().is_some_and(read_from_raw_json));
+        let materials = super::material_load::supported_material_extensions();
+        let read_raw = |name: &str| READ_FROM_RAW_JSON.contains(&name) || materials.contains(&name);
+        required.retain(|e| !e.as_str().is_some_and(read_raw));
     }
     // KHR_animation_pointer channels (`scene::pointer`) are read from the
     // raw JSON; the crate knows no "pointer" path.

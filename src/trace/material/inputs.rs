@@ -12,11 +12,13 @@ use std::fmt::Write;
 use crate::scene::material::{device_factors, Slot};
 
 /// One field of `PtMaterialInputs`: its name (the factor's define in
-/// lower case, `sheen_roughness`), its `F_<KEY>` define and its width.
+/// lower case, `sheen_roughness`), its `F_<KEY>` define, its width, and
+/// the extension and key that set it.
 struct InputField {
     name: String,
     define: String,
     width: usize,
+    source: Option<(&'static str, &'static str)>,
 }
 
 fn input_fields() -> Vec<InputField> {
@@ -25,8 +27,16 @@ fn input_fields() -> Vec<InputField> {
             name: define.trim_start_matches("F_").to_ascii_lowercase(),
             define,
             width: f.width(),
+            source: f.extension_key(),
         })
         .collect()
+}
+
+/// The field a scaling slot's texture scales: its extension's factor of
+/// that key.
+fn scaled_field<'f>(fields: &'f [InputField], slot: Slot, factor: &str) -> Option<&'f InputField> {
+    let (ext, _) = slot.extension_key()?;
+    fields.iter().find(|f| f.source == Some((ext, factor)))
 }
 
 fn c_type(width: usize) -> &'static str {
@@ -86,9 +96,7 @@ pub fn inputs_fill_code() -> String {
     }
     s.push_str("\n#ifdef HAS_TEXTURES\n#define PT_MATERIAL_TEXTURES(v, mx, at)");
     for (slot, (factor, channel)) in scaling_slots() {
-        let field = fields
-            .iter()
-            .find(|f| f.define == factor_define(factor))
+        let field = scaled_field(&fields, slot, factor)
             .unwrap_or_else(|| panic!("{slot:?} scales {factor}, which is not on the device"));
         let tex = crate::scene::material::define_name("TEX", &format!("{slot:?}"));
         let _ = write!(
@@ -109,12 +117,6 @@ fn scaling_slots() -> impl Iterator<Item = (Slot, (&'static str, &'static str))>
         .filter_map(|slot| Some((slot, slot.scales()?)))
 }
 
-/// The `F_<KEY>` define of factor `key` (`sheenRoughnessFactor`), as
-/// `device_factors` names it.
-fn factor_define(key: &str) -> String {
-    crate::scene::material::define_name("F", key.strip_suffix("Factor").unwrap_or(key))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,17 +125,13 @@ mod tests {
     fn every_scaling_slot_names_a_device_factor_of_its_extension() {
         let fields = input_fields();
         for (slot, (factor, channel)) in scaling_slots() {
-            assert!(
-                fields.iter().any(|f| f.define == factor_define(factor)),
-                "{slot:?}: {factor}"
-            );
+            let field = scaled_field(&fields, slot, factor);
+            assert!(field.is_some(), "{slot:?}: {factor}");
             assert!(["x", "y", "z", "w", "xyz"].contains(&channel), "{slot:?}");
             let (ext, _) = slot.extension_key().unwrap();
-            let row = device_factors()
-                .find(|(_, d, _)| *d == factor_define(factor))
-                .unwrap();
-            assert_eq!(row.2.extension_key().unwrap().0, ext, "{slot:?}");
-            assert_eq!(row.2.width(), channel.len(), "{slot:?}");
+            let field = field.unwrap();
+            assert_eq!(field.source.unwrap().0, ext, "{slot:?}");
+            assert_eq!(field.width, channel.len(), "{slot:?}");
         }
     }
 
