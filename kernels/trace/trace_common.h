@@ -273,24 +273,77 @@ inline void closest_update(Hit* best, uint prim, float t, float u, float v) {
     }
 }
 
+// Which of a leaf's triangles [first, first + count), count 2..=4, the
+// ray may hit: bit i set for the i-th unless its 2D edge functions, computed
+// for all four at once as in intersect_triangle, have opposite non-zero
+// signs. A non-zero edge function has the exact sign, so every triangle this
+// rejects intersect_triangle rejects too; the others (about one per leaf a
+// ray passes through) go through intersect_triangle, which decides exactly
+// as before: the hits are the same bit for bit, and there is no Rust twin to
+// keep. Unused lanes repeat the last triangle and are masked off.
+inline uint leaf_candidates4(const RayPre* r, const __global uint* prim_ids,
+                             GEOM_DECL(positions), uint first, uint count) {
+    uint last = count - 1u;
+    uint q0 = prim_ids[first], q1 = prim_ids[first + 1u];
+    uint q2 = prim_ids[first + min(2u, last)], q3 = prim_ids[first + min(3u, last)];
+    TRI_LOAD(p0, positions, mt, q0);
+    TRI_LOAD(p1, positions, mt, q1);
+    TRI_LOAD(p2, positions, mt, q2);
+    TRI_LOAD(p3, positions, mt, q3);
+    int kx = r->kx, ky = r->ky, kz = r->kz;
+#define LANES(o) ((float4)(p0[o], p1[o], p2[o], p3[o]))
+    float4 az_ = LANES(kz) - r->okz;
+    float4 bz_ = LANES(4 + kz) - r->okz;
+    float4 cz_ = LANES(8 + kz) - r->okz;
+    float4 ax = (LANES(kx) - r->okx) - r->sx * az_;
+    float4 ay = (LANES(ky) - r->oky) - r->sy * az_;
+    float4 bx = (LANES(4 + kx) - r->okx) - r->sx * bz_;
+    float4 by = (LANES(4 + ky) - r->oky) - r->sy * bz_;
+    float4 cx = (LANES(8 + kx) - r->okx) - r->sx * cz_;
+    float4 cy = (LANES(8 + ky) - r->oky) - r->sy * cz_;
+#undef LANES
+    float4 u = cx * by - cy * bx;
+    float4 v = ax * cy - ay * cx;
+    float4 w = bx * ay - by * ax;
+    int4 rejected = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
+    uint m = (rejected.x ? 0u : 1u) | (rejected.y ? 0u : 2u) | (rejected.z ? 0u : 4u) |
+             (rejected.w ? 0u : 8u);
+    return m & ((1u << count) - 1u);
+}
+
+// Leaves of more than one triangle are intersected four at a time: the
+// candidates of each four, then intersect_triangle on each candidate, in
+// the leaf's order.
 inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
                          GEOM_DECL(positions), uint first, uint count, Hit* best) {
-    for (uint s = first; s < first + count; ++s) {
-        uint prim = prim_ids[s];
-        float t, u, v;
-        if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
-            closest_update(best, prim, t, u, v);
+    uint end = first + count;
+    for (uint s = first; s < end; s += 4u) {
+        uint n = min(end - s, 4u);
+        uint m = n > 1u ? leaf_candidates4(r, prim_ids, GEOM_ARGS(positions, mt), s, n) : 1u;
+        for (uint i = 0u; i < n; ++i) {
+            if ((m & (1u << i)) == 0u) continue;
+            uint prim = prim_ids[s + i];
+            float t, u, v;
+            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
+                closest_update(best, prim, t, u, v);
+        }
     }
 }
 
 inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
                      GEOM_DECL(positions), uint first, uint count, Hit* best) {
-    for (uint s = first; s < first + count; ++s) {
-        uint prim = prim_ids[s];
-        float t, u, v;
-        if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
-            best->t = t; best->prim = prim; best->u = u; best->v = v;
-            return true;
+    uint end = first + count;
+    for (uint s = first; s < end; s += 4u) {
+        uint n = min(end - s, 4u);
+        uint m = n > 1u ? leaf_candidates4(r, prim_ids, GEOM_ARGS(positions, mt), s, n) : 1u;
+        for (uint i = 0u; i < n; ++i) {
+            if ((m & (1u << i)) == 0u) continue;
+            uint prim = prim_ids[s + i];
+            float t, u, v;
+            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
+                best->t = t; best->prim = prim; best->u = u; best->v = v;
+                return true;
+            }
         }
     }
     return false;
