@@ -273,16 +273,27 @@ inline void closest_update(Hit* best, uint prim, float t, float u, float v) {
     }
 }
 
-// Which of a leaf's triangles [first, first + count), count 2..=4, the
-// ray may hit: bit i set for the i-th unless its 2D edge functions, computed
-// for all four at once as in intersect_triangle, have opposite non-zero
-// signs. A non-zero edge function has the exact sign, so every triangle this
-// rejects intersect_triangle rejects too; the others (about one per leaf a
-// ray passes through) go through intersect_triangle, which decides exactly
-// as before: the hits are the same bit for bit, and there is no Rust twin to
-// keep. Unused lanes repeat the last triangle and are masked off.
-inline uint leaf_candidates4(const RayPre* r, const __global uint* prim_ids,
-                             GEOM_DECL(positions), uint first, uint count) {
+// Up to four of a leaf's triangles, [first, first + count) with count
+// 2..=4, intersected at once: intersect_triangle's float operations, in the
+// same order, on four lanes (the same values bit for bit, FMA contraction
+// being off). A lane is decided here when its three edge functions are
+// non-zero: `hit` has bit i set when the i-th triangle is hit within
+// (tmin, tmax), with its t, u and v in the lanes. The rare lanes that need
+// intersect_triangle's other paths (an edge function exactly 0.0, so the
+// top-left rule or the FMA correction; an ill-conditioned triangle, whose
+// values come from double) have their bit set in `exact` instead, for the
+// caller to give to intersect_triangle. A lane whose non-zero edge
+// functions have opposite signs is a miss whatever those paths would do,
+// since a non-zero edge function has the exact sign. So the hits are those
+// of intersect_triangle, bit for bit, and there is no Rust twin to keep.
+// Unused lanes repeat the last triangle and are masked off.
+typedef struct {
+    float4 t, u, v;
+    uint hit, exact;
+} LeafHits4;
+
+inline LeafHits4 leaf_intersect4(const RayPre* r, const __global uint* prim_ids,
+                                 GEOM_DECL(positions), uint first, uint count) {
     uint last = count - 1u;
     uint q0 = prim_ids[first], q1 = prim_ids[first + 1u];
     uint q2 = prim_ids[first + min(2u, last)], q3 = prim_ids[first + min(3u, last)];
@@ -292,40 +303,94 @@ inline uint leaf_candidates4(const RayPre* r, const __global uint* prim_ids,
     TRI_LOAD(p3, positions, mt, q3);
     int kx = r->kx, ky = r->ky, kz = r->kz;
 #define LANES(o) ((float4)(p0[o], p1[o], p2[o], p3[o]))
-    float4 az_ = LANES(kz) - r->okz;
-    float4 bz_ = LANES(4 + kz) - r->okz;
-    float4 cz_ = LANES(8 + kz) - r->okz;
-    float4 ax = (LANES(kx) - r->okx) - r->sx * az_;
-    float4 ay = (LANES(ky) - r->oky) - r->sy * az_;
-    float4 bx = (LANES(4 + kx) - r->okx) - r->sx * bz_;
-    float4 by = (LANES(4 + ky) - r->oky) - r->sy * bz_;
-    float4 cx = (LANES(8 + kx) - r->okx) - r->sx * cz_;
-    float4 cy = (LANES(8 + ky) - r->oky) - r->sy * cz_;
+    float4 pax = LANES(kx), pay = LANES(ky), paz = LANES(kz);
+    float4 pbx = LANES(4 + kx), pby = LANES(4 + ky), pbz = LANES(4 + kz);
+    float4 pcx = LANES(8 + kx), pcy = LANES(8 + ky), pcz = LANES(8 + kz);
 #undef LANES
+    float4 az_ = paz - r->okz;
+    float4 bz_ = pbz - r->okz;
+    float4 cz_ = pcz - r->okz;
+    float4 ax = (pax - r->okx) - r->sx * az_;
+    float4 ay = (pay - r->oky) - r->sy * az_;
+    float4 bx = (pbx - r->okx) - r->sx * bz_;
+    float4 by = (pby - r->oky) - r->sy * bz_;
+    float4 cx = (pcx - r->okx) - r->sx * cz_;
+    float4 cy = (pcy - r->oky) - r->sy * cz_;
     float4 u = cx * by - cy * bx;
     float4 v = ax * cy - ay * cx;
     float4 w = bx * ay - by * ax;
-    int4 rejected = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
-    uint m = (rejected.x ? 0u : 1u) | (rejected.y ? 0u : 2u) | (rejected.z ? 0u : 4u) |
-             (rejected.w ? 0u : 8u);
-    return m & ((1u << count) - 1u);
+    int4 lanes = (int4)(0, 1, 2, 3) < (int4)((int)count);
+    int4 outside = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
+    int4 candidate = lanes & ~outside;
+    int4 zero = (u == 0.0f) | (v == 0.0f) | (w == 0.0f);
+    int4 exact = candidate & zero;
+    // All three non-zero and of one sign: det is non-zero.
+    int4 here = candidate & ~zero;
+    float4 det = u + v + w;
+#ifdef SOUPRAY_FP64
+    float4 mag = fabs(cx * by) + fabs(cy * bx) + fabs(ax * cy) + fabs(ay * cx) +
+                 fabs(bx * ay) + fabs(by * ax);
+    int4 ill = fabs(det) < mag * ILL_CONDITIONED;
+    exact |= here & ill;
+    here &= ~ill;
+#endif
+    float4 az = r->sz * az_;
+    float4 bz = r->sz * bz_;
+    float4 cz = r->sz * cz_;
+    float4 tt = u * az + v * bz + w * cz;
+    float4 rcp = 1.0f / det;
+    LeafHits4 h;
+    h.t = tt * rcp;
+    h.u = v * rcp;
+    h.v = w * rcp;
+    here &= (h.t > r->tmin) & (h.t < r->tmax);
+    // Degenerate triangles, by their 3D normal: in the permuted axes its
+    // components are the same products, so each is +-0 exactly when
+    // intersect_triangle's is.
+    float4 e1x = pbx - pax, e1y = pby - pay, e1z = pbz - paz;
+    float4 e2x = pcx - pax, e2y = pcy - pay, e2z = pcz - paz;
+    float4 nx = e1y * e2z - e1z * e2y;
+    float4 ny = e1z * e2x - e1x * e2z;
+    float4 nz = e1x * e2y - e1y * e2x;
+    here &= (nx != 0.0f) | (ny != 0.0f) | (nz != 0.0f);
+    h.hit = (here.x ? 1u : 0u) | (here.y ? 2u : 0u) | (here.z ? 4u : 0u) | (here.w ? 8u : 0u);
+    h.exact = (exact.x ? 1u : 0u) | (exact.y ? 2u : 0u) | (exact.z ? 4u : 0u) |
+              (exact.w ? 8u : 0u);
+    return h;
 }
 
-// Leaves of more than one triangle are intersected four at a time: the
-// candidates of each four, then intersect_triangle on each candidate, in
-// the leaf's order.
+inline float lane4(float4 x, uint i) {
+    return i == 0u ? x.x : (i == 1u ? x.y : (i == 2u ? x.z : x.w));
+}
+
+// Leaves of more than one triangle are intersected four at a time
+// (leaf_intersect4), single triangles and the lanes it leaves undecided by
+// intersect_triangle; any_leaf keeps the leaf's order.
 inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
                          GEOM_DECL(positions), uint first, uint count, Hit* best) {
     uint end = first + count;
     for (uint s = first; s < end; s += 4u) {
         uint n = min(end - s, 4u);
-        uint m = n > 1u ? leaf_candidates4(r, prim_ids, GEOM_ARGS(positions, mt), s, n) : 1u;
-        for (uint i = 0u; i < n; ++i) {
-            if ((m & (1u << i)) == 0u) continue;
-            uint prim = prim_ids[s + i];
+        if (n == 1u) {
+            uint prim = prim_ids[s];
             float t, u, v;
             if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
                 closest_update(best, prim, t, u, v);
+            continue;
+        }
+        LeafHits4 h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);
+        uint m = h.hit | h.exact;
+        while (m != 0u) {
+            uint i = 31u - clz(m & (0u - m));
+            m &= m - 1u;
+            uint prim = prim_ids[s + i];
+            if ((h.hit >> i) & 1u) {
+                closest_update(best, prim, lane4(h.t, i), lane4(h.u, i), lane4(h.v, i));
+            } else {
+                float t, u, v;
+                if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
+                    closest_update(best, prim, t, u, v);
+            }
         }
     }
 }
@@ -335,10 +400,26 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
     uint end = first + count;
     for (uint s = first; s < end; s += 4u) {
         uint n = min(end - s, 4u);
-        uint m = n > 1u ? leaf_candidates4(r, prim_ids, GEOM_ARGS(positions, mt), s, n) : 1u;
-        for (uint i = 0u; i < n; ++i) {
-            if ((m & (1u << i)) == 0u) continue;
+        if (n == 1u) {
+            uint prim = prim_ids[s];
+            float t, u, v;
+            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
+                best->t = t; best->prim = prim; best->u = u; best->v = v;
+                return true;
+            }
+            continue;
+        }
+        LeafHits4 h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);
+        uint m = h.hit | h.exact;
+        while (m != 0u) {
+            uint i = 31u - clz(m & (0u - m));
+            m &= m - 1u;
             uint prim = prim_ids[s + i];
+            if ((h.hit >> i) & 1u) {
+                best->t = lane4(h.t, i); best->prim = prim;
+                best->u = lane4(h.u, i); best->v = lane4(h.v, i);
+                return true;
+            }
             float t, u, v;
             if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
                 best->t = t; best->prim = prim; best->u = u; best->v = v;
