@@ -363,70 +363,57 @@ inline float lane4(float4 x, uint i) {
     return i == 0u ? x.x : (i == 1u ? x.y : (i == 2u ? x.z : x.w));
 }
 
-// Leaves of more than one triangle are intersected four at a time
-// (leaf_intersect4), single triangles and the lanes it leaves undecided by
-// intersect_triangle; any_leaf keeps the leaf's order.
-inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
-                         GEOM_DECL(positions), uint first, uint count, Hit* best) {
-    uint end = first + count;
-    for (uint s = first; s < end; s += 4u) {
-        uint n = min(end - s, 4u);
-        if (n == 1u) {
-            uint prim = prim_ids[s];
-            float t, u, v;
-            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
-                closest_update(best, prim, t, u, v);
-            continue;
-        }
-        LeafHits4 h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);
-        uint m = h.hit | h.exact;
-        while (m != 0u) {
-            uint i = 31u - clz(m & (0u - m));
-            m &= m - 1u;
-            uint prim = prim_ids[s + i];
-            if ((h.hit >> i) & 1u) {
-                closest_update(best, prim, lane4(h.t, i), lane4(h.u, i), lane4(h.v, i));
-            } else {
-                float t, u, v;
-                if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v))
-                    closest_update(best, prim, t, u, v);
-            }
-        }
+// Lane i of `h`, triangle `prim`: its hit as leaf_intersect4 decided it,
+// or, for a lane it left to the one-triangle test, as intersect_triangle
+// decides it.
+inline bool lane_hit(const RayPre* r, GEOM_DECL(positions), LeafHits4 h, uint i, uint prim,
+                     float* t, float* u, float* v) {
+    if ((h.hit >> i) & 1u) {
+        *t = lane4(h.t, i);
+        *u = lane4(h.u, i);
+        *v = lane4(h.v, i);
+        return true;
     }
+    return intersect_triangle(r, GEOM_ARGS(positions, mt), prim, t, u, v);
 }
 
+// LEAF_HITS(ON_HIT): runs ON_HIT with `prim`, `t`, `u` and `v` for each
+// triangle of the leaf [first, first + count) the ray hits, in the leaf's
+// order. Leaves of more than one triangle are intersected four at a time
+// (leaf_intersect4); a single triangle, and the lanes it leaves undecided,
+// by intersect_triangle.
+#define LEAF_HITS(ON_HIT)                                                         \
+    uint end = first + count;                                                     \
+    for (uint s = first; s < end; s += 4u) {                                      \
+        uint n = min(end - s, 4u);                                                \
+        LeafHits4 h;                                                              \
+        if (n == 1u) {                                                            \
+            h.hit = 0u;                                                           \
+            h.exact = 1u;                                                         \
+        } else {                                                                  \
+            h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);     \
+        }                                                                         \
+        uint m = h.hit | h.exact;                                                 \
+        while (m != 0u) {                                                         \
+            uint i = 31u - clz(m & (0u - m));                                     \
+            m &= m - 1u;                                                          \
+            uint prim = prim_ids[s + i];                                          \
+            float t, u, v;                                                        \
+            if (lane_hit(r, GEOM_ARGS(positions, mt), h, i, prim, &t, &u, &v)) {  \
+                ON_HIT                                                            \
+            }                                                                     \
+        }                                                                         \
+    }
+
+inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
+                         GEOM_DECL(positions), uint first, uint count, Hit* best) {
+    LEAF_HITS(closest_update(best, prim, t, u, v);)
+}
+
+// The first hit in the leaf's order.
 inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
                      GEOM_DECL(positions), uint first, uint count, Hit* best) {
-    uint end = first + count;
-    for (uint s = first; s < end; s += 4u) {
-        uint n = min(end - s, 4u);
-        if (n == 1u) {
-            uint prim = prim_ids[s];
-            float t, u, v;
-            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
-                best->t = t; best->prim = prim; best->u = u; best->v = v;
-                return true;
-            }
-            continue;
-        }
-        LeafHits4 h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);
-        uint m = h.hit | h.exact;
-        while (m != 0u) {
-            uint i = 31u - clz(m & (0u - m));
-            m &= m - 1u;
-            uint prim = prim_ids[s + i];
-            if ((h.hit >> i) & 1u) {
-                best->t = lane4(h.t, i); best->prim = prim;
-                best->u = lane4(h.u, i); best->v = lane4(h.v, i);
-                return true;
-            }
-            float t, u, v;
-            if (intersect_triangle(r, GEOM_ARGS(positions, mt), prim, &t, &u, &v)) {
-                best->t = t; best->prim = prim; best->u = u; best->v = v;
-                return true;
-            }
-        }
-    }
+    LEAF_HITS(best->t = t; best->prim = prim; best->u = u; best->v = v; return true;)
     return false;
 }
 
