@@ -2,7 +2,8 @@
 //! closest hit (stack, stackless and 4-wide) and any hit on ~100K random rays over
 //! the real meshes and random soups, bit for bit; the CPU traversal against
 //! brute force and against a differently shaped tree; determinism; the depth
-//! limit; buffer reuse; and the primary-ray generator.
+//! limit; buffer reuse; the primary-ray generator; and leaves of every size
+//! (the device intersects a leaf four triangles at a time).
 
 mod common;
 
@@ -349,4 +350,87 @@ fn primary_rays_match_the_host_camera() {
         .unwrap();
     assert!(trace::trace_closest(&bvh, &soup.positions, &camera.ray(32, 24)).is_hit());
     assert!(!trace::trace_closest(&bvh, &soup.positions, &camera.ray(0, 0)).is_hit());
+}
+
+/// Leaves of every size agree with the CPU reference bit for bit, closest
+/// and any hit: the device intersects a leaf's triangles four at a time, so
+/// leaves of 2, 3, 5 and 8 leave lanes unused in their last four, and the
+/// coincident triangles (ties at equal t) and the rays through shared edges
+/// of a grid send lanes to the one-triangle test.
+#[test]
+fn leaves_of_every_size_agree_hit_for_hit() {
+    let d = device();
+    let tri = [[0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]];
+    let mut tris = vec![tri; 40];
+    // A grid of unit squares at z = -2, two triangles each: rays through its
+    // vertices and edge midpoints cross shared edges exactly.
+    for i in 0..8 {
+        for j in 0..8 {
+            let (x, y) = (i as f32, j as f32);
+            tris.push([[x, y, -2.0], [x + 1.0, y, -2.0], [x + 1.0, y + 1.0, -2.0]]);
+            tris.push([[x, y, -2.0], [x + 1.0, y + 1.0, -2.0], [x, y + 1.0, -2.0]]);
+        }
+    }
+    tris.extend(
+        random_soup(2_000, 0.05, 21)
+            .positions
+            .chunks(3)
+            .map(|c| std::array::from_fn(|k| [c[k][0], c[k][1], c[k][2]])),
+    );
+    let soup = Soup::from_triangles(&tris);
+    let mut rays = random_rays(&soup, 3_000, 22);
+    // Interior points only: on the grid's border, the top-left rule gives
+    // half the outer edges to no triangle.
+    for i in 1..16 {
+        for j in 1..16 {
+            let (x, y) = (i as f32 * 0.5, j as f32 * 0.5);
+            rays.push(Ray::new([x, y, 1.0], [0.0, 0.0, -1.0]));
+        }
+    }
+    let mut positions = d.buffer::<[f32; 4]>(soup.positions.len()).unwrap();
+    d.write(&mut positions, &soup.positions).unwrap();
+    for leaf_size in [2, 3, 5, 8] {
+        let mut builder = DeviceBuilder::new(
+            &d,
+            BuildParams {
+                leaf_size,
+                ..BuildParams::default()
+            },
+        )
+        .unwrap();
+        let (bvh, _) = builder.build(&soup).unwrap();
+        let mut tracer = DeviceTracer::new(&d).unwrap();
+        tracer.upload_wide8(&bvh).unwrap();
+        let prim_ids = builder.device_prim_ids().unwrap();
+        let closest = tracer
+            .trace_rays(TraceKind::ClosestWide8, &positions, prim_ids, &rays)
+            .unwrap();
+        let any = tracer
+            .trace_rays(TraceKind::AnyWide8, &positions, prim_ids, &rays)
+            .unwrap();
+        let nodes = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
+        let p = &soup.positions;
+        let cpu_closest: Vec<Hit> = rays
+            .iter()
+            .map(|r| trace::trace_closest_wide(&nodes, &bvh.prim_ids, p, r))
+            .collect();
+        let cpu_any: Vec<Hit> = rays
+            .iter()
+            .map(|r| trace::trace_any_wide(&nodes, &bvh.prim_ids, p, r))
+            .collect();
+        assert_same(
+            &closest,
+            &cpu_closest,
+            &rays,
+            &format!("leaf {leaf_size}: closest"),
+        );
+        assert_same(&any, &cpu_any, &rays, &format!("leaf {leaf_size}: any hit"));
+        // The grid's rays all hit: the watertight test leaves no crack.
+        let grid_hits = closest[3_000..].iter().filter(|h| h.is_hit()).count();
+        assert_eq!(
+            grid_hits,
+            15 * 15,
+            "leaf {leaf_size}: rays through the grid"
+        );
+    }
 }
