@@ -8,7 +8,7 @@
 mod common;
 
 use common::trace::{assert_any_agrees, assert_same, device, random_rays, trace_everything};
-use common::{mesh, random_soup};
+use common::{mesh, random_soup, random_triangles};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{sweep, BuildParams, Bvh, BvhNode, Child, MAX_DEPTH};
 use soupray::soup::Soup;
@@ -144,12 +144,7 @@ fn random_soups_agree_hit_for_hit() {
     // (Below the random soup, which fills the unit cube.)
     let tri = [[0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]];
     let mut tris = vec![tri; 300];
-    tris.extend(
-        random_soup(300, 0.1, 9)
-            .positions
-            .chunks(3)
-            .map(|c| std::array::from_fn(|k| [c[k][0], c[k][1], c[k][2]])),
-    );
+    tris.extend(random_triangles(300, 0.1, 9));
     let soup = Soup::from_triangles(&tris);
     let rays = random_rays(&soup, 3_000, 10);
     check_soup(&soup, &rays, "coincident");
@@ -371,12 +366,7 @@ fn leaves_of_every_size_agree_hit_for_hit() {
             tris.push([[x, y, -2.0], [x + 1.0, y + 1.0, -2.0], [x, y + 1.0, -2.0]]);
         }
     }
-    tris.extend(
-        random_soup(2_000, 0.05, 21)
-            .positions
-            .chunks(3)
-            .map(|c| std::array::from_fn(|k| [c[k][0], c[k][1], c[k][2]])),
-    );
+    tris.extend(random_triangles(2_000, 0.05, 21));
     let soup = Soup::from_triangles(&tris);
     let mut rays = random_rays(&soup, 3_000, 22);
     // Interior points only: on the grid's border, the top-left rule gives

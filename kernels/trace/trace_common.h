@@ -292,6 +292,11 @@ typedef struct {
     uint hit, exact;
 } LeafHits4;
 
+// Bit i set where lane i of the comparison mask `m` is true.
+inline uint lane_bits(int4 m) {
+    return (m.x ? 1u : 0u) | (m.y ? 2u : 0u) | (m.z ? 4u : 0u) | (m.w ? 8u : 0u);
+}
+
 inline LeafHits4 leaf_intersect4(const RayPre* r, const __global uint* prim_ids,
                                  GEOM_DECL(positions), uint first, uint count) {
     uint last = count - 1u;
@@ -353,9 +358,8 @@ inline LeafHits4 leaf_intersect4(const RayPre* r, const __global uint* prim_ids,
     float4 ny = e1z * e2x - e1x * e2z;
     float4 nz = e1x * e2y - e1y * e2x;
     here &= (nx != 0.0f) | (ny != 0.0f) | (nz != 0.0f);
-    h.hit = (here.x ? 1u : 0u) | (here.y ? 2u : 0u) | (here.z ? 4u : 0u) | (here.w ? 8u : 0u);
-    h.exact = (exact.x ? 1u : 0u) | (exact.y ? 2u : 0u) | (exact.z ? 4u : 0u) |
-              (exact.w ? 8u : 0u);
+    h.hit = lane_bits(here);
+    h.exact = lane_bits(exact);
     return h;
 }
 

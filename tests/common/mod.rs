@@ -96,14 +96,18 @@ pub fn mesh(name: &str) -> Option<Soup> {
 
 /// `n` random triangles of size about `size` in the unit cube.
 pub fn random_soup(n: usize, size: f32, seed: u64) -> Soup {
+    Soup::from_triangles(&random_triangles(n, size, seed))
+}
+
+/// The triangles of `random_soup(n, size, seed)`, to mix with others.
+pub fn random_triangles(n: usize, size: f32, seed: u64) -> Vec<[[f32; 3]; 3]> {
     let mut rng = Rng::new(seed);
-    let tris: Vec<[[f32; 3]; 3]> = (0..n)
+    (0..n)
         .map(|_| {
             let c = [rng.f32(), rng.f32(), rng.f32()];
             std::array::from_fn(|_| std::array::from_fn(|a| c[a] + (rng.f32() - 0.5) * size))
         })
-        .collect();
-    Soup::from_triangles(&tris)
+        .collect()
 }
 
 /// `soup` scaled by `s` and moved by `offset`.
