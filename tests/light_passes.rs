@@ -112,7 +112,7 @@ fn bsdf_lobes_match_the_reference() {
         let defines: Vec<(&str, String)> = c.defines.iter().map(|n| (*n, "1".to_owned())).collect();
         let program = d.build_program("pt_probe.cl", &defines).unwrap();
         let k = d.kernel(&program, "bsdf_lobes_probe").unwrap();
-        let got: Vec<f32> = run_probe(&d, &k, &input, n, 9 * n);
+        let got: Vec<f32> = run_probe(&d, &k, &input, n, 18 * n);
         let (mut diffuse, mut transmitted, mut glossy) = (0, 0, 0);
         for (i, (p, wo, wi)) in cases.iter().enumerate() {
             let what = format!("{:?} case {i} {p:?} wo {wo} wi {wi}", c.defines);
@@ -138,7 +138,12 @@ fn bsdf_lobes_match_the_reference() {
             {
                 assert_eq!(dp, f, "a pure Lambertian is all diffuse: {what}");
             }
-            let o = &got[9 * i..9 * i + 9];
+            let o = &got[18 * i..18 * i + 9];
+            // bsdf_eval_parts (what the direct light splits with) gives
+            // bsdf_eval's and bsdf_lobe_parts' floats, bit for bit.
+            let fused = &got[18 * i + 9..18 * i + 18];
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(fused), bits(o), "bsdf_eval_parts: {what}");
             let want = [f, dp, tp];
             for part in 0..3 {
                 for ch in 0..3 {

@@ -434,6 +434,20 @@ inline float3 metal_fresnel(BsdfParams p, float c) {
 // both (the sources are assembled with each header inlined once).
 #include "layering.h"
 
+// With the light-path passes, dielectric_eval_split and
+// base_bsdf_eval_split leave in `diffuse_part` their value's diffuse part
+// (base_bsdf_lobe_parts' `diffuse`: the same floats, without evaluating the
+// diffuse lobe twice), and dielectric_eval and base_bsdf_eval wrap them.
+// Without the passes the functions below are dielectric_eval and
+// base_bsdf_eval themselves: frames without them run the same code.
+#ifdef FILM_LIGHT
+#define EVAL_SPLIT(name) name##_split(BsdfParams p, float3 wo, float3 wi, float3* diffuse_part)
+#define DIFFUSE_PART(v) (*diffuse_part = (v))
+#else
+#define EVAL_SPLIT(name) name(BsdfParams p, float3 wo, float3 wi)
+#define DIFFUSE_PART(v) ((void)0)
+#endif
+
 #ifdef HAS_TRANSMISSION
 // The probabilities of the specular reflection (x), specular transmission
 // (y) and diffuse transmission (z, 0 without HAS_DIFFUSE_TRANSMISSION)
@@ -541,7 +555,9 @@ inline float3 dielectric_diffuse(BsdfParams p, float3 wo, float3 wi, float3 laye
     return p.base * (diffuse_share(p, max3(layer)) * PT_INV_PI);
 }
 
-inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
+// The dielectric base's value (and its diffuse part: EVAL_SPLIT above).
+inline float3 EVAL_SPLIT(dielectric_eval) {
+    DIFFUSE_PART((float3)(0.0f));
     if (wo.z <= 0.0f || wi.z == 0.0f) return (float3)(0.0f);
     if (wi.z > 0.0f) {
         float3 hv = wo + wi;
@@ -555,6 +571,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         float3 layer = p.specular * layer_fresnel(p, voh);
         float3 fm = metal_fresnel(p, voh);
         float3 diffuse = dielectric_diffuse(p, wo, wi, layer);
+        DIFFUSE_PART(diffuse * (1.0f - p.metallic));
 #ifdef GGX_ENERGY_COMPENSATION
         float ms = 1.0f / spec_albedo(p, wo) - 1.0f;
 #ifdef ENERGY_LAYERING
@@ -571,6 +588,7 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
         return dielectric * (1.0f - p.metallic) + metal * p.metallic;
     }
     float3 diffuse = diffuse_transmission_eval(p, wo, wi);
+    DIFFUSE_PART(diffuse);
     float weight = (1.0f - p.metallic) * p.transmission;
     if (!(weight > 0.0f) || spec_smooth(p)) return diffuse;
     if (p.thin != 0.0f) {
@@ -615,6 +633,13 @@ inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
                (p.eta * p.eta);
     return p.base * (weight * ft) + diffuse;
 }
+
+#ifdef FILM_LIGHT
+inline float3 dielectric_eval(BsdfParams p, float3 wo, float3 wi) {
+    float3 unused;
+    return dielectric_eval_split(p, wo, wi, &unused);
+}
+#endif
 #endif
 
 // The base's diffuse reflection lobe under a specular layer of Fresnel
@@ -628,14 +653,23 @@ inline float3 base_diffuse(BsdfParams p, float3 wo, float3 wi, float fd) {
 #endif
 }
 
-// The base BSDF's value (without the cosine) for wo, wi in the local frame.
-inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+// The base BSDF's value (without the cosine) for wo, wi in the local
+// frame (and its diffuse part: EVAL_SPLIT above).
+inline float3 EVAL_SPLIT(base_bsdf_eval) {
 #ifdef HAS_TRANSMISSION
+#ifdef FILM_LIGHT
+    return dielectric_eval_split(p, wo, wi, diffuse_part);
+#else
     return dielectric_eval(p, wo, wi);
 #endif
+#endif
+    DIFFUSE_PART((float3)(0.0f));
     if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
     // Pure Lambert (--clay): the same value as below, without the lobe.
-    if (p.specular == 0.0f && p.metallic == 0.0f) return p.base * PT_INV_PI;
+    if (p.specular == 0.0f && p.metallic == 0.0f) {
+        DIFFUSE_PART(p.base * PT_INV_PI);
+        return p.base * PT_INV_PI;
+    }
     float3 hv = wo + wi;
     float hl = length(hv);
     if (hl == 0.0f) return (float3)(0.0f);
@@ -648,6 +682,7 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     float fd = p.specular * (0.04f + 0.96f * w);
     float3 fm = p.base + ((float3)(1.0f) - p.base) * w;
     float3 diffuse = base_diffuse(p, wo, wi, fd);
+    DIFFUSE_PART(diffuse * (1.0f - p.metallic));
 #ifdef GGX_ENERGY_COMPENSATION
     float3 dielectric = diffuse + (float3)(fd * s) * (1.0f + 0.04f * (1.0f / spec_albedo(p, wo) - 1.0f));
     float3 metal = fm * s * ((float3)(1.0f) + p.base * (1.0f / spec_albedo(p, wo) - 1.0f));
@@ -657,6 +692,15 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 #endif
     return dielectric * (1.0f - p.metallic) + metal * p.metallic;
 }
+
+#ifdef FILM_LIGHT
+inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
+    float3 unused;
+    return base_bsdf_eval_split(p, wo, wi, &unused);
+}
+#endif
+#undef EVAL_SPLIT
+#undef DIFFUSE_PART
 
 #ifdef FILM_LIGHT
 // Two of the parts of base_bsdf_eval that the light-path passes name (Rust

@@ -144,6 +144,39 @@ inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
 }
 
 #ifdef FILM_LIGHT
+// bsdf_eval, leaving its diffuse and transmission parts in `diffuse` and
+// `transmit`: bsdf_lobe_parts' floats, with each lobe evaluated once.
+inline float3 bsdf_eval_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
+                              float3* transmit) {
+    *diffuse = (float3)(0.0f);
+    *transmit = (float3)(0.0f);
+    if (!(wo.z > 0.0f)) return (float3)(0.0f);
+    float3 d;
+    float3 under = base_bsdf_eval_split(p, wo, wi, &d);
+    float3 t = (float3)(0.0f);
+#ifdef HAS_TRANSMISSION
+    if (wi.z < 0.0f) t = fmax(under - d, (float3)(0.0f));
+#endif
+#ifdef HAS_SHEEN
+    float scaling = sheen_scaling(p, wo.z, fabs(wi.z));
+    float3 sheen = p.sheen_color * sheen_lobe(p.in->sheen_roughness, wo, wi);
+    under = under * scaling + sheen;
+    d = d * scaling + sheen;
+    t = t * scaling;
+#endif
+#ifdef HAS_CLEARCOAT
+    float wc = coat_weight(p, coat_cos(p, wo));
+    float keep = 1.0f - wc;
+    *diffuse = d * keep;
+    *transmit = t * keep;
+    return under * (1.0f - wc) + (float3)(wc * coat_lobe(p, wo, wi));
+#else
+    *diffuse = d;
+    *transmit = t;
+    return under;
+#endif
+}
+
 // bsdf_eval's diffuse and transmission parts (see base_bsdf_lobe_parts):
 // the sheen is diffuse, the coat glossy, and the layers above scale the
 // base's parts as they scale the base (Rust twin: bsdf_eval_lobes).
@@ -289,6 +322,15 @@ inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
 inline void bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
                             float3* transmit) {
     base_bsdf_lobe_parts(p, wo, wi, diffuse, transmit);
+}
+inline float3 bsdf_eval_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
+                              float3* transmit) {
+    *transmit = (float3)(0.0f);
+    float3 f = base_bsdf_eval_split(p, wo, wi, diffuse);
+#ifdef HAS_TRANSMISSION
+    if (wi.z < 0.0f) *transmit = fmax(f - *diffuse, (float3)(0.0f));
+#endif
+    return f;
 }
 #endif
 #endif

@@ -110,12 +110,18 @@ inline float3 pt_shade_light(PtScene* s, PtSurface sf, BsdfParams bp, float3 wo,
     if (!(wi.z > 0.0f)) return (float3)(0.0f);
     float cos_i = wi.z;
 #endif
+#ifdef FILM_LIGHT
+    float3 fd, ft;
+    float3 f = s->split_lobes ? bsdf_eval_parts(bp, wo, wi, &fd, &ft) : bsdf_eval(bp, wo, wi);
+#else
     float3 f = bsdf_eval(bp, wo, wi);
+#endif
     if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) return (float3)(0.0f);
 #ifdef FILM_LIGHT
     if (s->split_lobes) {
-        s->shade_wi = wi;
         s->shade_f = f;
+        s->shade_diffuse = fd;
+        s->shade_transmit = ft;
     }
 #endif
     float w = 1.0f;

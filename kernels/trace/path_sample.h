@@ -129,18 +129,16 @@ inline void pt_first_lobes(PtSample* out, BsdfParams bp, float3 wo, float3 wi, f
 }
 
 // Adds `c`, a light sample's contribution at a vertex after `depth`
-// scattering ones (at `wi`, where the BSDF is `f`), to the light-path
-// passes: at the first vertex by its lobes there, later to the light
-// found after it.
-inline void light_pass_direct(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
-                              float3 c, uint depth) {
+// scattering ones (where the BSDF is `f`, of diffuse part `fd` and
+// transmission part `ft`), to the light-path passes: at the first vertex
+// by its lobes there, later to the light found after it.
+inline void light_pass_direct(PtSample* out, float3 f, float3 fd, float3 ft, float3 c,
+                              uint depth) {
     if (depth != 0u) {
         out->after_indirect += c;
         return;
     }
     if (!(c.x > 0.0f || c.y > 0.0f || c.z > 0.0f)) return;
-    float3 fd, ft;
-    bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
     float3 d = c * lobe_share(fd, f);
     float3 t = c * lobe_share(ft, f);
     out->first_diffuse += d;
@@ -221,8 +219,9 @@ inline PtSample pt_sample_new(PtScene* s) {
     out.share_diffuse = (float3)(0.0f);
     out.share_transmit = (float3)(0.0f);
     s->split_lobes = false;
-    s->shade_wi = (float3)(0.0f);
     s->shade_f = (float3)(0.0f);
+    s->shade_diffuse = (float3)(0.0f);
+    s->shade_transmit = (float3)(0.0f);
 #endif
     return out;
 }
@@ -330,7 +329,7 @@ inline void pt_next_event(PtScene* s, PtSample* out, PtSurface sf, BsdfParams bp
                                           bounce TEX_PASS);
             out->radiance += c;
 #ifdef FILM_LIGHT
-            light_pass_direct(out, bp, wo, s->shade_wi, s->shade_f, c, depth);
+            light_pass_direct(out, s->shade_f, s->shade_diffuse, s->shade_transmit, c, depth);
 #endif
         }
     }
@@ -369,7 +368,7 @@ inline void pt_next_event(PtScene* s, PtSample* out, PtSurface sf, BsdfParams bp
         }
         out->radiance += c;
 #ifdef FILM_LIGHT
-        light_pass_direct(out, bp, wo, s->shade_wi, s->shade_f, c, depth);
+        light_pass_direct(out, s->shade_f, s->shade_diffuse, s->shade_transmit, c, depth);
 #endif
     }
 }

@@ -220,7 +220,8 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
 
 #ifdef FILM_LIGHT
 // bsdf_eval and bsdf_lobe_parts on the cases of probe_layer_params (36 floats). Out per
-// case: the value, its diffuse part and its transmission part (9 floats).
+// case: the value, its diffuse part and its transmission part (9 floats),
+// then the same three from bsdf_eval_parts (9 floats).
 __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -232,10 +233,14 @@ __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, ui
     float3 d, t;
     float3 f = bsdf_eval(p, wo, wi);
     bsdf_lobe_parts(p, wo, wi, &d, &t);
-    __global float* o = out + (size_t)i * 9u;
+    __global float* o = out + (size_t)i * 18u;
     o[0] = f.x; o[1] = f.y; o[2] = f.z;
     o[3] = d.x; o[4] = d.y; o[5] = d.z;
     o[6] = t.x; o[7] = t.y; o[8] = t.z;
+    f = bsdf_eval_parts(p, wo, wi, &d, &t);
+    o[9] = f.x; o[10] = f.y; o[11] = f.z;
+    o[12] = d.x; o[13] = d.y; o[14] = d.z;
+    o[15] = t.x; o[16] = t.y; o[17] = t.z;
 }
 #endif
 

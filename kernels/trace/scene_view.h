@@ -73,11 +73,13 @@ typedef struct {
 #endif
 #ifdef FILM_LIGHT
     // Light-path passes: when `split_lobes` (at a path's first scattering
-    // vertex), pt_shade_light leaves here the direction of its last light
-    // sample and the BSDF's value there, for light_pass_direct to split.
+    // vertex), pt_shade_light leaves here the BSDF's value in the direction
+    // of its last light sample and the value's diffuse and transmission
+    // parts (bsdf_eval_parts), for light_pass_direct to split.
     bool split_lobes;
-    float3 shade_wi;
     float3 shade_f;
+    float3 shade_diffuse;
+    float3 shade_transmit;
 #endif
 } PtScene;
 

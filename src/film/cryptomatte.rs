@@ -21,7 +21,7 @@
 //! names, `<key>` being the first 7 hex digits of the hash of the layer's
 //! name.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
 use crate::scene::MatteTable;
 use crate::UsageError;
@@ -255,19 +255,24 @@ pub fn resolve_mattes(
                 .map(|p| (name_of(p).to_owned(), ids[p].to_bits()))
                 .collect();
             let mut ranks = Vec::with_capacity(kept.len() * depth);
-            let mut sums: HashMap<u32, u32> = HashMap::new();
+            // A pixel has a few slots (`per_pixel`): its names' sums are
+            // merged by a linear search in one reused list, not a hash map
+            // and a list per pixel (a 640x360 frame has 230,400 pixels).
+            let mut named: Vec<(u32, u32)> = Vec::with_capacity(per_pixel);
             for (pixel, &n) in kept.iter().enumerate() {
-                sums.clear();
+                named.clear();
                 for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
                     if let Some(pair) = s[0].checked_sub(1) {
                         if let Some(id) = ids.get(pair as usize) {
-                            *sums.entry(id.to_bits()).or_insert(0) += s[1];
+                            let id = id.to_bits();
+                            match named.iter_mut().find(|(i, _)| *i == id) {
+                                Some((_, c)) => *c += s[1],
+                                None => named.push((id, s[1])),
+                            }
                         }
                     }
                 }
-                let mut named: Vec<(u32, u32)> = sums.iter().map(|(&id, &c)| (id, c)).collect();
-                // Most coverage first; equal coverage by id, so the order
-                // never depends on the hash map's.
+                // Most coverage first; equal coverage by id.
                 named.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
                 let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
                 for r in 0..depth {
@@ -296,7 +301,8 @@ pub fn resolve_object_ids(
     table: &MatteTable,
     ids: &mut [f32],
 ) {
-    let mut counts: HashMap<usize, u32> = HashMap::new();
+    // Merged by a linear search, as in resolve_mattes.
+    let mut counts: Vec<(usize, u32)> = Vec::with_capacity(per_pixel);
     for (pixel, id) in ids.iter_mut().enumerate() {
         counts.clear();
         for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
@@ -304,13 +310,16 @@ pub fn resolve_object_ids(
                 .checked_sub(1)
                 .and_then(|p| table.pairs.get(p as usize))
             {
-                *counts.entry(pair.node).or_insert(0) += s[1];
+                match counts.iter_mut().find(|(node, _)| *node == pair.node) {
+                    Some((_, c)) => *c += s[1],
+                    None => counts.push((pair.node, s[1])),
+                }
             }
         }
         *id = counts
             .iter()
-            .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
-            .map_or(0.0, |(&node, _)| (node + 1) as f32);
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+            .map_or(0.0, |&(node, _)| (node + 1) as f32);
     }
 }
 

@@ -15,8 +15,9 @@
 //!
 //! The kernel (kernels/trace/pathtrace.cl, `FILM_LIGHT`) splits each
 //! contribution by the shares of the first vertex's BSDF value the lobes
-//! give (`bsdf_lobe_parts`): at the light sample's direction for direct
-//! light, at the sampled direction for all that follows it. Diffuse is the
+//! give: at the light sample's direction for direct light (the parts come
+//! with the value there, `bsdf_eval_parts`), at the sampled direction for
+//! all that follows it (`bsdf_lobe_parts`). Diffuse is the
 //! Lambertian reflection, diffuse transmission and sheen; transmission the
 //! GGX transmission (thin or refracting); glossy the rest (specular,
 //! metal, clear coat), and a delta lobe is glossy above the surface and
