@@ -52,10 +52,12 @@ use crate::denoise::NOISY_LAYER;
 use crate::film::Image;
 pub(crate) use atomic::io_err;
 pub use atomic::{check_target, temporary_owner, temporary_sibling, write_atomic};
+use exr::meta::attribute::{ChannelDescription, ChannelList, SampleType};
+use exr::meta::header::{Header, ImageAttributes};
+use exr::meta::BlockDescription;
 use exr::prelude::traits::*;
 use exr::prelude::{
-    f16, AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples,
-    Layer, LayerAttributes, LineOrder, SmallVec, Text, Vec2,
+    AttributeValue, Compression, IntegerBounds, LayerAttributes, LineOrder, Text, Vec2,
 };
 pub use log::*;
 use std::io::Write as _;
@@ -247,44 +249,61 @@ pub fn write_exr_denoised(
             message: format!("denoised image holds a different number of pixels than {n}"),
         });
     }
-    let channels = exr_channels(image, denoised, format.half);
-    let attrs = exr_attributes(image, meta);
-
-    let size = (image.width as usize, image.height as usize);
-    let encoding = Encoding {
-        compression: format.compression.exr(),
-        blocks: Blocks::ScanLines,
-        line_order: LineOrder::Increasing,
-    };
-    let layer = Layer::new(
-        size,
-        attrs,
-        encoding,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    );
-    let mut exr_image = exr::image::Image::from_layer(layer);
-    exr_image.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
+    let mut channels = exr_channels(image, denoised, format.half);
+    // EXR lists channels sorted by name, and stores each line's samples in
+    // that order.
+    channels.sort_by(|a, b| a.name.cmp(&b.name));
+    let size = Vec2(image.width as usize, image.height as usize);
+    let compression = format.compression.exr();
+    let descriptions = channels
+        .iter()
+        .map(|c| {
+            let name = Text::from(c.name.as_str());
+            ChannelDescription {
+                // The hint for lossy compressions the exr crate writes: all
+                // but R, G, B, Z (and L, X, Y) are quantized linearly.
+                quantize_linearly: ChannelDescription::guess_quantization_linearity(&name),
+                name,
+                sample_type: if c.half {
+                    SampleType::F16
+                } else {
+                    SampleType::F32
+                },
+                sampling: Vec2(1, 1),
+            }
+        })
+        .collect();
+    let mut image_attributes = ImageAttributes::new(IntegerBounds::from_dimensions(size));
+    image_attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
         red: Vec2(0.64, 0.33),
         green: Vec2(0.30, 0.60),
         blue: Vec2(0.15, 0.06),
         white: Vec2(0.3127, 0.3290),
     });
+    let header = Header {
+        channels: ChannelList::new(descriptions),
+        compression,
+        blocks: BlockDescription::ScanLines,
+        chunk_count: exr::meta::compute_chunk_count(compression, size, BlockDescription::ScanLines),
+        line_order: LineOrder::Increasing,
+        layer_size: size,
+        shared_attributes: image_attributes,
+        own_attributes: exr_attributes(image, meta),
+        deep: false,
+        deep_data_version: None,
+        max_samples_per_pixel: None,
+    };
     // Encoded in memory first: the exr crate writes the custom attributes
     // (frame, time, spp, seed) in its hash map's order, which changes from
     // run to run; `canonical_attribute_order` sorts them, so the same frame
     // is the same file byte for byte (for checksums and `cmp`).
     let mut bytes = std::io::Cursor::new(Vec::new());
-    let headers = exr_image.write().infer_meta_data();
-    exr_blocks::write_scan_lines(
-        &mut bytes,
-        headers,
-        &exr_image.layer_data.channel_data.list,
-        size.0,
-    )
-    .map_err(|e| OutputError::Encode {
-        path: path.to_path_buf(),
-        format: "EXR",
-        message: e.to_string(),
+    exr_blocks::write_scan_lines(&mut bytes, header, &channels, size.0).map_err(|e| {
+        OutputError::Encode {
+            path: path.to_path_buf(),
+            format: "EXR",
+            message: e.to_string(),
+        }
     })?;
     let mut bytes = bytes.into_inner();
     canonical_attribute_order(&mut bytes);
@@ -297,30 +316,78 @@ pub fn write_exr_denoised(
     })
 }
 
+/// One EXR channel: its name, its samples where the film holds them (no
+/// copy: a frame with every pass has 90 channels), and whether the file
+/// stores them as f16.
+pub(crate) struct ChannelView<'a> {
+    pub name: String,
+    pub samples: Strided<'a>,
+    pub half: bool,
+}
+
+/// Samples `offset`, `offset + stride`, ... of `data`: one component of an
+/// interleaved buffer, or a plane (stride 1).
+#[derive(Clone, Copy)]
+pub(crate) struct Strided<'a> {
+    data: &'a [f32],
+    stride: usize,
+    offset: usize,
+}
+
+impl<'a> Strided<'a> {
+    /// Component `offset` of `pixels`, `N` floats per pixel.
+    fn component<const N: usize>(pixels: &'a [[f32; N]], offset: usize) -> Self {
+        Strided {
+            data: pixels.as_flattened(),
+            stride: N,
+            offset,
+        }
+    }
+
+    fn plane(data: &'a [f32]) -> Self {
+        Strided {
+            data,
+            stride: 1,
+            offset: 0,
+        }
+    }
+
+    /// Pixel `i`'s sample.
+    pub fn get(&self, i: usize) -> f32 {
+        self.data[i * self.stride + self.offset]
+    }
+}
+
 /// The EXR's channels: the beauty (denoised in `R`, `G`, `B` when given,
 /// the raw one in the `noisy` layer), then each pass the image holds.
-fn exr_channels(
-    image: &Image,
-    denoised: Option<&[[f32; 3]]>,
+fn exr_channels<'a>(
+    image: &'a Image,
+    denoised: Option<&'a [[f32; 3]]>,
     half: bool,
-) -> Vec<AnyChannel<FlatSamples>> {
-    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(14);
+) -> Vec<ChannelView<'a>> {
+    let mut channels: Vec<ChannelView<'a>> = Vec::with_capacity(16);
+    let mut push = |name: String, samples: Strided<'a>, half: bool| {
+        channels.push(ChannelView {
+            name,
+            samples,
+            half,
+        });
+    };
     for (c, name) in ["R", "G", "B", "A"].into_iter().enumerate() {
-        let v = match denoised {
-            Some(d) if c < 3 => d.iter().map(|p| p[c]).collect(),
-            _ => image.rgba.iter().map(|p| p[c]).collect(),
+        let samples = match denoised {
+            Some(d) if c < 3 => Strided::component(d, c),
+            _ => Strided::component(&image.rgba, c),
         };
-        channels.push(AnyChannel::new(name, samples(v, half)));
+        push(name.to_owned(), samples, half);
     }
     if denoised.is_some() {
         for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
-            let v = image.rgba.iter().map(|p| p[c]).collect();
-            let name = format!("{NOISY_LAYER}.{name}");
-            channels.push(AnyChannel::new(name.as_str(), samples(v, half)));
+            let samples = Strided::component(&image.rgba, c);
+            push(format!("{NOISY_LAYER}.{name}"), samples, half);
         }
     }
     if let Some(z) = &image.depth {
-        channels.push(AnyChannel::new("Z", samples(z.clone(), false)));
+        push("Z".to_owned(), Strided::plane(z), false);
     }
     // Counts and error estimates stay f32: half floats would round counts
     // past 2048.
@@ -330,7 +397,7 @@ fn exr_channels(
         (&image.rays, "rays"),
     ] {
         if let Some(v) = buf {
-            channels.push(AnyChannel::new(name, samples(v.clone(), false)));
+            push(name.to_owned(), Strided::plane(v), false);
         }
     }
     for (buf, names) in [
@@ -338,51 +405,63 @@ fn exr_channels(
         (&image.albedo, ["albedo.R", "albedo.G", "albedo.B"]),
     ] {
         if let Some(buf) = buf {
-            channels.extend(component_channels(names, buf, half));
+            for (c, name) in names.into_iter().enumerate() {
+                push(name.to_owned(), Strided::component(buf, c), half);
+            }
         }
     }
-
     // The data passes stay f32 whatever --half says: motion vectors in
     // pixels (Blender's Vector pass layout), first-hit positions and uvs,
     // object ids (exact integers) and the shadow catchers' factor.
     if let Some(m) = &image.motion {
-        let names = ["Vector.X", "Vector.Y", "Vector.Z", "Vector.W"];
-        channels.extend(component_channels(names, m, false));
+        for (c, name) in ["Vector.X", "Vector.Y", "Vector.Z", "Vector.W"]
+            .into_iter()
+            .enumerate()
+        {
+            push(name.to_owned(), Strided::component(m, c), false);
+        }
     }
     if let Some(p) = &image.position {
-        let names = ["Position.X", "Position.Y", "Position.Z"];
-        channels.extend(component_channels(names, p, false));
+        for (c, name) in ["Position.X", "Position.Y", "Position.Z"]
+            .into_iter()
+            .enumerate()
+        {
+            push(name.to_owned(), Strided::component(p, c), false);
+        }
     }
     if let Some(uv) = &image.uv {
-        channels.extend(component_channels(["UV.U", "UV.V"], uv, false));
+        for (c, name) in ["UV.U", "UV.V"].into_iter().enumerate() {
+            push(name.to_owned(), Strided::component(uv, c), false);
+        }
     }
     if let Some(ids) = &image.object_id {
-        channels.push(AnyChannel::new("object_id", samples(ids.clone(), false)));
+        push("object_id".to_owned(), Strided::plane(ids), false);
     }
     if let Some(shadow) = &image.shadow {
-        let names = ["shadow.R", "shadow.G", "shadow.B"];
-        channels.extend(component_channels(names, shadow, false));
+        for (c, name) in ["shadow.R", "shadow.G", "shadow.B"].into_iter().enumerate() {
+            push(name.to_owned(), Strided::component(shadow, c), false);
+        }
     }
     // Light-path passes are colours, as the beauty is: --half applies.
     for pass in &image.light {
         for (c, component) in ["R", "G", "B"].into_iter().enumerate() {
-            let v = pass.pixels.iter().map(|p| p[c]).collect();
             let name = format!("{}.{component}", pass.name());
-            channels.push(AnyChannel::new(name.as_str(), samples(v, half)));
+            push(name, Strided::component(&pass.pixels, c), half);
         }
     }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id
-    // is a hash's 32 bits).
+    // is a hash's 32 bits). A pixel's ranks are `depth` (id, coverage)
+    // pairs in a row.
     for layer in &image.mattes {
         for k in 0..layer.depth / 2 {
-            for (c, name) in layer.channel_names(k).iter().enumerate() {
+            for (c, name) in layer.channel_names(k).into_iter().enumerate() {
                 let (rank, part) = (2 * k + c / 2, c % 2);
-                let v = layer
-                    .ranks
-                    .chunks(layer.depth)
-                    .map(|ranks| ranks[rank][part])
-                    .collect();
-                channels.push(AnyChannel::new(name.as_str(), samples(v, false)));
+                let samples = Strided {
+                    data: layer.ranks.as_flattened(),
+                    stride: 2 * layer.depth,
+                    offset: 2 * rank + part,
+                };
+                push(name, samples, false);
             }
         }
     }
@@ -424,27 +503,6 @@ fn exr_attributes(image: &Image, meta: &FrameMetadata) -> LayerAttributes {
         AttributeValue::Text(Text::from(meta.seed.to_string().as_str())),
     );
     attrs
-}
-
-/// A channel's samples, f16 with `half`.
-fn samples(v: Vec<f32>, half: bool) -> FlatSamples {
-    if half {
-        FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
-    } else {
-        FlatSamples::F32(v)
-    }
-}
-
-/// One channel per component of `pixels`, named by `names`.
-fn component_channels<'p, const N: usize>(
-    names: [&'static str; N],
-    pixels: &'p [[f32; N]],
-    half: bool,
-) -> impl Iterator<Item = AnyChannel<FlatSamples>> + 'p {
-    names.into_iter().enumerate().map(move |(c, name)| {
-        let v = pixels.iter().map(|p| p[c]).collect();
-        AnyChannel::new(name, samples(v, half))
-    })
 }
 
 /// Sorts the header attributes of a single-part EXR by name, in place. The
@@ -507,7 +565,7 @@ pub fn is_complete_exr(path: &Path) -> bool {
     if crate::input::open_regular(path).is_err() {
         return false;
     }
-    read()
+    exr::prelude::read()
         .no_deep_data()
         .all_resolution_levels()
         .all_channels()
@@ -612,6 +670,7 @@ pub fn write_png_preview(
 mod tests {
     use super::*;
     use crate::film::{Aovs, Image};
+    use exr::prelude::FlatSamples;
 
     #[test]
     fn the_same_frame_is_the_same_file_byte_for_byte() {
@@ -709,20 +768,29 @@ mod tests {
                 let written = exr_channels(&img, None, half);
                 assert_eq!(read.len(), written.len());
                 for c in &written {
-                    let back = read.iter().find(|r| r.name == c.name).unwrap();
-                    let as_bits = |s: &FlatSamples| -> Vec<u32> {
-                        match s {
-                            FlatSamples::F16(v) => v.iter().map(|x| x.to_bits() as u32).collect(),
-                            FlatSamples::F32(v) => v.iter().map(|x| x.to_bits()).collect(),
-                            FlatSamples::U32(v) => v.clone(),
-                        }
+                    let back = read.iter().find(|r| r.name.eq(c.name.as_str())).unwrap();
+                    let got: Vec<u32> = match &back.sample_data {
+                        FlatSamples::F16(v) => v.iter().map(|x| x.to_bits() as u32).collect(),
+                        FlatSamples::F32(v) => v.iter().map(|x| x.to_bits()).collect(),
+                        FlatSamples::U32(v) => v.clone(),
                     };
+                    let want: Vec<u32> = (0..n)
+                        .map(|i| c.samples.get(i))
+                        .map(|x| {
+                            if c.half {
+                                exr::prelude::f16::from_f32(x).to_bits() as u32
+                            } else {
+                                x.to_bits()
+                            }
+                        })
+                        .collect();
                     assert!(
-                        as_bits(&back.sample_data) == as_bits(&c.sample_data),
-                        "{}: channel {} differs",
+                        matches!(back.sample_data, FlatSamples::F16(_)) == c.half,
+                        "{}: channel {} has the wrong type",
                         p.display(),
                         c.name
                     );
+                    assert!(got == want, "{}: channel {} differs", p.display(), c.name);
                 }
             }
         }
