@@ -255,20 +255,13 @@ pub fn resolve_mattes(
                 .map(|p| (name_of(p).to_owned(), ids[p].to_bits()))
                 .collect();
             let mut ranks = Vec::with_capacity(kept.len() * depth);
-            // A pixel has a few slots (`per_pixel`): its names' sums are
-            // merged by a linear search in one reused list, not a hash map
-            // and a list per pixel (a 640x360 frame has 230,400 pixels).
             let mut named: Vec<(u32, u32)> = Vec::with_capacity(per_pixel);
             for (pixel, &n) in kept.iter().enumerate() {
                 named.clear();
                 for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
                     if let Some(pair) = s[0].checked_sub(1) {
                         if let Some(id) = ids.get(pair as usize) {
-                            let id = id.to_bits();
-                            match named.iter_mut().find(|(i, _)| *i == id) {
-                                Some((_, c)) => *c += s[1],
-                                None => named.push((id, s[1])),
-                            }
+                            add_count(&mut named, id.to_bits(), s[1]);
                         }
                     }
                 }
@@ -292,6 +285,17 @@ pub fn resolve_mattes(
         .collect()
 }
 
+/// Adds `count` to `key`'s entry in `counts`, or appends one. A pixel has
+/// a few slots (`Cryptomatte::slots`), so a linear search in one list
+/// reused across pixels beats a hash map per pixel (a 640x360 frame has
+/// 230,400 pixels).
+fn add_count<K: PartialEq>(counts: &mut Vec<(K, u32)>, key: K, count: u32) {
+    match counts.iter_mut().find(|(k, _)| *k == key) {
+        Some((_, c)) => *c += count,
+        None => counts.push((key, count)),
+    }
+}
+
 /// Each pixel's object id (`--aov object_id`): the glTF node index + 1 of
 /// the object most of its samples hit first (ties to the lower index), 0
 /// where none hit. `slots` holds `per_pixel` entries per pixel.
@@ -301,7 +305,6 @@ pub fn resolve_object_ids(
     table: &MatteTable,
     ids: &mut [f32],
 ) {
-    // Merged by a linear search, as in resolve_mattes.
     let mut counts: Vec<(usize, u32)> = Vec::with_capacity(per_pixel);
     for (pixel, id) in ids.iter_mut().enumerate() {
         counts.clear();
@@ -310,10 +313,7 @@ pub fn resolve_object_ids(
                 .checked_sub(1)
                 .and_then(|p| table.pairs.get(p as usize))
             {
-                match counts.iter_mut().find(|(node, _)| *node == pair.node) {
-                    Some((_, c)) => *c += s[1],
-                    None => counts.push((pair.node, s[1])),
-                }
+                add_count(&mut counts, pair.node, s[1]);
             }
         }
         *id = counts

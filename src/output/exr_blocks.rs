@@ -24,32 +24,60 @@ use exr::block::chunk::{Chunk, CompressedBlock, CompressedScanLineBlock};
 use exr::block::writer::ChunksWriter;
 use exr::block::{self, BlockIndex, UncompressedBlock};
 use exr::error::{Error, UnitResult};
-use exr::meta::header::Header;
-use exr::prelude::{Compression, SmallVec};
+use exr::meta::attribute::{ChannelDescription, ChannelList, SampleType};
+use exr::meta::header::{Header, ImageAttributes, LayerAttributes};
+use exr::meta::BlockDescription;
+use exr::prelude::{Compression, LineOrder, SmallVec, Text, Vec2};
 use rayon::prelude::*;
 use std::io::{Seek, Write};
 
 /// The zlib level OpenEXR writes ZIP blocks at by default.
 const ZIP_LEVEL: u32 = 4;
 
-/// Writes a single-part scan-line EXR with `header` to `out`, its pixels
-/// from `channels` (in the header's channel order), `width` per line.
+/// Writes a single-part scan-line EXR of `size` pixels to `out`: its
+/// channels `channels` (stored sorted by name, as EXR lists them), its
+/// blocks compressed with `compression`, and the given attributes.
 pub(super) fn write_scan_lines<W: Write + Seek>(
     out: W,
-    header: Header,
-    channels: &[ChannelView],
-    width: usize,
+    mut channels: Vec<ChannelView>,
+    size: Vec2<usize>,
+    compression: Compression,
+    shared_attributes: ImageAttributes,
+    own_attributes: LayerAttributes,
 ) -> UnitResult {
-    let names_match = header.channels.list.len() == channels.len()
-        && header
-            .channels
-            .list
-            .iter()
-            .zip(channels)
-            .all(|(d, c)| d.name.eq(c.name.as_str()));
-    if !names_match {
-        return Err(Error::Invalid("channels out of the header's order".into()));
-    }
+    channels.sort_by(|a, b| a.name.cmp(&b.name));
+    let descriptions = channels
+        .iter()
+        .map(|c| {
+            let name = Text::from(c.name.as_str());
+            ChannelDescription {
+                // The hint for lossy compressions the exr crate's image
+                // writer gives: all but R, G, B, Z (and L, X, Y) are
+                // quantized linearly.
+                quantize_linearly: ChannelDescription::guess_quantization_linearity(&name),
+                name,
+                sample_type: if c.half {
+                    SampleType::F16
+                } else {
+                    SampleType::F32
+                },
+                sampling: Vec2(1, 1),
+            }
+        })
+        .collect();
+    let header = Header {
+        channels: ChannelList::new(descriptions),
+        compression,
+        blocks: BlockDescription::ScanLines,
+        chunk_count: exr::meta::compute_chunk_count(compression, size, BlockDescription::ScanLines),
+        line_order: LineOrder::Increasing,
+        layer_size: size,
+        shared_attributes,
+        own_attributes,
+        deep: false,
+        deep_data_version: None,
+        max_samples_per_pixel: None,
+    };
     block::write(out, SmallVec::from_elem(header, 1), true, |meta, writer| {
         let blocks: Vec<(usize, BlockIndex)> =
             block::enumerate_ordered_header_block_indices(&meta.headers).collect();
@@ -57,7 +85,7 @@ pub(super) fn write_scan_lines<W: Write + Seek>(
         for group in blocks.chunks(batch) {
             let chunks: Vec<Result<Chunk, Error>> = group
                 .par_iter()
-                .map(|&(_, index)| encode_block(&meta.headers, channels, width, index))
+                .map(|&(_, index)| encode_block(&meta.headers, &channels, size.x(), index))
                 .collect();
             for (&(index_in_header, _), chunk) in group.iter().zip(chunks) {
                 writer.write_chunk(index_in_header, chunk?)?;

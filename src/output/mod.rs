@@ -52,13 +52,9 @@ use crate::denoise::NOISY_LAYER;
 use crate::film::Image;
 pub(crate) use atomic::io_err;
 pub use atomic::{check_target, temporary_owner, temporary_sibling, write_atomic};
-use exr::meta::attribute::{ChannelDescription, ChannelList, SampleType};
-use exr::meta::header::{Header, ImageAttributes};
-use exr::meta::BlockDescription;
+use exr::meta::header::ImageAttributes;
 use exr::prelude::traits::*;
-use exr::prelude::{
-    AttributeValue, Compression, IntegerBounds, LayerAttributes, LineOrder, Text, Vec2,
-};
+use exr::prelude::{AttributeValue, Compression, IntegerBounds, LayerAttributes, Text, Vec2};
 pub use log::*;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -249,30 +245,7 @@ pub fn write_exr_denoised(
             message: format!("denoised image holds a different number of pixels than {n}"),
         });
     }
-    let mut channels = exr_channels(image, denoised, format.half);
-    // EXR lists channels sorted by name, and stores each line's samples in
-    // that order.
-    channels.sort_by(|a, b| a.name.cmp(&b.name));
     let size = Vec2(image.width as usize, image.height as usize);
-    let compression = format.compression.exr();
-    let descriptions = channels
-        .iter()
-        .map(|c| {
-            let name = Text::from(c.name.as_str());
-            ChannelDescription {
-                // The hint for lossy compressions the exr crate writes: all
-                // but R, G, B, Z (and L, X, Y) are quantized linearly.
-                quantize_linearly: ChannelDescription::guess_quantization_linearity(&name),
-                name,
-                sample_type: if c.half {
-                    SampleType::F16
-                } else {
-                    SampleType::F32
-                },
-                sampling: Vec2(1, 1),
-            }
-        })
-        .collect();
     let mut image_attributes = ImageAttributes::new(IntegerBounds::from_dimensions(size));
     image_attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
         red: Vec2(0.64, 0.33),
@@ -280,30 +253,23 @@ pub fn write_exr_denoised(
         blue: Vec2(0.15, 0.06),
         white: Vec2(0.3127, 0.3290),
     });
-    let header = Header {
-        channels: ChannelList::new(descriptions),
-        compression,
-        blocks: BlockDescription::ScanLines,
-        chunk_count: exr::meta::compute_chunk_count(compression, size, BlockDescription::ScanLines),
-        line_order: LineOrder::Increasing,
-        layer_size: size,
-        shared_attributes: image_attributes,
-        own_attributes: exr_attributes(image, meta),
-        deep: false,
-        deep_data_version: None,
-        max_samples_per_pixel: None,
-    };
     // Encoded in memory first: the exr crate writes the custom attributes
     // (frame, time, spp, seed) in its hash map's order, which changes from
     // run to run; `canonical_attribute_order` sorts them, so the same frame
     // is the same file byte for byte (for checksums and `cmp`).
     let mut bytes = std::io::Cursor::new(Vec::new());
-    exr_blocks::write_scan_lines(&mut bytes, header, &channels, size.0).map_err(|e| {
-        OutputError::Encode {
-            path: path.to_path_buf(),
-            format: "EXR",
-            message: e.to_string(),
-        }
+    exr_blocks::write_scan_lines(
+        &mut bytes,
+        exr_channels(image, denoised, format.half),
+        size,
+        format.compression.exr(),
+        image_attributes,
+        exr_attributes(image, meta),
+    )
+    .map_err(|e| OutputError::Encode {
+        path: path.to_path_buf(),
+        format: "EXR",
+        message: e.to_string(),
     })?;
     let mut bytes = bytes.into_inner();
     canonical_attribute_order(&mut bytes);
