@@ -71,6 +71,56 @@ fn stable_log(path: &Path) -> serde_json::Value {
     v
 }
 
+/// A run reuses a written frame's buffers for a later frame's image; with
+/// every pass and a shadow catcher, each frame's files are still those of a
+/// run that renders it alone.
+#[test]
+fn frames_with_every_pass_split_over_runs_give_identical_files() {
+    let walker = common::repo_file("animations/walker/walker.glb");
+    let walker = walker.to_str().unwrap();
+    let every_pass = [
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--spp",
+        "2",
+        "--aov",
+        "depth,normal,albedo,motion,position,uv,object_id",
+        "--cryptomatte",
+        "object,material,asset",
+        "--passes",
+        "light",
+        "--shadow-catcher",
+        "ground",
+    ];
+    let run = |out: &Path, frames: &str| {
+        let mut args = vec!["render", walker, "--quiet", "--frames", frames];
+        args.extend_from_slice(&every_pass);
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        let done = soupray(&args);
+        assert!(
+            done.status.success(),
+            "{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+    };
+    let (one, two) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    run(one.path(), "0-9:3");
+    for frame in ["0", "3", "6", "9"] {
+        run(two.path(), frame);
+    }
+    for frame in [0, 3, 6, 9] {
+        let name = format!("walker.{frame:04}.exr");
+        let a = std::fs::read(one.path().join(&name)).unwrap();
+        let b = std::fs::read(two.path().join(&name)).unwrap();
+        assert!(
+            a == b,
+            "{name}: the job's file differs from the frame's own run"
+        );
+    }
+}
+
 #[test]
 fn frames_split_over_runs_give_identical_files() {
     let one = tempfile::tempdir().unwrap();

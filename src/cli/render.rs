@@ -19,7 +19,7 @@ mod progress;
 use crate::cli::frames::{self, FramePaths};
 use crate::denoise::Denoiser;
 use crate::device::Device;
-use crate::film::Image;
+use crate::film::{self, Image};
 use crate::output::{self, FrameLog, FrameMetadata};
 use crate::pipeline::{self, FrameProgress, FrameRenderer};
 use crate::scene::{LoadOptions, Scene};
@@ -614,6 +614,7 @@ struct WriteOptions {
 
 fn spawn_writer(
     options: WriteOptions,
+    spare: mpsc::Sender<Image>,
 ) -> (
     mpsc::SyncSender<FrameResult>,
     std::thread::JoinHandle<Vec<Written>>,
@@ -644,6 +645,9 @@ fn spawn_writer(
                 done.frame,
                 written.map(|()| line).map_err(|e| format!("{e}")),
             ));
+            // Its buffers, for a later frame's image (none if the renderer
+            // is gone).
+            let _ = spare.send(done.image);
         }
         results
     });
@@ -917,16 +921,21 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let mut renderer = FrameRenderer::new(&device, &scene, job.settings.clone(), denoiser)?;
     signals.deferred();
     signals.check()?;
-    let (writer, writer_done) = spawn_writer(WriteOptions {
-        format: output::ExrFormat {
-            half: args.half,
-            compression: job.exr_compression,
+    let (spare_send, spare) = film::SpareImages::channel();
+    renderer.reuse_images(spare);
+    let (writer, writer_done) = spawn_writer(
+        WriteOptions {
+            format: output::ExrFormat {
+                half: args.half,
+                compression: job.exr_compression,
+            },
+            png: args.png,
+            transparent: args.transparent,
+            spp,
+            seed,
         },
-        png: args.png,
-        transparent: args.transparent,
-        spp,
-        seed,
-    });
+        spare_send,
+    );
     let Rendered {
         mut failed,
         interrupted,

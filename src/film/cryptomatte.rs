@@ -226,12 +226,14 @@ pub fn name_id(name: &str) -> f32 {
 
 /// The frame's Cryptomatte layers from the tracer's per-pixel tables:
 /// `slots` holds `cryptomatte.slots()` (pair + 1, count) entries per pixel
-/// (0 marks an empty slot), `kept` each pixel's kept samples.
+/// (0 marks an empty slot), `kept` each pixel's kept samples; in the
+/// buffers of `spare` (a written frame's layers) where it has them.
 pub fn resolve_mattes(
     slots: &[[u32; 2]],
     kept: &[u32],
     table: &MatteTable,
     cryptomatte: &Cryptomatte,
+    mut spare: Vec<MatteLayer>,
 ) -> Vec<MatteLayer> {
     let per_pixel = cryptomatte.slots() as usize;
     let depth = cryptomatte.depth as usize;
@@ -254,7 +256,11 @@ pub fn resolve_mattes(
             let manifest = (0..table.pairs.len())
                 .map(|p| (name_of(p).to_owned(), ids[p].to_bits()))
                 .collect();
-            let mut ranks = Vec::with_capacity(kept.len() * depth);
+            // In a written frame's buffer where there is one (as
+            // `Image::reusing`).
+            let mut ranks = spare.pop().map(|l| l.ranks).unwrap_or_default();
+            ranks.clear();
+            ranks.reserve(kept.len() * depth);
             let mut named: Vec<(u32, u32)> = Vec::with_capacity(per_pixel);
             for (pixel, &n) in kept.iter().enumerate() {
                 named.clear();
@@ -371,7 +377,7 @@ mod tests {
         );
         // One pixel of 10 kept samples: 3 on a, 2 on b, 4 on c, 1 missed.
         let slots = [[1, 3], [2, 2], [3, 4], [0, 0]];
-        let layers = resolve_mattes(&slots, &[10], &table, &c);
+        let layers = resolve_mattes(&slots, &[10], &table, &c, Vec::new());
         let object = &layers[0];
         assert_eq!(object.ranks[0], [name_id("c"), 0.4]);
         assert_eq!(object.ranks[1], [name_id("a"), 0.3]);

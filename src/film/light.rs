@@ -66,8 +66,9 @@ impl LightPass {
     }
 }
 
-/// The black passes `aovs` asks for, of `pixels` pixels each.
-pub fn passes_of(aovs: Aovs, pixels: usize) -> Vec<LightPass> {
+/// The black passes `aovs` asks for, of `pixels` pixels each, in the
+/// buffers of `spare` where it has them (`Image::reusing`).
+pub fn passes_of(aovs: Aovs, pixels: usize, mut spare: Vec<LightPass>) -> Vec<LightPass> {
     let on = [
         aovs.diffuse,
         aovs.diffuse,
@@ -85,7 +86,7 @@ pub fn passes_of(aovs: Aovs, pixels: usize) -> Vec<LightPass> {
         .filter(|&index| on[index])
         .map(|index| LightPass {
             index,
-            pixels: vec![[0.0; 3]; pixels],
+            pixels: super::refill(spare.pop().map(|p| p.pixels), pixels, [0.0; 3]),
         })
         .collect()
 }

@@ -421,23 +421,61 @@ impl Image {
 
     /// A black, transparent image with the given AOVs (background depth).
     pub fn new(width: u32, height: u32, aovs: Aovs) -> Image {
+        Image::reusing(None, width, height, aovs)
+    }
+
+    /// As `new`, in the buffers of `spare` (an image whose files are
+    /// written) where it has them. A frame's buffers are tens of megabytes
+    /// (80 MB at 640x360 with every pass), and fresh ones cost the kernel
+    /// a page fault and a zeroed page per 4 KiB on first touch: refilling
+    /// old ones costs a memset.
+    pub fn reusing(spare: Option<Image>, width: u32, height: u32, aovs: Aovs) -> Image {
         let n = width as usize * height as usize;
+        let mut s = spare.unwrap_or_else(Image::empty);
         Image {
             width,
             height,
-            rgba: vec![[0.0; 4]; n],
-            depth: aovs.depth.then(|| vec![BACKGROUND_DEPTH; n]),
-            normal: aovs.normal.then(|| vec![[0.0; 3]; n]),
-            albedo: aovs.albedo.then(|| vec![[0.0; 3]; n]),
-            sample_count: aovs.sample_count.then(|| vec![0.0; n]),
-            noise: aovs.noise.then(|| vec![0.0; n]),
-            rays: aovs.rays.then(|| vec![0.0; n]),
-            motion: aovs.motion.then(|| vec![[0.0; 4]; n]),
-            position: aovs.position.then(|| vec![[0.0; 3]; n]),
-            uv: aovs.uv.then(|| vec![[0.0; 2]; n]),
-            object_id: aovs.object_id.then(|| vec![0.0; n]),
+            rgba: refill(Some(std::mem::take(&mut s.rgba)), n, [0.0; 4]),
+            depth: aovs
+                .depth
+                .then(|| refill(s.depth.take(), n, BACKGROUND_DEPTH)),
+            normal: aovs.normal.then(|| refill(s.normal.take(), n, [0.0; 3])),
+            albedo: aovs.albedo.then(|| refill(s.albedo.take(), n, [0.0; 3])),
+            sample_count: aovs
+                .sample_count
+                .then(|| refill(s.sample_count.take(), n, 0.0)),
+            noise: aovs.noise.then(|| refill(s.noise.take(), n, 0.0)),
+            rays: aovs.rays.then(|| refill(s.rays.take(), n, 0.0)),
+            motion: aovs.motion.then(|| refill(s.motion.take(), n, [0.0; 4])),
+            position: aovs
+                .position
+                .then(|| refill(s.position.take(), n, [0.0; 3])),
+            uv: aovs.uv.then(|| refill(s.uv.take(), n, [0.0; 2])),
+            object_id: aovs.object_id.then(|| refill(s.object_id.take(), n, 0.0)),
             mattes: Vec::new(),
-            light: light::passes_of(aovs, n),
+            light: light::passes_of(aovs, n, std::mem::take(&mut s.light)),
+            shadow: None,
+        }
+    }
+
+    /// An image of no pixels and no AOVs.
+    fn empty() -> Image {
+        Image {
+            width: 0,
+            height: 0,
+            rgba: Vec::new(),
+            depth: None,
+            normal: None,
+            albedo: None,
+            sample_count: None,
+            noise: None,
+            rays: None,
+            motion: None,
+            position: None,
+            uv: None,
+            object_id: None,
+            mattes: Vec::new(),
+            light: Vec::new(),
             shadow: None,
         }
     }
@@ -505,6 +543,34 @@ pub fn noise_estimate(color: [f32; 4], snapshots: [[f32; 4]; 2], aux: [f32; 4]) 
     (num / den).sqrt()
 }
 
+/// Written frames' images, handed back by the writer so that a later
+/// frame's resolve fills their buffers (`Image::reusing`) instead of fresh
+/// ones. Only images already written come back, so a job holds no more
+/// images at once than it would without.
+pub struct SpareImages(std::sync::mpsc::Receiver<Image>);
+
+impl SpareImages {
+    /// The writer's end (send each image once its files are written) and
+    /// the renderer's.
+    pub fn channel() -> (std::sync::mpsc::Sender<Image>, SpareImages) {
+        let (send, receive) = std::sync::mpsc::channel();
+        (send, SpareImages(receive))
+    }
+
+    /// The latest image handed back, if any; older ones are freed.
+    pub fn take(&self) -> Option<Image> {
+        self.0.try_iter().last()
+    }
+}
+
+/// `n` copies of `value`, in `spare`'s memory when it has the room.
+pub(crate) fn refill<T: Clone>(spare: Option<Vec<T>>, n: usize, value: T) -> Vec<T> {
+    let mut v = spare.unwrap_or_default();
+    v.clear();
+    v.resize(n, value);
+    v
+}
+
 /// A frame's accumulators as the path tracer leaves them, per pixel: the
 /// sums of colour (RGB and alpha), normal and albedo (empty when their AOVs
 /// are off), the two noise snapshots (`noise_estimate`), `aux` (depth sum,
@@ -550,12 +616,20 @@ pub struct Resolved {
 
 /// Each pixel's mean over its kept samples (a box over the pixel's own
 /// samples: the reconstruction filter is applied where samples are drawn,
-/// by importance), its AOVs and its noise estimate.
-pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolved {
+/// by importance), its AOVs and its noise estimate; in `spare`'s buffers
+/// where it has them (`Image::reusing`).
+pub fn resolve(
+    acc: &Accumulated,
+    width: u32,
+    height: u32,
+    aovs: Aovs,
+    mut spare: Option<Image>,
+) -> Resolved {
     let pixels = width as usize * height as usize;
-    let mut image = Image::new(width, height, aovs);
+    let mut spare_shadow = spare.as_mut().and_then(|s| s.shadow.take());
+    let mut image = Image::reusing(spare, width, height, aovs);
     let mut out = Resolved {
-        image: Image::new(0, 0, Aovs::default()),
+        image: Image::empty(),
         counts: Vec::with_capacity(pixels),
         estimates: Vec::with_capacity(pixels),
         dropped: 0,
@@ -614,7 +688,9 @@ pub fn resolve(acc: &Accumulated, width: u32, height: u32, aovs: Aovs) -> Resolv
             }
         }
         if !acc.catcher.is_empty() {
-            let shadow = image.shadow.get_or_insert_with(|| vec![[1.0; 3]; pixels]);
+            let shadow = image
+                .shadow
+                .get_or_insert_with(|| refill(spare_shadow.take(), pixels, [1.0; 3]));
             let cast = catcher_shadow(
                 [
                     acc.catcher[3 * i],
@@ -922,7 +998,7 @@ mod tests {
             ..Accumulated::default()
         };
         let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
-        let r = resolve(&acc, 2, 1, every);
+        let r = resolve(&acc, 2, 1, every, None);
         assert_eq!(r.image.rgba[0], [1.0, 2.0, 0.5, 1.0]);
         assert_eq!(r.image.normal.as_ref().unwrap()[0], [0.0, 1.0, 0.0]);
         assert_eq!(r.image.albedo.as_ref().unwrap()[0], [0.5, 0.5, 0.5]);

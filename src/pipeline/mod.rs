@@ -158,6 +158,12 @@ impl<'d> FrameRenderer<'d> {
         self.trace_warm_up(frame, &ev, &tree)
     }
 
+    /// Fills each frame's image in the buffers of the images `spare` hands
+    /// back once written (`film::SpareImages`).
+    pub fn reuse_images(&mut self, spare: crate::film::SpareImages) {
+        self.tracer.reuse_images(spare);
+    }
+
     /// Runs evaluate → build → trace → film for `frame` and fills in its
     /// log. A stage's failure is a `FrameError`; an error from
     /// `progress.stage_done` is returned as it is.

@@ -64,7 +64,7 @@ use super::vectors::VECTOR_STEPS;
 use super::TraceError;
 use crate::bvh::Bvh;
 use crate::device::{Arg, Device, GrowBuffer};
-use crate::film::{self, Image, NoiseStats};
+use crate::film::{self, Accumulated, Image, NoiseStats, SpareImages};
 use crate::scene::compositing::triangle_flags;
 use crate::scene::{FrameCamera, FrameLight, MaterialTable, MatteTable, Scene};
 use crate::soup::device::DeviceSoup;
@@ -258,6 +258,10 @@ pub struct PathTracer<'d> {
     /// With `--aov position` or `uv`: two sums per pixel.
     accum_geometry: GrowBuffer<[f32; 4]>,
     accum_light: GrowBuffer<f32>,
+    /// The accumulators read back, reused from frame to frame.
+    readback: Accumulated,
+    /// Written frames' images, whose buffers the next resolve fills.
+    spare_images: Option<SpareImages>,
 }
 
 /// The kernel argument for an optional buffer: the buffer, or `dummy`.
@@ -491,6 +495,8 @@ impl<'d> PathTracer<'d> {
             accum_catcher: GrowBuffer::new(),
             accum_geometry: GrowBuffer::new(),
             accum_light: GrowBuffer::new(),
+            readback: Accumulated::default(),
+            spare_images: None,
         })
     }
 
@@ -579,6 +585,12 @@ impl<'d> PathTracer<'d> {
     /// kept from the frame before (for tests and tools).
     pub fn emitter_texture_factor_frames(&self) -> (u64, u64) {
         (self.texture_factors.computed, self.texture_factors.reused)
+    }
+
+    /// Fills each frame's image in the buffers of the images `spare` hands
+    /// back (`film::SpareImages`).
+    pub fn reuse_images(&mut self, spare: SpareImages) {
+        self.spare_images = Some(spare);
     }
 
     /// Changes how frames are cut into launches (the image does not change).
@@ -763,16 +775,24 @@ impl<'d> PathTracer<'d> {
         let passes = self.run_passes(soup, prim_ids, snode_count, empty, motion_steps, progress)?;
         let trace_ms = self.device_ms_since(first_event);
 
-        let accumulated = self.read_accumulators(pixels)?;
-        let mut resolved = film::resolve(&accumulated, w, h, self.settings.aovs);
+        self.read_accumulators(pixels)?;
+        let accumulated = &self.readback;
+        let mut spare = self.spare_images.as_ref().and_then(SpareImages::take);
+        let spare_mattes = spare.as_mut().map(|s| std::mem::take(&mut s.mattes));
+        let mut resolved = film::resolve(accumulated, w, h, self.settings.aovs, spare);
         if let (Some(c), Some((table, _))) = (&self.settings.cryptomatte, &self.mattes) {
             let kept: Vec<u32> = accumulated
                 .aux
                 .iter()
                 .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
                 .collect();
-            resolved.image.mattes =
-                film::cryptomatte::resolve_mattes(&accumulated.matte_slots, &kept, table, c);
+            resolved.image.mattes = film::cryptomatte::resolve_mattes(
+                &accumulated.matte_slots,
+                &kept,
+                table,
+                c,
+                spare_mattes.unwrap_or_default(),
+            );
         }
         if let (Some(ids), Some((table, _))) = (&mut resolved.image.object_id, &self.mattes) {
             let slots = accumulated.matte_slots.len() / pixels.max(1);
@@ -790,7 +810,7 @@ impl<'d> PathTracer<'d> {
             &resolved.estimates,
             &resolved.counts,
         );
-        let rays = accumulated.rays;
+        let rays = accumulated.rays.clone();
         Ok(RenderOutput {
             image: resolved.image,
             rays: rays.iter().map(|&r| r as u64).sum(),

@@ -7,7 +7,7 @@ use opencl3::memory::Buffer;
 
 use super::{or_dummy, PathTracer, SoupBuffers};
 use crate::device::{Arg, Device};
-use crate::film::{self, Accumulated, NoiseStats};
+use crate::film::{self, NoiseStats};
 use crate::trace::settings::{check_counts, Adaptive, Allocation};
 use crate::trace::TraceError;
 
@@ -259,56 +259,70 @@ impl PathTracer<'_> {
         ms
     }
 
-    /// The accumulators, read back for the film's resolve (the normal and
-    /// albedo sums only when their AOVs are written).
-    pub(super) fn read_accumulators(&self, pixels: usize) -> Result<Accumulated, TraceError> {
+    /// The accumulators, read back into `self.readback` for the film's
+    /// resolve (the optional sums only when their passes are written). The
+    /// host buffers are the last frame's: tens of megabytes with every
+    /// pass, which fresh would cost a page fault per 4 KiB.
+    pub(super) fn read_accumulators(&mut self, pixels: usize) -> Result<(), TraceError> {
         let d = self.device;
-        let mut acc = Accumulated {
-            color: vec![[0.0f32; 4]; pixels],
-            aux: vec![[0.0f32; 4]; pixels],
-            snapshots: vec![[0.0f32; 4]; 2 * pixels],
-            rays: vec![0u32; pixels],
-            normal: Vec::new(),
-            albedo: Vec::new(),
-            motion: Vec::new(),
-            geometry: Vec::new(),
-            matte_slots: Vec::new(),
-            catcher: Vec::new(),
-            light: Vec::new(),
-        };
+        let acc = &mut self.readback;
+        fit(&mut acc.color, pixels);
+        fit(&mut acc.aux, pixels);
+        fit(&mut acc.snapshots, 2 * pixels);
+        fit(&mut acc.rays, pixels);
         d.read(self.accum_color.get(), &mut acc.color)?;
         d.read(self.accum_aux.get(), &mut acc.aux)?;
         d.read(self.accum_snapshots.get(), &mut acc.snapshots)?;
         d.read(self.ray_counts.get(), &mut acc.rays)?;
-        if self.settings.aovs.normal {
-            acc.normal = vec![[0.0f32; 4]; pixels];
+        fit(
+            &mut acc.normal,
+            if self.settings.aovs.normal { pixels } else { 0 },
+        );
+        fit(
+            &mut acc.albedo,
+            if self.settings.aovs.albedo { pixels } else { 0 },
+        );
+        fit(
+            &mut acc.catcher,
+            if self.film.catcher { 3 * pixels } else { 0 },
+        );
+        fit(
+            &mut acc.geometry,
+            if self.film.geometry { 2 * pixels } else { 0 },
+        );
+        fit(&mut acc.motion, if self.film.vectors { pixels } else { 0 });
+        let slots = self.film.matte_slots.map_or(0, |s| s as usize);
+        fit(&mut acc.matte_slots, slots * pixels);
+        fit(
+            &mut acc.light,
+            if self.film.light {
+                LIGHT_FLOATS * pixels
+            } else {
+                0
+            },
+        );
+        if !acc.normal.is_empty() {
             d.read(self.accum_normal.get(), &mut acc.normal)?;
         }
-        if self.settings.aovs.albedo {
-            acc.albedo = vec![[0.0f32; 4]; pixels];
+        if !acc.albedo.is_empty() {
             d.read(self.accum_albedo.get(), &mut acc.albedo)?;
         }
-        if self.film.catcher {
-            acc.catcher = vec![[0.0f32; 4]; 3 * pixels];
+        if !acc.catcher.is_empty() {
             d.read(self.accum_catcher.get(), &mut acc.catcher)?;
         }
-        if self.film.geometry {
-            acc.geometry = vec![[0.0f32; 4]; 2 * pixels];
+        if !acc.geometry.is_empty() {
             d.read(self.accum_geometry.get(), &mut acc.geometry)?;
         }
-        if self.film.vectors {
-            acc.motion = vec![[0.0f32; 4]; pixels];
+        if !acc.motion.is_empty() {
             d.read(self.accum_motion.get(), &mut acc.motion)?;
         }
-        if let Some(slots) = self.film.matte_slots {
-            acc.matte_slots = vec![[0u32; 2]; slots as usize * pixels];
+        if !acc.matte_slots.is_empty() {
             d.read(self.matte_slots.get(), &mut acc.matte_slots)?;
         }
-        if self.film.light {
-            acc.light = vec![0.0f32; LIGHT_FLOATS * pixels];
+        if !acc.light.is_empty() {
             d.read(self.accum_light.get(), &mut acc.light)?;
         }
-        Ok(acc)
+        Ok(())
     }
 
     /// Samples per pixel in one pass over `items` pixels.
@@ -519,4 +533,9 @@ fn wait_pass(d: &Device, count: usize) -> Result<(), TraceError> {
         })?;
     }
     Ok(())
+}
+
+/// `v` resized to `n` (the device read overwrites its values).
+fn fit<T: Clone + Default>(v: &mut Vec<T>, n: usize) {
+    v.resize(n, T::default());
 }
