@@ -105,15 +105,16 @@ fn bsdf_lobes_match_the_reference() {
             input.extend_from_slice(&[l.clearcoat, l.coat_alpha, l.sheen_roughness, 0.0]);
             input.extend_from_slice(&[l.sheen_color.x, l.sheen_color.y, l.sheen_color.z, 0.0]);
             input.extend_from_slice(&[wo.x, wo.y, wo.z, 0.0, wi.x, wi.y, wi.z, 0.0]);
-            input.extend_from_slice(&[0.0; 4]);
+            input.extend_from_slice(&[rng.f32(), rng.f32(), rng.f32(), 0.0]);
             input.extend_from_slice(&[0.0; 4]);
             cases.push((p, wo, wi));
         }
         let defines: Vec<(&str, String)> = c.defines.iter().map(|n| (*n, "1".to_owned())).collect();
         let program = d.build_program("pt_probe.cl", &defines).unwrap();
         let k = d.kernel(&program, "bsdf_lobes_probe").unwrap();
-        let got: Vec<f32> = run_probe(&d, &k, &input, n, 18 * n);
+        let got: Vec<f32> = run_probe(&d, &k, &input, n, 40 * n);
         let (mut diffuse, mut transmitted, mut glossy) = (0, 0, 0);
+        let mut sampled = 0;
         for (i, (p, wo, wi)) in cases.iter().enumerate() {
             let what = format!("{:?} case {i} {p:?} wo {wo} wi {wi}", c.defines);
             let lobes = bsdf_eval_lobes(p, *wo, *wi);
@@ -138,12 +139,27 @@ fn bsdf_lobes_match_the_reference() {
             {
                 assert_eq!(dp, f, "a pure Lambertian is all diffuse: {what}");
             }
-            let o = &got[18 * i..18 * i + 9];
+            let o = &got[40 * i..40 * i + 9];
             // bsdf_eval_parts (what the direct light splits with) gives
             // bsdf_eval's and bsdf_lobe_parts' floats, bit for bit.
-            let fused = &got[18 * i + 9..18 * i + 18];
+            let fused = &got[40 * i + 9..40 * i + 18];
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(fused), bits(o), "bsdf_eval_parts: {what}");
+            // bsdf_sample_parts (what the first vertex's shares take) gives,
+            // at the direction it samples, bsdf_eval's and bsdf_lobe_parts'
+            // floats bit for bit; a delta lobe has no diffuse or
+            // transmission part there (its share is set by direction).
+            let s = &got[40 * i + 18..40 * i + 40];
+            if s[0] == 1.0 {
+                sampled += 1;
+                assert_eq!(
+                    bits(&s[4..13]),
+                    bits(&s[13..22]),
+                    "bsdf_sample_parts: {what}"
+                );
+            } else if s[0] == 2.0 {
+                assert_eq!(&s[7..13], &[0.0; 6], "delta lobe parts: {what}");
+            }
             let want = [f, dp, tp];
             for part in 0..3 {
                 for ch in 0..3 {
@@ -160,10 +176,12 @@ fn bsdf_lobes_match_the_reference() {
             glossy += ((f - dp - tp).max_element() > 1e-6 * f.max_element()) as usize;
         }
         eprintln!(
-            "{:?}: {n} cases, {diffuse} with diffuse, {glossy} glossy, {transmitted} transmission",
+            "{:?}: {n} cases, {diffuse} with diffuse, {glossy} glossy, {transmitted} transmission, \
+             {sampled} sampled from a non-delta lobe",
             c.defines
         );
         assert!(diffuse > n / 8 && glossy > n / 8, "{diffuse} {glossy}");
+        assert!(sampled > n / 2, "{sampled} of {n} sampled");
         if c.transmission {
             assert!(transmitted > n / 10, "{transmitted}");
         }

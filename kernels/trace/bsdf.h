@@ -438,14 +438,24 @@ inline float3 metal_fresnel(BsdfParams p, float c) {
 // base_bsdf_eval_split leave in `diffuse_part` their value's diffuse part
 // (base_bsdf_lobe_parts' `diffuse`: the same floats, without evaluating the
 // diffuse lobe twice), and dielectric_eval and base_bsdf_eval wrap them.
-// Without the passes the functions below are dielectric_eval and
-// base_bsdf_eval themselves: frames without them run the same code.
+// base_bsdf_sample_split does the same for the value it samples (0 for a
+// delta lobe). Without the passes the functions below are dielectric_eval,
+// base_bsdf_eval and base_bsdf_sample themselves: frames without them run
+// the same code.
 #ifdef FILM_LIGHT
 #define EVAL_SPLIT(name) name##_split(BsdfParams p, float3 wo, float3 wi, float3* diffuse_part)
+#define SAMPLE_SPLIT(name)                                                              \
+    name##_split(BsdfParams p, float3 wo, float lobe_u, float u1, float u2, float3* wi_out, \
+                 float3* f_out, float* pdf_out, bool* delta_out, float3* diffuse_part)
 #define DIFFUSE_PART(v) (*diffuse_part = (v))
+#define EVAL_WITH_PART(name, p, wo, wi) name##_split(p, wo, wi, diffuse_part)
 #else
 #define EVAL_SPLIT(name) name(BsdfParams p, float3 wo, float3 wi)
+#define SAMPLE_SPLIT(name)                                                       \
+    name(BsdfParams p, float3 wo, float lobe_u, float u1, float u2, float3* wi_out, \
+         float3* f_out, float* pdf_out, bool* delta_out)
 #define DIFFUSE_PART(v) ((void)0)
+#define EVAL_WITH_PART(name, p, wo, wi) name(p, wo, wi)
 #endif
 
 #ifdef HAS_TRANSMISSION
@@ -699,8 +709,6 @@ inline float3 base_bsdf_eval(BsdfParams p, float3 wo, float3 wi) {
     return base_bsdf_eval_split(p, wo, wi, &unused);
 }
 #endif
-#undef EVAL_SPLIT
-#undef DIFFUSE_PART
 
 #ifdef FILM_LIGHT
 // Two of the parts of base_bsdf_eval that the light-path passes name (Rust
@@ -894,9 +902,10 @@ inline float3 bsdf_thin_straight_through(BsdfParams p, float c) {
 // Samples wi for wo: returns false when no direction is produced (it
 // would lie below the surface). `lobe_u` picks the lobe; `delta_out` says
 // whether wi came from a delta lobe (f and pdf as described at the top).
-inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                             float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+// (And its value's diffuse part: SAMPLE_SPLIT above.)
+inline bool SAMPLE_SPLIT(base_bsdf_sample) {
     *delta_out = false;
+    DIFFUSE_PART((float3)(0.0f));
     if (wo.z <= 0.0f) return false;
 #ifdef HAS_TRANSMISSION
     {
@@ -966,7 +975,7 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
         float pdf = dielectric_pdf(p, wo, wi);
         if (!(pdf > 0.0f)) return false;
         *wi_out = wi;
-        *f_out = dielectric_eval(p, wo, wi);
+        *f_out = EVAL_WITH_PART(dielectric_eval, p, wo, wi);
         *pdf_out = pdf;
         return true;
     }
@@ -991,10 +1000,23 @@ inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, fl
     float pdf = base_bsdf_pdf(p, wo, wi);
     if (!(pdf > 0.0f)) return false;
     *wi_out = wi;
-    *f_out = base_bsdf_eval(p, wo, wi);
+    *f_out = EVAL_WITH_PART(base_bsdf_eval, p, wo, wi);
     *pdf_out = pdf;
     return true;
 }
+
+#ifdef FILM_LIGHT
+inline bool base_bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                             float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+    float3 unused;
+    return base_bsdf_sample_split(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out,
+                                  &unused);
+}
+#endif
+#undef EVAL_SPLIT
+#undef SAMPLE_SPLIT
+#undef DIFFUSE_PART
+#undef EVAL_WITH_PART
 
 // The coat and sheen layers over the base, and the entry points.
 #include "bsdf_layers.h"

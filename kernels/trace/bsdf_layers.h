@@ -7,6 +7,20 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+// With the light-path passes the layered sampler is bsdf_sample_parts,
+// which also leaves the diffuse and transmission parts of the value it
+// samples; without them it is bsdf_sample itself.
+#ifdef FILM_LIGHT
+#define SAMPLE_PARTS(name)                                                              \
+    name##_parts(BsdfParams p, float3 wo, float lobe_u, float u1, float u2, float3* wi_out, \
+                 float3* f_out, float* pdf_out, bool* delta_out, float3* diffuse,           \
+                 float3* transmit)
+#else
+#define SAMPLE_PARTS(name)                                                       \
+    name(BsdfParams p, float3 wo, float lobe_u, float u1, float u2, float3* wi_out, \
+         float3* f_out, float* pdf_out, bool* delta_out)
+#endif
+
 #ifdef HAS_LAYERS
 // The clear coat and sheen layers over the base (KHR_materials_clearcoat,
 // KHR_materials_sheen), mirroring trace::material's layered_eval, _pdf and
@@ -223,9 +237,15 @@ inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) {
     return pdf;
 }
 
-inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
-                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+// Samples wi for wo (as base_bsdf_sample); with the light-path passes
+// (bsdf_sample_parts) it also leaves its value's diffuse and transmission
+// parts, as bsdf_eval_parts does (0 for a delta lobe).
+inline bool SAMPLE_PARTS(bsdf_sample) {
     *delta_out = false;
+#ifdef FILM_LIGHT
+    *diffuse = (float3)(0.0f);
+    *transmit = (float3)(0.0f);
+#endif
     if (!(wo.z > 0.0f)) return false;
     float3 wi;
     float u = lobe_u;
@@ -294,7 +314,11 @@ inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u
     float pdf = bsdf_pdf(p, wo, wi);
     if (!(pdf > 0.0f)) return false;
     *wi_out = wi;
+#ifdef FILM_LIGHT
+    *f_out = bsdf_eval_parts(p, wo, wi, diffuse, transmit);
+#else
     *f_out = bsdf_eval(p, wo, wi);
+#endif
     *pdf_out = pdf;
     return true;
 }
@@ -313,12 +337,24 @@ inline bool bsdf_only_delta(BsdfParams p) {
 // Without layers the BSDF is the base.
 inline float3 bsdf_eval(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_eval(p, wo, wi); }
 inline float bsdf_pdf(BsdfParams p, float3 wo, float3 wi) { return base_bsdf_pdf(p, wo, wi); }
+inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
+#ifndef FILM_LIGHT
 inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
                         float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
     return base_bsdf_sample(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out);
 }
-inline bool bsdf_only_delta(BsdfParams p) { return base_only_delta(p); }
-#ifdef FILM_LIGHT
+#else
+inline bool bsdf_sample_parts(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                              float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out,
+                              float3* diffuse, float3* transmit) {
+    *transmit = (float3)(0.0f);
+    bool ok = base_bsdf_sample_split(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out,
+                                     diffuse);
+#ifdef HAS_TRANSMISSION
+    if (ok && !*delta_out && wi_out->z < 0.0f) *transmit = fmax(*f_out - *diffuse, (float3)(0.0f));
+#endif
+    return ok;
+}
 inline void bsdf_lobe_parts(BsdfParams p, float3 wo, float3 wi, float3* diffuse,
                             float3* transmit) {
     base_bsdf_lobe_parts(p, wo, wi, diffuse, transmit);
@@ -334,5 +370,16 @@ inline float3 bsdf_eval_parts(BsdfParams p, float3 wo, float3 wi, float3* diffus
 }
 #endif
 #endif
+
+#ifdef FILM_LIGHT
+// bsdf_sample_parts without the parts (for the probes).
+inline bool bsdf_sample(BsdfParams p, float3 wo, float lobe_u, float u1, float u2,
+                        float3* wi_out, float3* f_out, float* pdf_out, bool* delta_out) {
+    float3 diffuse, transmit;
+    return bsdf_sample_parts(p, wo, lobe_u, u1, u2, wi_out, f_out, pdf_out, delta_out, &diffuse,
+                             &transmit);
+}
+#endif
+#undef SAMPLE_PARTS
 
 #endif

@@ -109,18 +109,16 @@ inline void ray_restart(Ray* ray, float3 org) {
 
 #ifdef FILM_LIGHT
 // At the path's first scattering vertex, the sampled direction wi (BSDF
-// value f, pdf, from a delta lobe or not): the lobe weight f |cos| / pdf,
+// value f of diffuse part fd and transmission part ft, pdf, from a delta
+// lobe or not): the lobe weight f |cos| / pdf,
 // whose mean is the lobes' albedo (the colour passes), and the shares of
 // it the diffuse and transmission lobes gave. A delta lobe is glossy above
 // the surface and transmission below.
-inline void pt_first_lobes(PtSample* out, BsdfParams bp, float3 wo, float3 wi, float3 f,
-                           float pdf, bool delta) {
+inline void pt_first_lobes(PtSample* out, float3 wi, float3 f, float3 fd, float3 ft, float pdf,
+                           bool delta) {
     if (delta) {
         out->share_transmit = (float3)(wi.z < 0.0f ? 1.0f : 0.0f);
     } else {
-        // f is bsdf_eval's value at wi (bsdf_sample's own).
-        float3 fd, ft;
-        bsdf_lobe_parts(bp, wo, wi, &fd, &ft);
         out->share_diffuse = lobe_share(fd, f);
         out->share_transmit = lobe_share(ft, f);
     }
@@ -512,7 +510,14 @@ inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, floa
     float pdf;
     bool delta;
     float4 ub = rng_4d(rng, set_bounce(bounce, SET_BSDF));
+#ifdef FILM_LIGHT
+    // The value's lobe parts come with it, for the first vertex's shares.
+    float3 fd, ft;
+    if (!bsdf_sample_parts(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf, &delta, &fd, &ft))
+        return false;
+#else
     if (!bsdf_sample(bp, wo, ub.z, ub.x, ub.y, &wi, &f, &pdf, &delta)) return false;
+#endif
     float3 wi_w = to_world(wi, t, b, sf.ns);
     float wl = length(wi_w);
     wi_w = wi_w / wl;
@@ -546,7 +551,7 @@ inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, floa
 #endif
     if (scattered) {
 #ifdef FILM_LIGHT
-        if (p->depth == 0u) pt_first_lobes(out, bp, wo, wi, f, pdf, delta);
+        if (p->depth == 0u) pt_first_lobes(out, wi, f, fd, ft, pdf, delta);
 #endif
         p->prev_pdf = pdf;
         p->prev_delta = delta;

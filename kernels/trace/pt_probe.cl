@@ -219,9 +219,12 @@ __kernel void bsdf_layer_probe(__global const float* in, __global float* out, ui
 #endif
 
 #ifdef FILM_LIGHT
-// bsdf_eval and bsdf_lobe_parts on the cases of probe_layer_params (36 floats). Out per
-// case: the value, its diffuse part and its transmission part (9 floats),
-// then the same three from bsdf_eval_parts (9 floats).
+// bsdf_eval and bsdf_lobe_parts on the cases of probe_layer_params (36
+// floats; u: the lobe and direction numbers). Out per case (40 floats):
+// the value, its diffuse part and its transmission part (9 floats), the
+// same three from bsdf_eval_parts (9); then bsdf_sample_parts' result
+// (sampled: 1, or 2 from a delta lobe; 0: none), its wi, value and parts
+// (10), and bsdf_eval and bsdf_lobe_parts at that wi (9, zero unsampled).
 __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -233,7 +236,7 @@ __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, ui
     float3 d, t;
     float3 f = bsdf_eval(p, wo, wi);
     bsdf_lobe_parts(p, wo, wi, &d, &t);
-    __global float* o = out + (size_t)i * 18u;
+    __global float* o = out + (size_t)i * 40u;
     o[0] = f.x; o[1] = f.y; o[2] = f.z;
     o[3] = d.x; o[4] = d.y; o[5] = d.z;
     o[6] = t.x; o[7] = t.y; o[8] = t.z;
@@ -241,6 +244,26 @@ __kernel void bsdf_lobes_probe(__global const float* in, __global float* out, ui
     o[9] = f.x; o[10] = f.y; o[11] = f.z;
     o[12] = d.x; o[13] = d.y; o[14] = d.z;
     o[15] = t.x; o[16] = t.y; o[17] = t.z;
+    float3 swi = (float3)(0.0f);
+    float spdf;
+    bool delta;
+    f = d = t = (float3)(0.0f);
+    bool ok = bsdf_sample_parts(p, wo, c[28], c[29], c[30], &swi, &f, &spdf, &delta, &d, &t);
+    o[18] = ok ? (delta ? 2.0f : 1.0f) : 0.0f;
+    if (!ok) swi = f = d = t = (float3)(0.0f);
+    o[19] = swi.x; o[20] = swi.y; o[21] = swi.z;
+    o[22] = f.x; o[23] = f.y; o[24] = f.z;
+    o[25] = d.x; o[26] = d.y; o[27] = d.z;
+    o[28] = t.x; o[29] = t.y; o[30] = t.z;
+    float3 e = (float3)(0.0f);
+    d = t = (float3)(0.0f);
+    if (ok && !delta) {
+        e = bsdf_eval(p, wo, swi);
+        bsdf_lobe_parts(p, wo, swi, &d, &t);
+    }
+    o[31] = e.x; o[32] = e.y; o[33] = e.z;
+    o[34] = d.x; o[35] = d.y; o[36] = d.z;
+    o[37] = t.x; o[38] = t.y; o[39] = t.z;
 }
 #endif
 
