@@ -371,6 +371,28 @@ impl Device {
         Ok(())
     }
 
+    /// Queues a copy of `data` into the start of `buffer` without waiting
+    /// (ordered with the launches: the queue is in order).
+    ///
+    /// # Safety
+    /// `data` must stay alive and unchanged until the copy completes: until
+    /// a blocking call or a wait on a command queued after it, or `finish`.
+    pub unsafe fn write_async<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        // SAFETY: the caller keeps `data` alive and unchanged until the copy
+        // completes; the slice is no longer than the buffer.
+        unsafe {
+            cl(
+                "clEnqueueWriteBuffer",
+                self.queue
+                    .enqueue_write_buffer(buffer, CL_NON_BLOCKING, 0, data, &[]),
+            )?;
+        }
+        Ok(())
+    }
+
     /// Queues a copy of `len` elements from the start of `src` to `dst` at
     /// element `dst_at`, on the device (ordered with the launches).
     pub fn copy<T>(

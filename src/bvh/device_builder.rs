@@ -467,21 +467,6 @@ impl<'d> DeviceBuilder<'d> {
     fn run_level(&mut self, stage: Stage, level: &mut [BuildTask]) -> Result<(), BuildError> {
         self.check_cursors()?;
         let d = self.device;
-        let b = self.buffers.as_mut().expect("allocated by the caller");
-        let k = &self.kernels;
-        let wg = self.mapping.build_wg();
-        // Launch names are "bvh.<stage>/<kernel>", so the log can show
-        // both the stage totals and each kernel's share.
-        let name = |kernel: &str| -> &'static str {
-            match (stage, kernel) {
-                (Stage::Large, "bin") => "bvh.large/bin_triangles",
-                (Stage::Large, "reduce") => "bvh.large/reduce_bins",
-                (Stage::Large, _) => "bvh.large/find_split",
-                (_, "bin") => "bvh.medium/bin_triangles",
-                _ => "bvh.medium/find_split",
-            }
-        };
-        let tasks = level.len();
         // The two arrays that tell each work-group its node and its index
         // within the node, and the same for the large stage's reduction.
         self.group_task.clear();
@@ -510,9 +495,56 @@ impl<'d> DeviceBuilder<'d> {
             }
         }
         let groups = self.group_task.len();
-        d.write(&mut b.tasks, level)?;
-        d.write(&mut b.group_task, &self.group_task)?;
-        d.write(&mut b.group_index, &self.group_index)?;
+        // An error while queueing leaves commands that read or write host
+        // memory of ours: drain the queue before giving it up.
+        let (splits_read, cursors_read) = match self.enqueue_level(stage, level, groups) {
+            Ok(events) => events,
+            Err(e) => {
+                let _ = d.finish();
+                return Err(e);
+            }
+        };
+        if let Err(e) = splits_read.wait() {
+            let _ = d.finish();
+            return Err(device_error("reading splits", e));
+        }
+        self.pending_check = Some(PendingCheck {
+            cursors_read,
+            nodes: level.iter().map(|t| t.node).collect(),
+        });
+        if self.splits.iter().any(|s| s.axis < 0) {
+            self.check_cursors()?;
+        }
+        Ok(())
+    }
+
+    /// Queues one level of `stage`: its tables, the binning (and the large
+    /// stage's reduction), the split search and the partition, and the
+    /// reads of the splits and the partition's cursors, whose events it
+    /// returns.
+    fn enqueue_level(
+        &mut self,
+        stage: Stage,
+        level: &[BuildTask],
+        groups: usize,
+    ) -> Result<(Event, Event), BuildError> {
+        let d = self.device;
+        let b = self.buffers.as_mut().expect("allocated by the caller");
+        let k = &self.kernels;
+        let wg = self.mapping.build_wg();
+        let tasks = level.len();
+        let name = level_kernel_name(stage);
+        // Without a round trip each (PoCL blocks a write for tens of
+        // microseconds, and a level has up to five): the tables stay
+        // untouched until the splits are read below (the queue is in
+        // order).
+        // SAFETY: `level` and the group tables are not changed before
+        // run_level's wait on the splits' read, queued after these.
+        unsafe {
+            d.write_async(&mut b.tasks, level)?;
+            d.write_async(&mut b.group_task, &self.group_task)?;
+            d.write_async(&mut b.group_index, &self.group_index)?;
+        }
         d.launch(
             name("bin"),
             &k.bin_triangles,
@@ -530,8 +562,11 @@ impl<'d> DeviceBuilder<'d> {
             ],
         )?;
         let sets = if stage == Stage::Large {
-            d.write(&mut b.reduce_task, &self.reduce_task)?;
-            d.write(&mut b.reduce_index, &self.reduce_index)?;
+            // SAFETY: as above.
+            unsafe {
+                d.write_async(&mut b.reduce_task, &self.reduce_task)?;
+                d.write_async(&mut b.reduce_index, &self.reduce_index)?;
+            }
             d.launch(
                 name("reduce"),
                 &k.reduce_bins,
@@ -576,17 +611,7 @@ impl<'d> DeviceBuilder<'d> {
         // which waits for this read first.
         let cursors_read = unsafe { d.read_async(&b.cursors, &mut self.cursors)? };
         d.flush()?;
-        splits_read
-            .wait()
-            .map_err(|e| device_error("reading splits", e))?;
-        self.pending_check = Some(PendingCheck {
-            cursors_read,
-            nodes: level.iter().map(|t| t.node).collect(),
-        });
-        if self.splits.iter().any(|s| s.axis < 0) {
-            self.check_cursors()?;
-        }
-        Ok(())
+        Ok((splits_read, cursors_read))
     }
 
     /// Builds every small node's subtree (one work-group each), packs their
@@ -596,8 +621,10 @@ impl<'d> DeviceBuilder<'d> {
         let d = self.device;
         let b = self.buffers.as_mut().expect("allocated by the caller");
         let k = &self.kernels;
-        d.write(&mut b.tasks, roots)?;
-        d.launch(
+        // SAFETY: `roots` outlives the blocking read of the results below,
+        // queued after this copy (the queue is in order).
+        unsafe { d.write_async(&mut b.tasks, roots)? };
+        let launched = d.launch(
             "bvh.small/build_small",
             &k.build_small,
             roots.len(),
@@ -611,10 +638,15 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.small_scratch),
                 Arg::Buf(&b.small_results),
             ],
-        )?;
+        );
         self.small_results
             .resize(roots.len(), SmallSubtree::default());
-        d.read(&b.small_results, &mut self.small_results)?;
+        let read = launched.and_then(|()| d.read(&b.small_results, &mut self.small_results));
+        if read.is_err() {
+            // The copy of `roots` may still be queued.
+            let _ = d.finish();
+        }
+        read?;
         // Subtree g's nodes go to small_offsets[g]..small_offsets[g + 1]. A
         // subtree the device gave up on is reported by attach_small; its
         // count is not trusted for the copy.
@@ -704,6 +736,19 @@ impl<'d> DeviceBuilder<'d> {
             }
         }
         Ok(())
+    }
+}
+
+/// The launch name of a level's `kernel` ("bin", "reduce" or "split") in
+/// `stage`: "bvh.<stage>/<kernel>", so the log can show both the stage
+/// totals and each kernel's share.
+fn level_kernel_name(stage: Stage) -> impl Fn(&str) -> &'static str {
+    move |kernel| match (stage, kernel) {
+        (Stage::Large, "bin") => "bvh.large/bin_triangles",
+        (Stage::Large, "reduce") => "bvh.large/reduce_bins",
+        (Stage::Large, _) => "bvh.large/find_split",
+        (_, "bin") => "bvh.medium/bin_triangles",
+        _ => "bvh.medium/find_split",
     }
 }
 
