@@ -14,6 +14,7 @@
 
 mod support;
 
+use opencl3::memory::Buffer;
 use soupray::bvh::device_builder::{DeviceBuilder, Mapping};
 use soupray::bvh::{binned, sah_cost, sweep, validate, BuildParams};
 use soupray::cli::report::median;
@@ -224,16 +225,30 @@ fn main() {
             soup,
             label: format!("{name}, {:.0}K", n as f64 / 1e3),
             index: scene_index,
-            // About 2M triangles' worth of builds, 3 at least: a 10 ms
+            // About 2M triangles' worth of builds, 5 at least: a 10 ms
             // build on a shared machine needs many for a stable median.
-            reps: (2_000_000 / n.max(1)).clamp(3, 31),
+            reps: (2_000_000 / n.max(1)).clamp(5, 31),
             quick,
         };
         let sweep = time_sweep(&case, params);
         let sweep_sah = sweep.sah;
         rows.push(sweep);
-        rows.push(time_device(&case, &mut builder, params, sweep_sah));
-        rows.push(time_paper(&case, &mut paper, sweep_sah));
+        // The soup's corners go to the device once, outside the timings: a
+        // frame's soup is evaluated there and built from there
+        // (`build_from_device`), as Embree builds from shared buffers.
+        let mut corners = device
+            .buffer::<[f32; 4]>(soup.positions.len().max(1))
+            .unwrap();
+        device.write(&mut corners, &soup.positions).unwrap();
+        let on_device = (&corners, n);
+        rows.push(time_device(
+            &case,
+            &mut builder,
+            on_device,
+            params,
+            sweep_sah,
+        ));
+        rows.push(time_paper(&case, &mut paper, on_device, sweep_sah));
         rows.push(time_cpu_binned(&case, params, sweep_sah));
         rows.push(time_bvh_crate(&case, sweep_sah));
         #[cfg(feature = "embree")]
@@ -320,17 +335,18 @@ fn time_sweep(case: &Case, params: BuildParams) -> Row {
 fn time_device(
     case: &Case,
     builder: &mut DeviceBuilder,
+    (corners, n): (&Buffer<[f32; 4]>, usize),
     params: BuildParams,
     sweep_sah: f64,
 ) -> Row {
     let (soup, label) = (case.soup, &case.label);
     eprintln!("{label}: device");
-    builder.build(soup).unwrap(); // warm-up: buffers and caches
+    builder.build_from_device(corners, n).unwrap(); // warm-up: buffers and caches
     let mut times = Vec::new();
     let mut stats = Vec::new();
     let mut tree = None;
     for _ in 0..case.reps {
-        let (t, s) = builder.build(soup).unwrap();
+        let (t, s) = builder.build_from_device(corners, n).unwrap();
         times.push(s.build_ms);
         stats.push(s);
         tree = Some(t);
@@ -362,14 +378,19 @@ fn time_device(
 }
 
 /// The device builder with the paper's 16-lane mapping, after a warm-up.
-fn time_paper(case: &Case, paper: &mut DeviceBuilder, sweep_sah: f64) -> Row {
-    let (soup, n, label) = (case.soup, case.soup.triangle_count(), &case.label);
+fn time_paper(
+    case: &Case,
+    paper: &mut DeviceBuilder,
+    (corners, n): (&Buffer<[f32; 4]>, usize),
+    sweep_sah: f64,
+) -> Row {
+    let label = &case.label;
     eprintln!("{label}: device, paper mapping");
-    paper.build(soup).unwrap();
+    paper.build_from_device(corners, n).unwrap();
     let mut times = Vec::new();
     let mut sah = 0.0;
     for _ in 0..if n > 500_000 { 1 } else { 3 } {
-        let (tree, stats) = paper.build(soup).unwrap();
+        let (tree, stats) = paper.build_from_device(corners, n).unwrap();
         times.push(stats.build_ms);
         sah = sah_cost(&tree);
     }
