@@ -17,7 +17,7 @@ use opencl3::kernel::{ExecuteKernel, Kernel};
 use opencl3::memory::{Buffer, CL_MEM_READ_WRITE};
 use opencl3::platform::get_platforms;
 use opencl3::program::Program;
-use opencl3::types::{cl_event, CL_BLOCKING, CL_NON_BLOCKING};
+use opencl3::types::{cl_bool, cl_event, CL_BLOCKING, CL_NON_BLOCKING};
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::ptr;
@@ -356,19 +356,8 @@ impl Device {
 
     /// Copies `data` into the start of `buffer`, blocking.
     pub fn write<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
-        if data.is_empty() {
-            return Ok(());
-        }
-        // SAFETY: blocking write from a live slice no longer than the buffer
-        // (callers size buffers from the same counts).
-        unsafe {
-            cl(
-                "clEnqueueWriteBuffer",
-                self.queue
-                    .enqueue_write_buffer(buffer, CL_BLOCKING, 0, data, &[]),
-            )?;
-        }
-        Ok(())
+        // SAFETY: the copy is done when this returns, while `data` lives.
+        unsafe { self.enqueue_write(buffer, data, CL_BLOCKING) }
     }
 
     /// Queues a copy of `data` into the start of `buffer` without waiting
@@ -378,16 +367,31 @@ impl Device {
     /// `data` must stay alive and unchanged until the copy completes: until
     /// a blocking call or a wait on a command queued after it, or `finish`.
     pub unsafe fn write_async<T>(&self, buffer: &mut Buffer<T>, data: &[T]) -> Result<()> {
+        // SAFETY: the caller keeps `data` alive and unchanged until the copy
+        // completes.
+        unsafe { self.enqueue_write(buffer, data, CL_NON_BLOCKING) }
+    }
+
+    /// `write` and `write_async`: nothing is queued for no data.
+    ///
+    /// # Safety
+    /// As `write_async` when `blocking` is `CL_NON_BLOCKING`.
+    unsafe fn enqueue_write<T>(
+        &self,
+        buffer: &mut Buffer<T>,
+        data: &[T],
+        blocking: cl_bool,
+    ) -> Result<()> {
         if data.is_empty() {
             return Ok(());
         }
-        // SAFETY: the caller keeps `data` alive and unchanged until the copy
-        // completes; the slice is no longer than the buffer.
+        // SAFETY: a slice no longer than the buffer (callers size buffers
+        // from the same counts), alive as the caller promises.
         unsafe {
             cl(
                 "clEnqueueWriteBuffer",
                 self.queue
-                    .enqueue_write_buffer(buffer, CL_NON_BLOCKING, 0, data, &[]),
+                    .enqueue_write_buffer(buffer, blocking, 0, data, &[]),
             )?;
         }
         Ok(())

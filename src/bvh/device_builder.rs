@@ -166,6 +166,9 @@ pub struct DeviceBuilder<'d> {
     upload_capacity: usize,
     allocations: usize,
     // Host-side scratch, reused across levels and frames.
+    /// The level being built (large and medium stages), or the small
+    /// stage's roots: its copy on the device is queued from here.
+    level: Vec<BuildTask>,
     group_task: Vec<u32>,
     group_index: Vec<u32>,
     reduce_task: Vec<u32>,
@@ -234,6 +237,7 @@ impl<'d> DeviceBuilder<'d> {
             upload: None,
             upload_capacity: 0,
             allocations: 0,
+            level: Vec::new(),
             group_task: Vec::new(),
             group_index: Vec::new(),
             reduce_task: Vec::new(),
@@ -349,6 +353,22 @@ impl<'d> DeviceBuilder<'d> {
         n: usize,
         start: Instant,
     ) -> Result<(Bvh, BuildStats), BuildError> {
+        let built = self.build_levels(positions, n, start);
+        if built.is_err() {
+            // Copies and reads queued without waiting use the builder's own
+            // vectors (the level, its tables, the splits, the cursors):
+            // drain the queue before they are touched again.
+            let _ = self.device.finish();
+        }
+        built
+    }
+
+    fn build_levels(
+        &mut self,
+        positions: &Buffer<[f32; 4]>,
+        n: usize,
+        start: Instant,
+    ) -> Result<(Bvh, BuildStats), BuildError> {
         self.ensure_capacity(n)?;
         let d = self.device;
         let mut host = 0.0;
@@ -393,20 +413,21 @@ impl<'d> DeviceBuilder<'d> {
         let mut levels = Levels::new(&root, n as u32, self.params);
         host += t0.elapsed().as_secs_f64();
         for stage in [Stage::Large, Stage::Medium] {
-            let mut level = levels.take_stage(stage);
-            while !level.is_empty() {
-                self.run_level(stage, &mut level)?;
+            self.level = levels.take_stage(stage);
+            while !self.level.is_empty() {
+                self.run_level(stage)?;
                 let t0 = Instant::now();
-                level = levels.accept(stage, &level, &self.splits)?;
+                self.level = levels.accept(stage, &self.level, &self.splits)?;
                 host += t0.elapsed().as_secs_f64();
                 levels_done += 1;
             }
         }
         self.check_cursors()?;
-        let small = levels.take_stage(Stage::Small);
-        if !small.is_empty() {
-            self.run_small_stage(&small)?;
+        self.level = levels.take_stage(Stage::Small);
+        if !self.level.is_empty() {
+            self.run_small_stage()?;
             let t0 = Instant::now();
+            let small = &self.level;
             // Every packed node but the small nodes themselves is new.
             levels
                 .nodes
@@ -464,9 +485,8 @@ impl<'d> DeviceBuilder<'d> {
 
     /// Runs one level of `stage` on the device and leaves the level's split
     /// results, with their final counts, in `self.splits`.
-    fn run_level(&mut self, stage: Stage, level: &mut [BuildTask]) -> Result<(), BuildError> {
+    fn run_level(&mut self, stage: Stage) -> Result<(), BuildError> {
         self.check_cursors()?;
-        let d = self.device;
         // The two arrays that tell each work-group its node and its index
         // within the node, and the same for the large stage's reduction.
         self.group_task.clear();
@@ -474,7 +494,7 @@ impl<'d> DeviceBuilder<'d> {
         self.reduce_task.clear();
         self.reduce_index.clear();
         let mut partials = 0u32;
-        for (ti, t) in level.iter_mut().enumerate() {
+        for (ti, t) in self.level.iter_mut().enumerate() {
             t.first_group = self.group_task.len() as u32;
             t.group_count = t.count.div_ceil(PRIMS_PER_GROUP);
             for gi in 0..t.group_count {
@@ -495,22 +515,13 @@ impl<'d> DeviceBuilder<'d> {
             }
         }
         let groups = self.group_task.len();
-        // An error while queueing leaves commands that read or write host
-        // memory of ours: drain the queue before giving it up.
-        let (splits_read, cursors_read) = match self.enqueue_level(stage, level, groups) {
-            Ok(events) => events,
-            Err(e) => {
-                let _ = d.finish();
-                return Err(e);
-            }
-        };
-        if let Err(e) = splits_read.wait() {
-            let _ = d.finish();
-            return Err(device_error("reading splits", e));
-        }
+        let (splits_read, cursors_read) = self.enqueue_level(stage, groups)?;
+        splits_read
+            .wait()
+            .map_err(|e| device_error("reading splits", e))?;
         self.pending_check = Some(PendingCheck {
             cursors_read,
-            nodes: level.iter().map(|t| t.node).collect(),
+            nodes: self.level.iter().map(|t| t.node).collect(),
         });
         if self.splits.iter().any(|s| s.axis < 0) {
             self.check_cursors()?;
@@ -522,26 +533,20 @@ impl<'d> DeviceBuilder<'d> {
     /// stage's reduction), the split search and the partition, and the
     /// reads of the splits and the partition's cursors, whose events it
     /// returns.
-    fn enqueue_level(
-        &mut self,
-        stage: Stage,
-        level: &[BuildTask],
-        groups: usize,
-    ) -> Result<(Event, Event), BuildError> {
+    fn enqueue_level(&mut self, stage: Stage, groups: usize) -> Result<(Event, Event), BuildError> {
         let d = self.device;
         let b = self.buffers.as_mut().expect("allocated by the caller");
         let k = &self.kernels;
         let wg = self.mapping.build_wg();
-        let tasks = level.len();
+        let tasks = self.level.len();
         let name = level_kernel_name(stage);
         // Without a round trip each (PoCL blocks a write for tens of
-        // microseconds, and a level has up to five): the tables stay
-        // untouched until the splits are read below (the queue is in
-        // order).
-        // SAFETY: `level` and the group tables are not changed before
-        // run_level's wait on the splits' read, queued after these.
+        // microseconds, and a level has up to five).
+        // SAFETY: the level and its tables are the builder's own, untouched
+        // until run_level's wait on the splits' read, queued after these
+        // (the queue is in order), or build_timed's drain on an error.
         unsafe {
-            d.write_async(&mut b.tasks, level)?;
+            d.write_async(&mut b.tasks, &self.level)?;
             d.write_async(&mut b.group_task, &self.group_task)?;
             d.write_async(&mut b.group_index, &self.group_index)?;
         }
@@ -617,14 +622,16 @@ impl<'d> DeviceBuilder<'d> {
     /// Builds every small node's subtree (one work-group each), packs their
     /// nodes and reads them into `self.small_nodes`, subtree after subtree;
     /// `self.small_results` gets each one's summary.
-    fn run_small_stage(&mut self, roots: &[BuildTask]) -> Result<(), BuildError> {
+    fn run_small_stage(&mut self) -> Result<(), BuildError> {
         let d = self.device;
         let b = self.buffers.as_mut().expect("allocated by the caller");
         let k = &self.kernels;
-        // SAFETY: `roots` outlives the blocking read of the results below,
-        // queued after this copy (the queue is in order).
+        let roots = &self.level;
+        // SAFETY: the roots are the builder's own, untouched until the
+        // blocking read of the results below, queued after this copy (the
+        // queue is in order), or build_timed's drain on an error.
         unsafe { d.write_async(&mut b.tasks, roots)? };
-        let launched = d.launch(
+        d.launch(
             "bvh.small/build_small",
             &k.build_small,
             roots.len(),
@@ -638,15 +645,10 @@ impl<'d> DeviceBuilder<'d> {
                 Arg::Buf(&b.small_scratch),
                 Arg::Buf(&b.small_results),
             ],
-        );
+        )?;
         self.small_results
             .resize(roots.len(), SmallSubtree::default());
-        let read = launched.and_then(|()| d.read(&b.small_results, &mut self.small_results));
-        if read.is_err() {
-            // The copy of `roots` may still be queued.
-            let _ = d.finish();
-        }
-        read?;
+        d.read(&b.small_results, &mut self.small_results)?;
         // Subtree g's nodes go to small_offsets[g]..small_offsets[g + 1]. A
         // subtree the device gave up on is reported by attach_small; its
         // count is not trusted for the copy.
