@@ -25,6 +25,7 @@
 
 mod support;
 
+use opencl3::memory::Buffer;
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{BuildParams, Bvh};
 use soupray::cli::report::median;
@@ -343,7 +344,14 @@ fn bench_mesh(
     let mut tracer = DeviceTracer::new(device).unwrap();
     tracer.local_size = s.local;
     tracer.upload_bvh(&bvh).unwrap();
-    layout_rows.push(layout_costs(&mut tracer, &bvh, name, n, s.runs));
+    layout_rows.push(layout_costs(
+        &mut tracer,
+        &bvh,
+        (&positions, prim_ids),
+        name,
+        n,
+        s.runs,
+    ));
     // The device's own camera rays are the host's, bit for bit.
     let generated = device.buffer::<Ray>(primary.len()).unwrap();
     tracer.generate_primary(&camera, &generated).unwrap();
@@ -444,6 +452,7 @@ fn bench_mesh(
 fn layout_costs(
     tracer: &mut DeviceTracer,
     bvh: &Bvh,
+    (positions, prim_ids): (&Buffer<[f32; 4]>, &Buffer<u32>),
     name: &str,
     n: usize,
     runs: usize,
@@ -453,8 +462,8 @@ fn layout_costs(
     for _ in 0..runs {
         let stats = [
             tracer.upload_stackless(bvh).unwrap(),
-            tracer.upload_wide(bvh).unwrap(),
-            tracer.upload_wide8(bvh).unwrap(),
+            tracer.upload_wide(bvh, positions, prim_ids).unwrap(),
+            tracer.upload_wide8(bvh, positions, prim_ids).unwrap(),
         ];
         for (k, st) in stats.iter().enumerate() {
             ms[k].push(st.layout_ms);

@@ -12,6 +12,7 @@ use common::{mesh, random_soup, random_triangles};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{sweep, BuildParams, Bvh, BvhNode, Child, MAX_DEPTH};
 use soupray::soup::Soup;
+use soupray::trace::settings::Traversal;
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
 
@@ -390,23 +391,38 @@ fn leaves_of_every_size_agree_hit_for_hit() {
         .unwrap();
         let (bvh, _) = builder.build(&soup).unwrap();
         let mut tracer = DeviceTracer::new(&d).unwrap();
-        tracer.upload_wide8(&bvh).unwrap();
         let prim_ids = builder.device_prim_ids().unwrap();
+        tracer.upload_wide8(&bvh, &positions, prim_ids).unwrap();
         let closest = tracer
             .trace_rays(TraceKind::ClosestWide8, &positions, prim_ids, &rays)
             .unwrap();
         let any = tracer
             .trace_rays(TraceKind::AnyWide8, &positions, prim_ids, &rays)
             .unwrap();
-        let nodes = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
+        let (nodes, blocks) = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
+        let (slots, tris) = trace::leaf_arrays(&blocks, &bvh.prim_ids, Some(&soup.positions));
+        // The device's gather is its Rust twin's, bit for bit.
+        let (dev_slots, dev_tris) = tracer.read_leaves(Traversal::Wide8).unwrap();
+        assert_eq!(
+            dev_slots, slots,
+            "leaf size {leaf_size}: the slots' triangles"
+        );
+        assert!(
+            dev_tris
+                .iter()
+                .flatten()
+                .map(|x| x.to_bits())
+                .eq(tris.iter().flatten().map(|x| x.to_bits())),
+            "leaf size {leaf_size}: the leaves' corners"
+        );
         let p = &soup.positions;
         let cpu_closest: Vec<Hit> = rays
             .iter()
-            .map(|r| trace::trace_closest_wide(&nodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_closest_wide(&nodes, &slots, p, r))
             .collect();
         let cpu_any: Vec<Hit> = rays
             .iter()
-            .map(|r| trace::trace_any_wide(&nodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_any_wide(&nodes, &slots, p, r))
             .collect();
         assert_same(
             &closest,

@@ -75,4 +75,13 @@ typedef struct {
     uint count[8];
 } Wide8Node;
 
+// Four slots of a wide layout's leaves (`LeafBlock`): they hold entries
+// [first, first + count) of the tree's primitive-index array, count 1..=4;
+// the slots past `count` repeat the last of them.
+// `LeafBlock` in src/trace/wide.rs (8 bytes).
+typedef struct {
+    uint first;
+    uint count;
+} LeafBlock;
+
 #endif

@@ -53,6 +53,7 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
+#include "leaf_gather.h"
 #include "pt_types.h"
 #include "sampling.h"
 #ifdef HAS_DOF
@@ -307,7 +308,7 @@ inline void pixel_sums_add(PtPixelSums* p, PtSample r) {
 __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode* wnodes,
                         __global const StacklessNode* snodes,
                         uint snode_count, __global const uint* prim_ids,
-                        __global const float* positions, __global const float* normals,
+                        __global const float4* leaf_tris, __global const float* positions, __global const float* normals,
                         __global const float* uvs, __global const float* uvs1,
                         __global const float* colors, __global const uint* material_ids,
                         __global const PtMaterial* materials, __global const PtLight* lights,
@@ -343,6 +344,7 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
     s.snodes = snodes;
     s.snode_count = snode_count;
     s.prim_ids = prim_ids;
+    s.leaf_tris = leaf_tris;
     s.positions = positions;
     s.normals = normals;
     s.uvs = uvs;

@@ -25,7 +25,11 @@ typedef struct {
     const __global PtWideNode* wnodes;
     const __global StacklessNode* snodes;
     uint snode_count;
+    // The binary and stackless traversals: the tree's primitive-index
+    // array. The wide ones: its triangles in leaf order, and laid out for
+    // the four-lane test (`leaf_gather`).
     const __global uint* prim_ids;
+    const __global float4* leaf_tris;
     const __global float* positions;
     const __global float* normals;
     const __global float* uvs;
@@ -215,7 +219,7 @@ inline Hit pt_trace_closest(PtScene* s, Ray ray) {
 #ifdef TRAVERSAL_STACKLESS
     return trace_closest_stackless_bvh(s->snodes, s->snode_count, s->prim_ids, SGEOM(s), ray);
 #elif defined(TRAVERSAL_WIDE)
-    return PT_TRACE_CLOSEST_WIDE(s->wnodes, s->prim_ids, SGEOM(s), ray);
+    return PT_TRACE_CLOSEST_WIDE(s->wnodes, s->prim_ids, s->leaf_tris, SGEOM(s), ray);
 #else
     return trace_closest_bvh(s->nodes, s->prim_ids, SGEOM(s), ray);
 #endif
@@ -378,7 +382,7 @@ inline bool pt_find_surface(PtScene* s, Ray ray, SampleRng rng, uint bounce, uin
 inline Hit pt_trace_any(PtScene* s, Ray r) {
     s->rays += 1u;
 #ifdef TRAVERSAL_WIDE
-    return PT_TRACE_ANY_WIDE(s->wnodes, s->prim_ids, SGEOM(s), r);
+    return PT_TRACE_ANY_WIDE(s->wnodes, s->prim_ids, s->leaf_tris, SGEOM(s), r);
 #else
     return trace_any_bvh(s->nodes, s->prim_ids, SGEOM(s), r);
 #endif

@@ -6,6 +6,7 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "trace_common.h"
+#include "leaf_gather.h"
 
 // One work-item per ray through the layout of NODE: `hits[i] = FN(ray i)`.
 #define TRACE_KERNEL(NAME, NODE, FN)                                              \
@@ -19,10 +20,22 @@
 
 TRACE_KERNEL(trace_closest, BvhNode, trace_closest_bvh)
 TRACE_KERNEL(trace_any, BvhNode, trace_any_bvh)
-TRACE_KERNEL(trace_closest_wide, WideNode, trace_closest_wide_bvh)
-TRACE_KERNEL(trace_any_wide, WideNode, trace_any_wide_bvh)
-TRACE_KERNEL(trace_closest_wide8, Wide8Node, trace_closest_wide8_bvh)
-TRACE_KERNEL(trace_any_wide8, Wide8Node, trace_any_wide8_bvh)
+
+// The same through a wide layout: `leaf_prims` and `tris` are its
+// triangles in leaf order (`leaf_gather`).
+#define TRACE_WIDE_KERNEL(NAME, NODE, FN)                                         \
+    __kernel void NAME(__global const NODE* nodes, __global const uint* leaf_prims, \
+                       __global const float4* tris, __global const float* positions, \
+                       __global const Ray* rays, __global Hit* hits, uint count) {  \
+        uint i = get_global_id(0);                                                \
+        if (i >= count) return;                                                   \
+        hits[i] = FN(nodes, leaf_prims, tris, positions, rays[i]);                \
+    }
+
+TRACE_WIDE_KERNEL(trace_closest_wide, WideNode, trace_closest_wide_bvh)
+TRACE_WIDE_KERNEL(trace_any_wide, WideNode, trace_any_wide_bvh)
+TRACE_WIDE_KERNEL(trace_closest_wide8, Wide8Node, trace_closest_wide8_bvh)
+TRACE_WIDE_KERNEL(trace_any_wide8, Wide8Node, trace_any_wide8_bvh)
 
 __kernel void trace_closest_stackless(__global const StacklessNode* snodes, uint entries,
                                       __global const uint* prim_ids,

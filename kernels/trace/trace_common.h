@@ -287,6 +287,16 @@ inline void closest_update(Hit* best, uint prim, float t, float u, float v) {
 // since a non-zero edge function has the exact sign. So the hits are those
 // of intersect_triangle, bit for bit, and there is no Rust twin to keep.
 // Unused lanes repeat the last triangle and are masked off.
+//
+// The wide layouts give the leaf's triangles laid out for this test
+// (`tris`, made by `leaf_gather` for each frame): a leaf starts at a slot
+// that is a multiple of four, and each four slots have their three
+// vertices' coordinates as nine `float4`s, axis by axis, lane i the slot's
+// triangle, so that a lane vector is one aligned load instead of four
+// gathered from the soup through the primitive-index array. The values are
+// the soup's, so the hits are the same bit for bit. The binary and
+// stackless traversals, and every traversal with motion blur (whose
+// vertices are interpolated per ray), pass no `tris` and gather.
 typedef struct {
     float4 t, u, v;
     uint hit, exact;
@@ -298,20 +308,32 @@ inline uint lane_bits(int4 m) {
 }
 
 inline LeafHits4 leaf_intersect4(const RayPre* r, const __global uint* prim_ids,
-                                 GEOM_DECL(positions), uint first, uint count) {
-    uint last = count - 1u;
-    uint q0 = prim_ids[first], q1 = prim_ids[first + 1u];
-    uint q2 = prim_ids[first + min(2u, last)], q3 = prim_ids[first + min(3u, last)];
-    TRI_LOAD(p0, positions, mt, q0);
-    TRI_LOAD(p1, positions, mt, q1);
-    TRI_LOAD(p2, positions, mt, q2);
-    TRI_LOAD(p3, positions, mt, q3);
+                                 const __global float4* tris, GEOM_DECL(positions), uint first,
+                                 uint count) {
     int kx = r->kx, ky = r->ky, kz = r->kz;
+    float4 pax, pay, paz, pbx, pby, pbz, pcx, pcy, pcz;
+#ifndef MOTION_BLUR
+    if (tris != 0) {
+        const __global float4* b = tris + (size_t)(first >> 2) * 9u;
+        pax = b[kx], pay = b[ky], paz = b[kz];
+        pbx = b[3 + kx], pby = b[3 + ky], pbz = b[3 + kz];
+        pcx = b[6 + kx], pcy = b[6 + ky], pcz = b[6 + kz];
+    } else
+#endif
+    {
+        uint last = count - 1u;
+        uint q0 = prim_ids[first], q1 = prim_ids[first + 1u];
+        uint q2 = prim_ids[first + min(2u, last)], q3 = prim_ids[first + min(3u, last)];
+        TRI_LOAD(p0, positions, mt, q0);
+        TRI_LOAD(p1, positions, mt, q1);
+        TRI_LOAD(p2, positions, mt, q2);
+        TRI_LOAD(p3, positions, mt, q3);
 #define LANES(o) ((float4)(p0[o], p1[o], p2[o], p3[o]))
-    float4 pax = LANES(kx), pay = LANES(ky), paz = LANES(kz);
-    float4 pbx = LANES(4 + kx), pby = LANES(4 + ky), pbz = LANES(4 + kz);
-    float4 pcx = LANES(8 + kx), pcy = LANES(8 + ky), pcz = LANES(8 + kz);
+        pax = LANES(kx), pay = LANES(ky), paz = LANES(kz);
+        pbx = LANES(4 + kx), pby = LANES(4 + ky), pbz = LANES(4 + kz);
+        pcx = LANES(8 + kx), pcy = LANES(8 + ky), pcz = LANES(8 + kz);
 #undef LANES
+    }
     float4 az_ = paz - r->okz;
     float4 bz_ = pbz - r->okz;
     float4 cz_ = pcz - r->okz;
@@ -395,7 +417,7 @@ inline bool lane_hit(const RayPre* r, GEOM_DECL(positions), LeafHits4 h, uint i,
             h.hit = 0u;                                                           \
             h.exact = 1u;                                                         \
         } else {                                                                  \
-            h = leaf_intersect4(r, prim_ids, GEOM_ARGS(positions, mt), s, n);     \
+            h = leaf_intersect4(r, prim_ids, tris, GEOM_ARGS(positions, mt), s, n); \
         }                                                                         \
         uint m = h.hit | h.exact;                                                 \
         while (m != 0u) {                                                         \
@@ -410,13 +432,15 @@ inline bool lane_hit(const RayPre* r, GEOM_DECL(positions), LeafHits4 h, uint i,
     }
 
 inline void closest_leaf(const RayPre* r, const __global uint* prim_ids,
-                         GEOM_DECL(positions), uint first, uint count, Hit* best) {
+                         const __global float4* tris, GEOM_DECL(positions), uint first,
+                         uint count, Hit* best) {
     LEAF_HITS(closest_update(best, prim, t, u, v);)
 }
 
 // The first hit in the leaf's order.
 inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
-                     GEOM_DECL(positions), uint first, uint count, Hit* best) {
+                     const __global float4* tris, GEOM_DECL(positions), uint first, uint count,
+                     Hit* best) {
     LEAF_HITS(best->t = t; best->prim = prim; best->u = u; best->v = v; return true;)
     return false;
 }
@@ -441,10 +465,12 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
 // its first hit.
 #define VISIT_LEAF(ANY, first, count)                                             \
     if (ANY) {                                                                    \
-        if (any_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), first, count, &best)) \
+        if (any_leaf(&r, prim_ids, tris, GEOM_ARGS(positions, mt), first, count,   \
+                     &best))                                                      \
             return best;                                                          \
     } else {                                                                      \
-        closest_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), first, count, &best); \
+        closest_leaf(&r, prim_ids, tris, GEOM_ARGS(positions, mt), first, count,   \
+                     &best);                                                      \
     }
 // POP_NODE: the most recently stacked node that may still hold a closer hit
 // goes into `node`; the traversal returns when none is left.
@@ -509,12 +535,14 @@ inline bool any_leaf(const RayPre* r, const __global uint* prim_ids,
 // The closest hit of `ray` (prim == MISS when none).
 inline Hit trace_closest_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
                              GEOM_DECL(positions), Ray ray) {
+    const __global float4* tris = 0; // gathered from the soup
     TRAVERSE_BODY(0)
 }
 
 // Any hit of `ray` within (tmin, tmax): prim != MISS means occluded.
 inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* prim_ids,
                          GEOM_DECL(positions), Ray ray) {
+    const __global float4* tris = 0; // gathered from the soup
     TRAVERSE_BODY(1)
 }
 
@@ -600,28 +628,31 @@ BOX_ENTRY_WIDE(8, Wide8Node)
         POP_NODE                                                                  \
     }
 
+// The wide traversals: `leaf_prims` and `tris` are the layout's triangles
+// in leaf order (`leaf_gather`); with motion blur `tris` is unread.
 // The closest hit of `ray` through the 4-wide layout.
-inline Hit trace_closest_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
+inline Hit trace_closest_wide_bvh(const __global WideNode* wnodes,
+                                  const __global uint* prim_ids, const __global float4* tris,
                                   GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(0, 4, WideNode)
 }
 
 // Any hit of `ray` through the 4-wide layout.
 inline Hit trace_any_wide_bvh(const __global WideNode* wnodes, const __global uint* prim_ids,
-                              GEOM_DECL(positions), Ray ray) {
+                              const __global float4* tris, GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(1, 4, WideNode)
 }
 
 // The closest hit of `ray` through the 8-wide layout.
 inline Hit trace_closest_wide8_bvh(const __global Wide8Node* wnodes,
-                                   const __global uint* prim_ids, GEOM_DECL(positions),
-                                   Ray ray) {
+                                   const __global uint* prim_ids, const __global float4* tris,
+                                   GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(0, 8, Wide8Node)
 }
 
 // Any hit of `ray` through the 8-wide layout.
 inline Hit trace_any_wide8_bvh(const __global Wide8Node* wnodes, const __global uint* prim_ids,
-                               GEOM_DECL(positions), Ray ray) {
+                               const __global float4* tris, GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(1, 8, Wide8Node)
 }
 
@@ -632,6 +663,7 @@ inline Hit trace_any_wide8_bvh(const __global Wide8Node* wnodes, const __global 
 inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uint entries,
                                        const __global uint* prim_ids,
                                        GEOM_DECL(positions), Ray ray) {
+    const __global float4* tris = 0; // gathered from the soup
     RAY_START
     uint i = 0;
     while (i < entries) {
@@ -641,7 +673,7 @@ inline Hit trace_closest_stackless_bvh(const __global StacklessNode* snodes, uin
         if (t == INFINITY) {
             i = e->escape;
         } else if (e->leaf != 0u) {
-            closest_leaf(&r, prim_ids, GEOM_ARGS(positions, mt), e->leaf >> LEAF_COUNT_BITS,
+            closest_leaf(&r, prim_ids, tris, GEOM_ARGS(positions, mt), e->leaf >> LEAF_COUNT_BITS,
                          e->leaf & ((1u << LEAF_COUNT_BITS) - 1u), &best);
             i = e->escape;
         } else {

@@ -14,7 +14,9 @@
 use super::escape::{stackless_layout_into, StacklessNode};
 use super::settings::Traversal;
 use super::traverse::check_depth;
-use super::wide::{wide_layout_into, Wide8Node, WideLayout, WideNode};
+use super::wide::{
+    wide_layout_into, LeafBlock, Wide8Node, WideLayout, WideNode, LEAF_BLOCK_FLOAT4S,
+};
 use super::{Hit, PinholeCamera, Ray, TraceError};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
 use crate::device::{Arg, BufferArg, Device, GrowBuffer};
@@ -68,6 +70,17 @@ impl TraceKind {
         }
     }
 
+    /// Whether it reads a wide layout (and its leaves' triangles).
+    fn is_wide(self) -> bool {
+        matches!(
+            self,
+            TraceKind::ClosestWide
+                | TraceKind::AnyWide
+                | TraceKind::ClosestWide8
+                | TraceKind::AnyWide8
+        )
+    }
+
     /// The name its launches are timed under (`Timings::ms`).
     pub fn stage(self) -> &'static str {
         match self {
@@ -115,8 +128,8 @@ impl TreeLayouts {
     /// Device buffer (re)allocations so far.
     pub fn allocations(&self) -> usize {
         self.nodes.allocations()
-            + self.wide4.nodes.allocations()
-            + self.wide8.nodes.allocations()
+            + self.wide4.allocations()
+            + self.wide8.allocations()
             + self.snodes.allocations()
     }
 
@@ -145,15 +158,25 @@ impl TreeLayouts {
     }
 
     /// Checks the tree's depth, collapses it into the 4-wide layout on the
-    /// host and uploads that.
-    pub fn upload_wide(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.wide4.upload(device, bvh)
+    /// host, uploads that and queues the gather of its leaves.
+    pub fn upload_wide(
+        &mut self,
+        device: &Device,
+        bvh: &Bvh,
+        leaves: &LeafSource,
+    ) -> Result<LayoutStats, TraceError> {
+        self.wide4.upload(device, bvh, leaves)
     }
 
     /// Checks the tree's depth, collapses it into the 8-wide layout on the
-    /// host and uploads that.
-    pub fn upload_wide8(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.wide8.upload(device, bvh)
+    /// host, uploads that and queues the gather of its leaves.
+    pub fn upload_wide8(
+        &mut self,
+        device: &Device,
+        bvh: &Bvh,
+        leaves: &LeafSource,
+    ) -> Result<LayoutStats, TraceError> {
+        self.wide8.upload(device, bvh, leaves)
     }
 
     /// The tree of an empty soup in every layout: an empty root for the
@@ -174,6 +197,8 @@ impl TreeLayouts {
         self.nodes.ensure(device, 1)?;
         self.wide4.nodes.ensure(device, 1)?;
         self.wide8.nodes.ensure(device, 1)?;
+        self.wide4.ensure_leaves(device)?;
+        self.wide8.ensure_leaves(device)?;
         self.snodes.ensure(device, 1)?;
         Ok(())
     }
@@ -192,6 +217,18 @@ impl TreeLayouts {
             self.wide8.nodes.get()
         } else {
             self.wide4.nodes.get()
+        }
+    }
+
+    /// The wide layout's triangles in leaf order and their coordinates
+    /// (`leaf_gather`) for a kernel compiled for `traversal`, after
+    /// `ensure_all`; `None` for the binary and stackless traversals, which
+    /// read the tree's primitive-index array.
+    pub fn leaf_args(&self, traversal: Traversal) -> Option<(&Buffer<u32>, &Buffer<[f32; 4]>)> {
+        match traversal {
+            Traversal::Wide8 => Some(self.wide8.leaves()),
+            Traversal::Wide => Some(self.wide4.leaves()),
+            Traversal::Stack | Traversal::Stackless => None,
         }
     }
 
@@ -218,11 +255,16 @@ impl TreeLayouts {
 }
 
 /// One W-wide layout of the frame's tree: its nodes on the device, the host
-/// scratch it is collapsed into, and how many nodes were uploaded (0: none).
+/// scratch it is collapsed into, how many nodes were uploaded (0: none), and
+/// its triangles in leaf order (`wide::leaf_arrays`), gathered on the device.
 struct WideTree<N> {
     nodes: GrowBuffer<N>,
     host: Vec<N>,
     count: usize,
+    blocks: GrowBuffer<LeafBlock>,
+    host_blocks: Vec<LeafBlock>,
+    leaf_prims: GrowBuffer<u32>,
+    leaf_tris: GrowBuffer<[f32; 4]>,
 }
 
 impl<N> Default for WideTree<N> {
@@ -231,18 +273,64 @@ impl<N> Default for WideTree<N> {
             nodes: GrowBuffer::new(),
             host: Vec::new(),
             count: 0,
+            blocks: GrowBuffer::new(),
+            host_blocks: Vec::new(),
+            leaf_prims: GrowBuffer::new(),
+            leaf_tris: GrowBuffer::new(),
         }
     }
 }
 
+/// What a wide layout's leaves are gathered from on the device: the frame's
+/// soup and the tree's primitive-index array, by `leaf_gather` (compiled
+/// into `trace.cl` and `pathtrace.cl`). Without `with_tris` (motion blur,
+/// whose corners are interpolated per ray) only the slots' triangles are
+/// gathered.
+pub struct LeafSource<'a> {
+    pub gather: &'a Kernel,
+    pub positions: &'a Buffer<[f32; 4]>,
+    pub prim_ids: &'a Buffer<u32>,
+    pub with_tris: bool,
+}
+
 impl<N: WideLayout> WideTree<N> {
-    /// Checks the tree's depth, collapses it on the host and uploads it.
-    fn upload(&mut self, device: &Device, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
+    /// Checks the tree's depth, collapses it on the host, uploads it and
+    /// queues the gather of its leaves.
+    fn upload(
+        &mut self,
+        device: &Device,
+        bvh: &Bvh,
+        leaves: &LeafSource,
+    ) -> Result<LayoutStats, TraceError> {
         self.count = 0;
         check_depth(bvh)?;
         let start = Instant::now();
-        wide_layout_into(bvh, &mut self.host)?;
+        wide_layout_into(bvh, &mut self.host, &mut self.host_blocks)?;
         let stats = upload_layout(device, &mut self.nodes, &self.host, start)?;
+        let blocks = self.host_blocks.len();
+        device.write(self.blocks.ensure(device, blocks)?, &self.host_blocks)?;
+        self.leaf_prims.ensure(device, 4 * blocks)?;
+        let tris = if leaves.with_tris { blocks } else { 0 };
+        self.leaf_tris.ensure(device, LEAF_BLOCK_FLOAT4S * tris)?;
+        if blocks > 0 {
+            let local = 64;
+            device.launch(
+                "trace/leaf_gather",
+                leaves.gather,
+                blocks.div_ceil(local),
+                local,
+                &[
+                    Arg::Buf(self.blocks.get()),
+                    Arg::U32(blocks as u32),
+                    Arg::Buf(leaves.prim_ids),
+                    Arg::U32(bvh.prim_ids.len() as u32),
+                    Arg::Buf(leaves.positions),
+                    Arg::U32(leaves.with_tris as u32),
+                    Arg::Buf(self.leaf_prims.get()),
+                    Arg::Buf(self.leaf_tris.get()),
+                ],
+            )?;
+        }
         self.count = stats.entries;
         Ok(stats)
     }
@@ -250,12 +338,46 @@ impl<N: WideLayout> WideTree<N> {
     /// One node with no child: an empty tree.
     fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
         device.write(self.nodes.ensure(device, 1)?, &[N::empty()])?;
+        self.ensure_leaves(device)?;
         self.count = 1;
+        Ok(())
+    }
+
+    fn ensure_leaves(&mut self, device: &Device) -> Result<(), TraceError> {
+        self.leaf_prims.ensure(device, 1)?;
+        self.leaf_tris.ensure(device, 1)?;
         Ok(())
     }
 
     fn uploaded(&self) -> Option<&Buffer<N>> {
         self.nodes.buffer().filter(|_| self.count > 0)
+    }
+
+    /// The slots' triangles and the blocks' coordinates, after `upload` or
+    /// `ensure_leaves`.
+    fn leaves(&self) -> (&Buffer<u32>, &Buffer<[f32; 4]>) {
+        (self.leaf_prims.get(), self.leaf_tris.get())
+    }
+
+    fn allocations(&self) -> usize {
+        self.nodes.allocations()
+            + self.blocks.allocations()
+            + self.leaf_prims.allocations()
+            + self.leaf_tris.allocations()
+    }
+}
+
+/// The tracer's leaves: from a static soup.
+fn leaf_source<'a>(
+    gather: &'a Kernel,
+    positions: &'a Buffer<[f32; 4]>,
+    prim_ids: &'a Buffer<u32>,
+) -> LeafSource<'a> {
+    LeafSource {
+        gather,
+        positions,
+        prim_ids,
+        with_tris: true,
     }
 }
 
@@ -288,6 +410,7 @@ pub struct DeviceTracer<'d> {
     /// One per `TraceKind`, at `kind as usize`.
     kernels: Vec<Kernel>,
     primary: Kernel,
+    leaf_gather: Kernel,
     layouts: TreeLayouts,
     /// Scratch for `trace_rays` (tests, tools).
     rays: GrowBuffer<Ray>,
@@ -310,6 +433,7 @@ impl<'d> DeviceTracer<'d> {
                 .map(|kind| k(kind.kernel_name()))
                 .collect::<Result<_, _>>()?,
             primary: k("generate_primary")?,
+            leaf_gather: k("leaf_gather")?,
             layouts: TreeLayouts::default(),
             rays: GrowBuffer::new(),
             hits: GrowBuffer::new(),
@@ -336,21 +460,63 @@ impl<'d> DeviceTracer<'d> {
         self.layouts.upload_stackless(self.device, bvh)
     }
 
-    /// Collapses the tree into the 4-wide layout on the host and uploads it:
-    /// needed after every build before `ClosestWide`/`AnyWide`.
-    pub fn upload_wide(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.layouts.upload_wide(self.device, bvh)
+    /// Collapses the tree into the 4-wide layout on the host, uploads it and
+    /// gathers its leaves' triangles from `positions` (the soup) through
+    /// `prim_ids` (the tree's primitive-index array): needed after every
+    /// build before `ClosestWide`/`AnyWide`.
+    pub fn upload_wide(
+        &mut self,
+        bvh: &Bvh,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+    ) -> Result<LayoutStats, TraceError> {
+        let leaves = leaf_source(&self.leaf_gather, positions, prim_ids);
+        self.layouts.upload_wide(self.device, bvh, &leaves)
     }
 
-    /// Collapses the tree into the 8-wide layout on the host and uploads it:
-    /// needed after every build before `ClosestWide8`/`AnyWide8`.
-    pub fn upload_wide8(&mut self, bvh: &Bvh) -> Result<LayoutStats, TraceError> {
-        self.layouts.upload_wide8(self.device, bvh)
+    /// As `upload_wide`, the 8-wide layout: needed after every build before
+    /// `ClosestWide8`/`AnyWide8`.
+    pub fn upload_wide8(
+        &mut self,
+        bvh: &Bvh,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+    ) -> Result<LayoutStats, TraceError> {
+        let leaves = leaf_source(&self.leaf_gather, positions, prim_ids);
+        self.layouts.upload_wide8(self.device, bvh, &leaves)
+    }
+
+    /// The slots' triangles and the blocks' corners of the wide layout
+    /// `traversal` reads, as gathered on the device (blocking; for tests).
+    pub fn read_leaves(
+        &self,
+        traversal: Traversal,
+    ) -> Result<(Vec<u32>, Vec<[f32; 4]>), TraceError> {
+        let tree_blocks = match traversal {
+            Traversal::Wide8 => self.layouts.wide8.host_blocks.len(),
+            Traversal::Wide => self.layouts.wide4.host_blocks.len(),
+            Traversal::Stack | Traversal::Stackless => {
+                return Err(TraceError::Unsupported(format!(
+                    "{traversal:?} has no leaf layout"
+                )))
+            }
+        };
+        let (slots, tris) = self
+            .layouts
+            .leaf_args(traversal)
+            .ok_or_else(|| TraceError::Malformed("no wide layout uploaded".into()))?;
+        let mut host_slots = vec![0u32; 4 * tree_blocks];
+        let mut host_tris = vec![[0.0f32; 4]; LEAF_BLOCK_FLOAT4S * tree_blocks];
+        self.device.read(slots, &mut host_slots)?;
+        self.device.read(tris, &mut host_tris)?;
+        self.device.finish()?;
+        Ok((host_slots, host_tris))
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
     /// `positions` is the frame's soup (three `float4` per triangle) and
-    /// `prim_ids` the tree's primitive-index array, both on the device.
+    /// `prim_ids` the tree's primitive-index array, both on the device; the
+    /// wide kinds read the triangles their upload gathered from these.
     /// Nothing waits: `Device::finish` (or a blocking read) does.
     pub fn trace(
         &self,
@@ -378,16 +544,16 @@ impl<'d> DeviceTracer<'d> {
                 )]
             }
             TraceKind::ClosestWide | TraceKind::AnyWide => {
-                let nodes = self.layouts.wide();
-                vec![Arg::Buf(
-                    nodes.ok_or_else(|| missing("4-wide layout", "upload_wide"))?,
-                )]
+                let nodes =
+                    (self.layouts.wide()).ok_or_else(|| missing("4-wide layout", "upload_wide"))?;
+                let (slots, tris) = self.layouts.leaf_args(Traversal::Wide).expect("uploaded");
+                vec![Arg::Buf(nodes), Arg::Buf(slots), Arg::Buf(tris)]
             }
             TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
-                let nodes = self.layouts.wide8();
-                vec![Arg::Buf(
-                    nodes.ok_or_else(|| missing("8-wide layout", "upload_wide8"))?,
-                )]
+                let nodes = (self.layouts.wide8())
+                    .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
+                let (slots, tris) = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
+                vec![Arg::Buf(nodes), Arg::Buf(slots), Arg::Buf(tris)]
             }
             TraceKind::ClosestStackless => {
                 let (snodes, entries) = self
@@ -397,8 +563,10 @@ impl<'d> DeviceTracer<'d> {
                 vec![Arg::Buf(snodes), Arg::U32(entries)]
             }
         };
+        if !kind.is_wide() {
+            args.push(Arg::Buf(prim_ids));
+        }
         args.extend([
-            Arg::Buf(prim_ids),
             Arg::Buf(positions),
             Arg::Buf(rays),
             Arg::Buf(hits),

@@ -48,7 +48,7 @@ pub use traverse::{
     check_depth, trace_any, trace_any_wide, trace_closest, trace_closest_stackless,
     trace_closest_wide,
 };
-pub use wide::{wide_layout, Wide8Node, WideLayout, WideNode};
+pub use wide::{leaf_arrays, wide_layout, LeafBlock, Wide8Node, WideLayout, WideNode};
 
 use crate::device_struct::{device_consts, device_struct};
 use bytemuck::{Pod, Zeroable};

@@ -10,6 +10,15 @@
 //! than W, replaces its inner child of largest surface area by that child's
 //! two children (the children a ray is most likely to reach). Nodes are
 //! numbered in the order they are made; node 0 is the root.
+//!
+//! Leaves: the wide traversals read a leaf's triangles in leaf order, laid
+//! out for the four-lane triangle test, instead of gathering them from the
+//! soup through the primitive-index array. Each leaf gets whole blocks of
+//! four slots (`LeafBlock`), numbered as the collapse meets them; a leaf
+//! slot's `child` is its first slot, a multiple of four. `leaf_gather` in
+//! `kernels/trace/leaf_gather.h` fills the slots' triangles and their
+//! coordinates from each frame's soup on the device; `leaf_arrays` is its
+//! Rust twin.
 
 use super::TraceError;
 use crate::bvh::{Aabb, Bvh, Child, EMPTY_CHILD};
@@ -44,6 +53,22 @@ pub struct Wide8Node as "Wide8Node" {
     pub count: [u32; 8],
 }
 }
+
+device_struct! {
+/// Four slots of a wide layout's leaves (`LeafBlock`): they hold entries
+/// [first, first + count) of the tree's primitive-index array, count 1..=4;
+/// the slots past `count` repeat the last of them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+pub struct LeafBlock as "LeafBlock" {
+    pub first: u32,
+    pub count: u32,
+}
+}
+
+/// Floats of a block's coordinates: three vertices, three axes, four lanes
+/// (nine `float4`s).
+pub const LEAF_BLOCK_FLOAT4S: usize = 9;
 
 const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
 const _: () = assert!(std::mem::size_of::<Wide8Node>() == 256);
@@ -123,19 +148,33 @@ fn children(bvh: &Bvh, index: u32) -> Result<impl Iterator<Item = (Child, Aabb)>
         .filter(|(c, _)| *c != Child::Empty))
 }
 
-/// The W-wide layout of `bvh`.
-pub fn wide_layout<N: WideLayout>(bvh: &Bvh) -> Result<Vec<N>, TraceError> {
-    let mut out = Vec::new();
-    wide_layout_into(bvh, &mut out)?;
-    Ok(out)
+/// The W-wide layout of `bvh`: its nodes, and the blocks of its leaves'
+/// slots.
+pub fn wide_layout<N: WideLayout>(bvh: &Bvh) -> Result<(Vec<N>, Vec<LeafBlock>), TraceError> {
+    let (mut out, mut blocks) = (Vec::new(), Vec::new());
+    wide_layout_into(bvh, &mut out, &mut blocks)?;
+    Ok((out, blocks))
 }
 
-/// The W-wide layout of `bvh` into `out` (cleared first, its capacity kept
-/// from frame to frame).
-pub fn wide_layout_into<N: WideLayout>(bvh: &Bvh, out: &mut Vec<N>) -> Result<(), TraceError> {
+/// The W-wide layout of `bvh` into `out` and its leaves' blocks into
+/// `blocks` (both cleared first, their capacity kept from frame to frame).
+pub fn wide_layout_into<N: WideLayout>(
+    bvh: &Bvh,
+    out: &mut Vec<N>,
+    blocks: &mut Vec<LeafBlock>,
+) -> Result<(), TraceError> {
     out.clear();
+    blocks.clear();
     if bvh.nodes.is_empty() {
         return Err(TraceError::Malformed("the tree has no root node".into()));
+    }
+    let prims = bvh.prim_ids.len();
+    // A slot index is 4 x the block's, and there are at most as many blocks
+    // as triangles.
+    if prims >= 1 << 30 {
+        return Err(TraceError::Unsupported(format!(
+            "{prims} triangles in one tree (the wide layouts hold fewer than 2^30)"
+        )));
     }
     out.push(N::empty());
     // (binary node, its wide node)
@@ -163,7 +202,20 @@ pub fn wide_layout_into<N: WideLayout>(bvh: &Bvh, out: &mut Vec<N>) -> Result<()
         let mut w = N::empty();
         for (k, (child, b)) in slots.iter().enumerate() {
             match *child {
-                Child::Leaf { first, count } => w.set_slot(k, b, first, count),
+                Child::Leaf { first, count } => {
+                    if count == 0 || first as usize + count as usize > prims {
+                        return Err(TraceError::Malformed(format!(
+                            "a leaf of {count} triangles from entry {first} of {prims}"
+                        )));
+                    }
+                    w.set_slot(k, b, 4 * blocks.len() as u32, count);
+                    for at in (0..count).step_by(4) {
+                        blocks.push(LeafBlock {
+                            first: first + at,
+                            count: (count - at).min(4),
+                        });
+                    }
+                }
                 Child::Inner(c) => {
                     w.set_slot(k, b, out.len() as u32, 0);
                     out.push(N::empty());
@@ -177,19 +229,51 @@ pub fn wide_layout_into<N: WideLayout>(bvh: &Bvh, out: &mut Vec<N>) -> Result<()
     Ok(())
 }
 
+/// The layout's triangles in leaf order (`leaf_gather`'s Rust twin): per
+/// slot its triangle, and with `positions` (the soup, three corners per
+/// triangle) per block the nine lane vectors of its coordinates, vertex by
+/// vertex and axis by axis.
+pub fn leaf_arrays(
+    blocks: &[LeafBlock],
+    prim_ids: &[u32],
+    positions: Option<&[[f32; 4]]>,
+) -> (Vec<u32>, Vec<[f32; 4]>) {
+    let mut slots = Vec::with_capacity(4 * blocks.len());
+    let mut tris =
+        Vec::with_capacity(LEAF_BLOCK_FLOAT4S * blocks.len() * positions.is_some() as usize);
+    for b in blocks {
+        let q: [u32; 4] = std::array::from_fn(|i| {
+            let slot = b.first + (i as u32).min(b.count.max(1) - 1);
+            prim_ids[(slot as usize).min(prim_ids.len() - 1)]
+        });
+        slots.extend(q);
+        if let Some(p) = positions {
+            for v in 0..3 {
+                for a in 0..3 {
+                    tris.push(q.map(|t| p[3 * t as usize + v][a]));
+                }
+            }
+        }
+    }
+    (slots, tris)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::bvh::test_util::random_soup;
     use crate::bvh::{binned, BuildParams};
 
-    fn leaves_of_binary(bvh: &Bvh) -> Vec<(u32, u32)> {
-        let mut out: Vec<(u32, u32)> = bvh
+    /// Each leaf's triangles, in leaf order, sorted by leaf.
+    fn leaves_of_binary(bvh: &Bvh) -> Vec<Vec<u32>> {
+        let mut out: Vec<Vec<u32>> = bvh
             .nodes
             .iter()
             .flat_map(|n| [n.left().0, n.right().0])
             .filter_map(|c| match c {
-                Child::Leaf { first, count } => Some((first, count)),
+                Child::Leaf { first, count } => {
+                    Some(bvh.prim_ids[first as usize..(first + count) as usize].to_vec())
+                }
                 _ => None,
             })
             .collect();
@@ -202,7 +286,10 @@ mod tests {
         for (n, seed) in [(1usize, 1u64), (3, 2), (100, 3), (5000, 4)] {
             let soup = random_soup(n, 0.05, seed);
             let bvh = binned::build(&soup, BuildParams::default()).unwrap();
-            let wide = wide_layout::<N>(&bvh).unwrap();
+            let (wide, blocks) = wide_layout::<N>(&bvh).unwrap();
+            let (slots, tris) = leaf_arrays(&blocks, &bvh.prim_ids, Some(&soup.positions));
+            assert_eq!(slots.len(), 4 * blocks.len());
+            assert_eq!(tris.len(), LEAF_BLOCK_FLOAT4S * blocks.len());
             let mut leaves = Vec::new();
             let mut reached = vec![0u32; wide.len()];
             reached[0] = 1;
@@ -214,7 +301,29 @@ mod tests {
                 );
                 for k in 0..w {
                     match node.slot(k).0 {
-                        Child::Leaf { first, count } => leaves.push((first, count)),
+                        Child::Leaf { first, count } => {
+                            assert_eq!(first % 4, 0, "{w}/{n}: a leaf at slot {first}");
+                            let (f, c) = (first as usize, count as usize);
+                            leaves.push(slots[f..f + c].to_vec());
+                            // The last block's unused slots repeat its last
+                            // triangle, and each block's lanes are its
+                            // slots' coordinates.
+                            let end = f + c.div_ceil(4) * 4;
+                            assert!(slots[f + c..end].iter().all(|&q| q == slots[f + c - 1]));
+                            for s in f..end {
+                                let (b, lane) = (s / 4, s % 4);
+                                for v in 0..3 {
+                                    for a in 0..3 {
+                                        let q = slots[s] as usize;
+                                        assert_eq!(
+                                            tris[LEAF_BLOCK_FLOAT4S * b + 3 * v + a][lane]
+                                                .to_bits(),
+                                            soup.positions[3 * q + v][a].to_bits()
+                                        );
+                                    }
+                                }
+                            }
+                        }
                         Child::Inner(c) => reached[c as usize] += 1,
                         Child::Empty => {}
                     }

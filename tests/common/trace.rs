@@ -75,9 +75,9 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let mut tracer = DeviceTracer::new(d).unwrap();
     tracer.upload_bvh(&bvh).unwrap();
     tracer.upload_stackless(&bvh).unwrap();
-    tracer.upload_wide(&bvh).unwrap();
-    tracer.upload_wide8(&bvh).unwrap();
     let prim_ids = builder.device_prim_ids().unwrap();
+    tracer.upload_wide(&bvh, &positions, prim_ids).unwrap();
+    tracer.upload_wide8(&bvh, &positions, prim_ids).unwrap();
     let mut dev = |k| tracer.trace_rays(k, &positions, prim_ids, rays).unwrap();
     let dev_closest = dev(TraceKind::Closest);
     let dev_stackless = dev(TraceKind::ClosestStackless);
@@ -87,8 +87,10 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let dev_wide8 = dev(TraceKind::ClosestWide8);
     let dev_any_wide8 = dev(TraceKind::AnyWide8);
     let snodes = trace::stackless_layout(&bvh).unwrap();
-    let wnodes = trace::wide_layout::<trace::WideNode>(&bvh).unwrap();
-    let w8nodes = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
+    let (wnodes, blocks) = trace::wide_layout::<trace::WideNode>(&bvh).unwrap();
+    let (w8nodes, blocks8) = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
+    let slots = trace::leaf_arrays(&blocks, &bvh.prim_ids, None).0;
+    let slots8 = trace::leaf_arrays(&blocks8, &bvh.prim_ids, None).0;
     let p = &soup.positions;
     Traced {
         cpu_closest: rays
@@ -102,19 +104,19 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
         cpu_any: rays.iter().map(|r| trace::trace_any(&bvh, p, r)).collect(),
         cpu_wide: rays
             .iter()
-            .map(|r| trace::trace_closest_wide(&wnodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_closest_wide(&wnodes, &slots, p, r))
             .collect(),
         cpu_any_wide: rays
             .iter()
-            .map(|r| trace::trace_any_wide(&wnodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_any_wide(&wnodes, &slots, p, r))
             .collect(),
         cpu_wide8: rays
             .iter()
-            .map(|r| trace::trace_closest_wide(&w8nodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_closest_wide(&w8nodes, &slots8, p, r))
             .collect(),
         cpu_any_wide8: rays
             .iter()
-            .map(|r| trace::trace_any_wide(&w8nodes, &bvh.prim_ids, p, r))
+            .map(|r| trace::trace_any_wide(&w8nodes, &slots8, p, r))
             .collect(),
         dev_closest,
         dev_stackless,

@@ -754,7 +754,6 @@ impl<'d> PathTracer<'d> {
         // An empty soup has an empty tree: nothing can be hit, and the stack
         // traversal gets an empty root to read.
         let empty = soup.triangles == 0 || bvh.nodes.is_empty();
-        let snode_count = self.upload_tree(bvh, empty)?;
         self.upload_lights(lights, motion)?;
         let flags = self.frame_flags(soup);
         let emit = self.upload_emitters(soup, flags)?;
@@ -770,6 +769,10 @@ impl<'d> PathTracer<'d> {
         };
         self.upload_frame(bvh, &frame)?;
         let motion_steps = self.upload_cameras(camera, motion)?;
+        // With motion blur the kernel interpolates each ray's corners, so the
+        // wide layouts gather only their slots' triangles.
+        let snode_count =
+            self.upload_tree(bvh, empty, soup.positions, prim_ids, motion_steps.is_none())?;
 
         let first_event = self.clear_accumulators(pixels)?;
         let passes = self.run_passes(soup, prim_ids, snode_count, empty, motion_steps, progress)?;

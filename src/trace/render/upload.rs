@@ -14,6 +14,7 @@ use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
 use crate::trace::camera::{device_camera, with_lens, DeviceCamera};
+use crate::trace::device::LeafSource;
 use crate::trace::light_tree::{self, EmissiveTriangle, LIGHT_NODE_EMITTER, LIGHT_NODE_LEAF};
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
@@ -152,10 +153,25 @@ pub(super) struct FrameTables<'a> {
 }
 
 impl PathTracer<'_> {
-    /// The frame's tree in the traversal's layout; the stackless layout's
-    /// entry count (0 for the others).
-    pub(super) fn upload_tree(&mut self, bvh: &Bvh, empty: bool) -> Result<u32, TraceError> {
+    /// The frame's tree in the traversal's layout, a wide one with its
+    /// leaves gathered from `positions` through `prim_ids` (their corners
+    /// too with `with_tris`); the stackless layout's entry count (0 for the
+    /// others).
+    pub(super) fn upload_tree(
+        &mut self,
+        bvh: &Bvh,
+        empty: bool,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+        with_tris: bool,
+    ) -> Result<u32, TraceError> {
         let d = self.device;
+        let leaves = LeafSource {
+            gather: &self.kernels.leaf_gather,
+            positions,
+            prim_ids,
+            with_tris,
+        };
         let snode_count = match self.settings.traversal {
             _ if empty => {
                 self.layouts.upload_empty(d)?;
@@ -166,11 +182,11 @@ impl PathTracer<'_> {
                 0
             }
             Traversal::Wide => {
-                self.layouts.upload_wide(d, bvh)?;
+                self.layouts.upload_wide(d, bvh, &leaves)?;
                 0
             }
             Traversal::Wide8 => {
-                self.layouts.upload_wide8(d, bvh)?;
+                self.layouts.upload_wide8(d, bvh, &leaves)?;
                 0
             }
             Traversal::Stackless => self.layouts.upload_stackless(d, bvh)?.entries as u32,
