@@ -52,6 +52,8 @@
 // lobes are all delta samples no light at all (its sample would be 0).
 #pragma OPENCL FP_CONTRACT OFF
 
+// The leaf functions inlined into the traversal (trace_common.h).
+#define LEAF_INLINE __attribute__((always_inline))
 #include "trace_common.h"
 #include "leaf_gather.h"
 #include "pt_types.h"
