@@ -12,10 +12,11 @@
 
 // One work-item per block: `leaf_prims[4 b + i]` is slot i's triangle and,
 // with `with_tris` (no motion blur), `leaf_tris[9 b + 3 v + a]` lane i is
-// coordinate a of its vertex v, as `leaf_intersect4` loads them.
-// `prim_count` bounds the reads of `prim_ids`.
+// coordinate a of its vertex v, as `leaf_intersect4` loads them. The
+// collapse checked every block (count 1..=4, within the primitive-index
+// array).
 __kernel void leaf_gather(__global const LeafBlock* blocks, uint block_count,
-                          __global const uint* prim_ids, uint prim_count,
+                          __global const uint* prim_ids,
                           __global const float* positions, uint with_tris,
                           __global uint* leaf_prims, __global float4* leaf_tris) {
     uint b = get_global_id(0);
@@ -23,8 +24,7 @@ __kernel void leaf_gather(__global const LeafBlock* blocks, uint block_count,
     LeafBlock k = blocks[b];
     uint q[4];
     for (uint i = 0u; i < 4u; ++i) {
-        uint slot = k.first + min(i, max(k.count, 1u) - 1u);
-        q[i] = prim_ids[min(slot, prim_count - 1u)];
+        q[i] = prim_ids[k.first + min(i, k.count - 1u)];
         leaf_prims[4u * b + i] = q[i];
     }
     if (with_tris == 0u) return;

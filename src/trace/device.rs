@@ -157,26 +157,21 @@ impl TreeLayouts {
         Ok(stats)
     }
 
-    /// Checks the tree's depth, collapses it into the 4-wide layout on the
-    /// host, uploads that and queues the gather of its leaves.
+    /// Checks the tree's depth, collapses it into the wide layout of
+    /// `traversal` (`Wide` or `Wide8`) on the host, uploads that and queues
+    /// the gather of its leaves.
     pub fn upload_wide(
         &mut self,
         device: &Device,
         bvh: &Bvh,
+        traversal: Traversal,
         leaves: &LeafSource,
     ) -> Result<LayoutStats, TraceError> {
-        self.wide4.upload(device, bvh, leaves)
-    }
-
-    /// Checks the tree's depth, collapses it into the 8-wide layout on the
-    /// host, uploads that and queues the gather of its leaves.
-    pub fn upload_wide8(
-        &mut self,
-        device: &Device,
-        bvh: &Bvh,
-        leaves: &LeafSource,
-    ) -> Result<LayoutStats, TraceError> {
-        self.wide8.upload(device, bvh, leaves)
+        match traversal {
+            Traversal::Wide8 => self.wide8.upload(device, bvh, leaves),
+            Traversal::Wide => self.wide4.upload(device, bvh, leaves),
+            Traversal::Stack | Traversal::Stackless => Err(not_wide(traversal)),
+        }
     }
 
     /// The tree of an empty soup in every layout: an empty root for the
@@ -224,7 +219,7 @@ impl TreeLayouts {
     /// (`leaf_gather`) for a kernel compiled for `traversal`, after
     /// `ensure_all`; `None` for the binary and stackless traversals, which
     /// read the tree's primitive-index array.
-    pub fn leaf_args(&self, traversal: Traversal) -> Option<(&Buffer<u32>, &Buffer<[f32; 4]>)> {
+    pub fn leaf_args(&self, traversal: Traversal) -> Option<WideLeaves<'_>> {
         match traversal {
             Traversal::Wide8 => Some(self.wide8.leaves()),
             Traversal::Wide => Some(self.wide4.leaves()),
@@ -252,6 +247,20 @@ impl TreeLayouts {
         let buffer = self.snodes.buffer().filter(|_| self.snode_count > 0)?;
         Some((buffer, self.snode_count as u32))
     }
+}
+
+/// The error for a wide-layout call made with a binary traversal.
+fn not_wide(traversal: Traversal) -> TraceError {
+    TraceError::Unsupported(format!("{traversal:?} has no wide layout"))
+}
+
+/// A wide layout's triangles in leaf order on the device (`leaf_gather`):
+/// four slots per block, and per block the nine `float4`s of its corners.
+pub struct WideLeaves<'a> {
+    pub slots: &'a Buffer<u32>,
+    pub tris: &'a Buffer<[f32; 4]>,
+    /// Blocks of the last upload (0 after `upload_empty`).
+    pub blocks: usize,
 }
 
 /// One W-wide layout of the frame's tree: its nodes on the device, the host
@@ -323,7 +332,6 @@ impl<N: WideLayout> WideTree<N> {
                     Arg::Buf(self.blocks.get()),
                     Arg::U32(blocks as u32),
                     Arg::Buf(leaves.prim_ids),
-                    Arg::U32(bvh.prim_ids.len() as u32),
                     Arg::Buf(leaves.positions),
                     Arg::U32(leaves.with_tris as u32),
                     Arg::Buf(self.leaf_prims.get()),
@@ -338,6 +346,7 @@ impl<N: WideLayout> WideTree<N> {
     /// One node with no child: an empty tree.
     fn upload_empty(&mut self, device: &Device) -> Result<(), TraceError> {
         device.write(self.nodes.ensure(device, 1)?, &[N::empty()])?;
+        self.host_blocks.clear();
         self.ensure_leaves(device)?;
         self.count = 1;
         Ok(())
@@ -355,8 +364,12 @@ impl<N: WideLayout> WideTree<N> {
 
     /// The slots' triangles and the blocks' coordinates, after `upload` or
     /// `ensure_leaves`.
-    fn leaves(&self) -> (&Buffer<u32>, &Buffer<[f32; 4]>) {
-        (self.leaf_prims.get(), self.leaf_tris.get())
+    fn leaves(&self) -> WideLeaves<'_> {
+        WideLeaves {
+            slots: self.leaf_prims.get(),
+            tris: self.leaf_tris.get(),
+            blocks: self.host_blocks.len(),
+        }
     }
 
     fn allocations(&self) -> usize {
@@ -364,20 +377,6 @@ impl<N: WideLayout> WideTree<N> {
             + self.blocks.allocations()
             + self.leaf_prims.allocations()
             + self.leaf_tris.allocations()
-    }
-}
-
-/// The tracer's leaves: from a static soup.
-fn leaf_source<'a>(
-    gather: &'a Kernel,
-    positions: &'a Buffer<[f32; 4]>,
-    prim_ids: &'a Buffer<u32>,
-) -> LeafSource<'a> {
-    LeafSource {
-        gather,
-        positions,
-        prim_ids,
-        with_tris: true,
     }
 }
 
@@ -470,8 +469,7 @@ impl<'d> DeviceTracer<'d> {
         positions: &Buffer<[f32; 4]>,
         prim_ids: &Buffer<u32>,
     ) -> Result<LayoutStats, TraceError> {
-        let leaves = leaf_source(&self.leaf_gather, positions, prim_ids);
-        self.layouts.upload_wide(self.device, bvh, &leaves)
+        self.upload_wide_as(Traversal::Wide, bvh, positions, prim_ids)
     }
 
     /// As `upload_wide`, the 8-wide layout: needed after every build before
@@ -482,8 +480,25 @@ impl<'d> DeviceTracer<'d> {
         positions: &Buffer<[f32; 4]>,
         prim_ids: &Buffer<u32>,
     ) -> Result<LayoutStats, TraceError> {
-        let leaves = leaf_source(&self.leaf_gather, positions, prim_ids);
-        self.layouts.upload_wide8(self.device, bvh, &leaves)
+        self.upload_wide_as(Traversal::Wide8, bvh, positions, prim_ids)
+    }
+
+    fn upload_wide_as(
+        &mut self,
+        traversal: Traversal,
+        bvh: &Bvh,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+    ) -> Result<LayoutStats, TraceError> {
+        // The tracer's soups are static: the corners are gathered too.
+        let leaves = LeafSource {
+            gather: &self.leaf_gather,
+            positions,
+            prim_ids,
+            with_tris: true,
+        };
+        self.layouts
+            .upload_wide(self.device, bvh, traversal, &leaves)
     }
 
     /// The slots' triangles and the blocks' corners of the wide layout
@@ -492,25 +507,16 @@ impl<'d> DeviceTracer<'d> {
         &self,
         traversal: Traversal,
     ) -> Result<(Vec<u32>, Vec<[f32; 4]>), TraceError> {
-        let tree_blocks = match traversal {
-            Traversal::Wide8 => self.layouts.wide8.host_blocks.len(),
-            Traversal::Wide => self.layouts.wide4.host_blocks.len(),
-            Traversal::Stack | Traversal::Stackless => {
-                return Err(TraceError::Unsupported(format!(
-                    "{traversal:?} has no leaf layout"
-                )))
-            }
-        };
-        let (slots, tris) = self
+        let leaves = self
             .layouts
             .leaf_args(traversal)
-            .ok_or_else(|| TraceError::Malformed("no wide layout uploaded".into()))?;
-        let mut host_slots = vec![0u32; 4 * tree_blocks];
-        let mut host_tris = vec![[0.0f32; 4]; LEAF_BLOCK_FLOAT4S * tree_blocks];
-        self.device.read(slots, &mut host_slots)?;
-        self.device.read(tris, &mut host_tris)?;
+            .ok_or_else(|| not_wide(traversal))?;
+        let mut slots = vec![0u32; 4 * leaves.blocks];
+        let mut tris = vec![[0.0f32; 4]; LEAF_BLOCK_FLOAT4S * leaves.blocks];
+        self.device.read(leaves.slots, &mut slots)?;
+        self.device.read(leaves.tris, &mut tris)?;
         self.device.finish()?;
-        Ok((host_slots, host_tris))
+        Ok((slots, tris))
     }
 
     /// Queues `kind` over the first `n` rays of `rays`, writing `hits`.
@@ -546,14 +552,22 @@ impl<'d> DeviceTracer<'d> {
             TraceKind::ClosestWide | TraceKind::AnyWide => {
                 let nodes =
                     (self.layouts.wide()).ok_or_else(|| missing("4-wide layout", "upload_wide"))?;
-                let (slots, tris) = self.layouts.leaf_args(Traversal::Wide).expect("uploaded");
-                vec![Arg::Buf(nodes), Arg::Buf(slots), Arg::Buf(tris)]
+                let leaves = self.layouts.leaf_args(Traversal::Wide).expect("uploaded");
+                vec![
+                    Arg::Buf(nodes),
+                    Arg::Buf(leaves.slots),
+                    Arg::Buf(leaves.tris),
+                ]
             }
             TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
                 let nodes = (self.layouts.wide8())
                     .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
-                let (slots, tris) = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
-                vec![Arg::Buf(nodes), Arg::Buf(slots), Arg::Buf(tris)]
+                let leaves = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
+                vec![
+                    Arg::Buf(nodes),
+                    Arg::Buf(leaves.slots),
+                    Arg::Buf(leaves.tris),
+                ]
             }
             TraceKind::ClosestStackless => {
                 let (snodes, entries) = self

@@ -229,8 +229,8 @@ pub fn wide_layout_into<N: WideLayout>(
     Ok(())
 }
 
-/// The layout's triangles in leaf order (`leaf_gather`'s Rust twin): per
-/// slot its triangle, and with `positions` (the soup, three corners per
+/// The layout's triangles in leaf order (`leaf_gather`'s Rust twin), for
+/// the blocks `wide_layout_into` made: per slot its triangle, and with `positions` (the soup, three corners per
 /// triangle) per block the nine lane vectors of its coordinates, vertex by
 /// vertex and axis by axis.
 pub fn leaf_arrays(
@@ -242,10 +242,8 @@ pub fn leaf_arrays(
     let mut tris =
         Vec::with_capacity(LEAF_BLOCK_FLOAT4S * blocks.len() * positions.is_some() as usize);
     for b in blocks {
-        let q: [u32; 4] = std::array::from_fn(|i| {
-            let slot = b.first + (i as u32).min(b.count.max(1) - 1);
-            prim_ids[(slot as usize).min(prim_ids.len() - 1)]
-        });
+        let q: [u32; 4] =
+            std::array::from_fn(|i| prim_ids[(b.first + (i as u32).min(b.count - 1)) as usize]);
         slots.extend(q);
         if let Some(p) = positions {
             for v in 0..3 {

@@ -366,7 +366,6 @@ impl PathTracer<'_> {
         let local = self.schedule.local_size.max(1);
         let adaptive = self.settings.adaptive.is_some();
         let leaves = self.layouts.leaf_args(self.settings.traversal);
-        let (leaf_slots, leaf_tris) = (leaves.map(|l| l.0), leaves.map(|l| l.1));
         for ty in (0..h).step_by(th as usize) {
             for tx in (0..w).step_by(tw as usize) {
                 let cw = tw.min(w - tx);
@@ -378,9 +377,9 @@ impl PathTracer<'_> {
                     Arg::Buf(self.layouts.buffers().1),
                     Arg::U32(snode_count),
                     // The wide layouts read their triangles in leaf order.
-                    Arg::Buf(leaf_slots.unwrap_or(prim_ids)),
-                    match leaf_tris {
-                        Some(tris) => Arg::Buf(tris),
+                    Arg::Buf(leaves.as_ref().map_or(prim_ids, |l| l.slots)),
+                    match &leaves {
+                        Some(l) => Arg::Buf(l.tris),
                         None => Arg::Buf(&self.dummy_f32),
                     },
                     Arg::Buf(positions),

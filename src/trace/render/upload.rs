@@ -181,12 +181,9 @@ impl PathTracer<'_> {
                 self.layouts.upload_binary(d, bvh)?;
                 0
             }
-            Traversal::Wide => {
-                self.layouts.upload_wide(d, bvh, &leaves)?;
-                0
-            }
-            Traversal::Wide8 => {
-                self.layouts.upload_wide8(d, bvh, &leaves)?;
+            Traversal::Wide | Traversal::Wide8 => {
+                self.layouts
+                    .upload_wide(d, bvh, self.settings.traversal, &leaves)?;
                 0
             }
             Traversal::Stackless => self.layouts.upload_stackless(d, bvh)?.entries as u32,
