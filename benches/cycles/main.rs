@@ -668,7 +668,7 @@ impl Bench<'_> {
         let _ = writeln!(
             md,
             "{}x{}, max depth {} (Cycles: {} bounces; the interior {INTERIOR_DEPTH}), references {} spp (seed {REF_SEED}; \
-             soupray's with the `{}` sampler, Cycles' with guiding off), renders seeds {TEST_SEED} to {} (one per run; rel. MSE is their mean, times the median), \
+             soupray's with the `{}` sampler, Cycles' with guiding off), renders seeds {TEST_SEED} to {} (one per run; rel. MSE is their mean, beside the smallest and largest of them; times the median), \
              Cycles on {} threads.\n",
             o.width,
             o.height,
@@ -720,6 +720,10 @@ fn combine_runs(rows: Vec<Row>) -> Vec<Row> {
             };
             Row {
                 rel_mse: g.iter().map(|r| r.rel_mse).sum::<f64>() / g.len() as f64,
+                run_rel_mse: g
+                    .iter()
+                    .flat_map(|r| r.run_rel_mse.iter().copied())
+                    .collect(),
                 times: Times {
                     time: median(|r| r.times.time),
                     total: median(|r| r.times.total),
@@ -840,16 +844,16 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         .collect();
     let _ = writeln!(
         md,
-        "| mesh | lighting | spp | renderer | rel. MSE | time (s) | MSE x time |{ratio_heads} \
+        "| mesh | lighting | spp | renderer | rel. MSE | runs' rel. MSE | time (s) | MSE x time |{ratio_heads} \
          total (s) | sampling (s) | ratio, sampling only |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---:|---|---:|---:|---:|{}---:|---:|---:|",
+        "|---|---|---:|---|---:|---:|---:|---:|{}---:|---:|---:|",
         "---:|".repeat(anchors.len())
     );
     let mut csv = String::from(
-        "mesh,lighting,spp,renderer,variant,rel_mse,time_s,total_s,sampling_s,mse_x_time",
+        "mesh,lighting,spp,renderer,variant,rel_mse,rel_mse_min,rel_mse_max,time_s,total_s,sampling_s,mse_x_time",
     );
     for a in &anchors {
         let _ = write!(csv, ",ratio_to_cycles_{a}");
@@ -867,13 +871,19 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         } else {
             format!("soupray {}", r.variant)
         };
+        let (lo, hi) = r.run_range();
+        let runs = if r.run_rel_mse.len() > 1 {
+            format!("{}-{}", fmt_sci(lo), fmt_sci(hi))
+        } else {
+            String::new()
+        };
         let ratio_cells: String = ratios
             .iter()
             .map(|&v| format!(" {} |", cell(v, 2)))
             .collect();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {name} | {} | {:.3} | {} |{ratio_cells} {} | {} | {} |",
+            "| {} | {} | {} | {name} | {} | {runs} | {:.3} | {} |{ratio_cells} {} | {} | {} |",
             r.mesh,
             r.lighting,
             r.spp,
@@ -890,13 +900,15 @@ fn result_table(rows: &[Row], md: &mut String) -> String {
         );
         let _ = write!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             r.mesh,
             r.lighting,
             r.spp,
             r.renderer,
             r.variant,
             r.rel_mse,
+            lo,
+            hi,
             r.times.time,
             r.times.total,
             r.times.sampling,

@@ -13,7 +13,12 @@ pub struct Row {
     /// For Cycles: its Blender version (`5.0`), the anchor its rows
     /// stand for; the better of a version's settings is the one compared.
     pub anchor: String,
+    /// The mean of `run_rel_mse`.
     pub rel_mse: f64,
+    /// Each run's error (one seed each): where a few bright paths carry most
+    /// of an image's error, one seed's draw is far from the mean, and their
+    /// spread says how far.
+    pub run_rel_mse: Vec<f64>,
     pub times: Times,
 }
 
@@ -34,8 +39,24 @@ impl Row {
             variant: variant.to_owned(),
             anchor: anchor.to_owned(),
             rel_mse,
+            run_rel_mse: vec![rel_mse],
             times: r.times,
         }
+    }
+
+    /// The smallest and largest of the runs' errors.
+    pub fn run_range(&self) -> (f64, f64) {
+        let min = self
+            .run_rel_mse
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let max = self
+            .run_rel_mse
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        (min, max)
     }
 
     pub fn product(&self) -> f64 {
