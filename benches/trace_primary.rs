@@ -169,11 +169,13 @@ fn tracers(set: RaySet) -> Vec<Tracer> {
     let mut t = match set {
         RaySet::Shadow => vec![
             Tracer::Device(TraceKind::AnyWide8, "soupray 8-wide any-hit (the default)"),
+            Tracer::Device(TraceKind::AnyWide8Q, "soupray 8-wide quantized any-hit"),
             Tracer::Device(TraceKind::AnyWide, "soupray 4-wide any-hit"),
             Tracer::Device(TraceKind::Any, "soupray binary any-hit"),
         ],
         _ => vec![
             Tracer::Device(TraceKind::ClosestWide8, "soupray 8-wide (the default)"),
+            Tracer::Device(TraceKind::ClosestWide8Q, "soupray 8-wide quantized"),
             Tracer::Device(TraceKind::ClosestWide, "soupray 4-wide"),
             Tracer::Device(TraceKind::Closest, "soupray binary, stack"),
         ],
@@ -352,6 +354,9 @@ fn bench_mesh(
         n,
         s.runs,
     ));
+    tracer
+        .upload_wide8_quantized(&bvh, &positions, prim_ids)
+        .unwrap();
     // The device's own camera rays are the host's, bit for bit.
     let generated = device.buffer::<Ray>(primary.len()).unwrap();
     tracer.generate_primary(&camera, &generated).unwrap();

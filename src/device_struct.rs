@@ -32,7 +32,7 @@ macro_rules! scalar_c_type {
         })*
     };
 }
-scalar_c_type!(f32 => "float", u32 => "uint", i32 => "int", u16 => "ushort", u64 => "ulong");
+scalar_c_type!(f32 => "float", u32 => "uint", i32 => "int", u16 => "ushort", u8 => "uchar", u64 => "ulong");
 
 impl<T: CType, const N: usize> CType for [T; N] {
     fn c_base() -> &'static str {

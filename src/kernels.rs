@@ -88,6 +88,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
                 escape::StacklessNode::layout(),
                 wide::WideNode::layout(),
                 wide::Wide8Node::layout(),
+                trace::quantized::Wide8QNode::layout(),
                 wide::LeafBlock::layout(),
             ],
             code: String::new(),

@@ -16,7 +16,7 @@ use soupray::trace::settings::Traversal;
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
 
-/// All ten tracings agree, and agree with brute force on a sample.
+/// All twelve tracings agree, and agree with brute force on a sample.
 fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
     let d = device();
     let t = trace_everything(&d, soup, rays);
@@ -90,6 +90,17 @@ fn check_soup(soup: &Soup, rays: &[Ray], what: &str) -> usize {
         &t.dev_any_wide8,
         &t.cpu_closest,
         &format!("{what}: device 8-wide any-hit"),
+    );
+    assert_same(
+        &t.dev_wide8q,
+        &t.cpu_closest,
+        rays,
+        &format!("{what}: device quantized 8-wide vs CPU stack"),
+    );
+    assert_any_agrees(
+        &t.dev_any_wide8q,
+        &t.cpu_closest,
+        &format!("{what}: device quantized 8-wide any-hit"),
     );
     // Culling never loses the closest hit: brute force over every triangle
     // (the first of all hits sorted by t, then index) on a sample.

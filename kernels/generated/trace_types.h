@@ -75,6 +75,22 @@ typedef struct {
     uint count[8];
 } Wide8Node;
 
+// One quantized 8-wide node (`Wide8QNode`): slot k's box on axis a is
+// [origin[a] + qlo[a][k] * scale[a], origin[a] + qhi[a][k] * scale[a]];
+// `child` and `count` as in `Wide8Node` (an absent slot has child
+// `EMPTY_CHILD`, which the traversal masks: its bytes decode to a box).
+// 128 bytes, two cache lines.
+// `Wide8QNode` in src/trace/quantized.rs (128 bytes).
+typedef struct {
+    float origin[3];
+    float scale[3];
+    uchar qlo[3][8];
+    uchar qhi[3][8];
+    uchar count[8];
+    uint child[8];
+    uint pad[4];
+} Wide8QNode;
+
 // Four slots of a wide layout's leaves (`LeafBlock`): they hold entries
 // [first, first + count) of the tree's primitive-index array, count 1..=4;
 // the slots past `count` repeat the last of them.

@@ -36,6 +36,8 @@ TRACE_WIDE_KERNEL(trace_closest_wide, WideNode, trace_closest_wide_bvh)
 TRACE_WIDE_KERNEL(trace_any_wide, WideNode, trace_any_wide_bvh)
 TRACE_WIDE_KERNEL(trace_closest_wide8, Wide8Node, trace_closest_wide8_bvh)
 TRACE_WIDE_KERNEL(trace_any_wide8, Wide8Node, trace_any_wide8_bvh)
+TRACE_WIDE_KERNEL(trace_closest_wide8q, Wide8QNode, trace_closest_wide8q_bvh)
+TRACE_WIDE_KERNEL(trace_any_wide8q, Wide8QNode, trace_any_wide8q_bvh)
 
 __kernel void trace_closest_stackless(__global const StacklessNode* snodes, uint entries,
                                       __global const uint* prim_ids,

@@ -586,6 +586,31 @@ inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* pri
 BOX_ENTRY_WIDE(4, WideNode)
 BOX_ENTRY_WIDE(8, Wide8Node)
 
+// box_entry_wide8 for a quantized node (`Wide8QNode`): each plane decoded
+// as origin + q * scale (the product exact, the sum rounded once, as the
+// host's `quantized::decode`, which chose the bytes so that the decoded box
+// contains the slot's), then the same test. The planes are bytes, `qlo` then
+// `qhi`, axis by axis, so the sign-picked offsets are those of the float
+// layout. Absent slots (child EMPTY_CHILD) decode to a box: they are masked.
+inline float8 box_entry_wide8q(const RayPre* r, const __global Wide8QNode* n, float best) {
+    const __global uchar* q = (const __global uchar*)n->qlo;
+    int nx = r->nx * 24, ny = r->ny * 24 + 8, nz = r->nz * 24 + 16;
+    int fx = 24 - r->nx * 24, fy = 32 - r->ny * 24, fz = 40 - r->nz * 24;
+    float8 ox = (float8)(n->origin[0]), oy = (float8)(n->origin[1]), oz = (float8)(n->origin[2]);
+    float8 sx = (float8)(n->scale[0]), sy = (float8)(n->scale[1]), sz = (float8)(n->scale[2]);
+    float8 tnx = ((ox + convert_float8(vload8(0, q + nx)) * sx) - r->ox) * r->ix;
+    float8 tny = ((oy + convert_float8(vload8(0, q + ny)) * sy) - r->oy) * r->iy;
+    float8 tnz = ((oz + convert_float8(vload8(0, q + nz)) * sz) - r->oz) * r->iz;
+    float8 tfx = ((ox + convert_float8(vload8(0, q + fx)) * sx) - r->ox) * r->ix;
+    float8 tfy = ((oy + convert_float8(vload8(0, q + fy)) * sy) - r->oy) * r->iy;
+    float8 tfz = ((oz + convert_float8(vload8(0, q + fz)) * sz) - r->oz) * r->iz;
+    float8 tn = fmax(fmax(tnx, tny), fmax(tnz, (float8)(r->tmin)));
+    float8 tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;
+    int8 present = vload8(0, n->child) != (uint8)(EMPTY_CHILD);
+    int8 hit = (tn <= tf) & (tn <= (float8)(best * CULL_SCALE)) & present;
+    return select((float8)(INFINITY), tn, hit);
+}
+
 // Front-to-back stack traversal of a W-wide layout (node 0 = root): the
 // node's W boxes are tested, hit leaves intersected at once, and of the hit
 // inner children the nearest is entered and the others pushed, farthest
@@ -597,7 +622,10 @@ BOX_ENTRY_WIDE(8, Wide8Node)
 // measured 1.03-1.3x slower). A node pushes at most W - 1 entries and a path
 // holds at most one node per binary-tree level: the stack holds
 // (W - 1) * STACK_SIZE entries. The nodes are `wnodes`, of type NODE.
-#define TRAVERSE_WIDE_BODY(ANY, W, NODE)                                         \
+#define TRAVERSE_WIDE_BODY(ANY, W, NODE) TRAVERSE_WIDE_BOXES(ANY, W, NODE, box_entry_wide##W)
+
+// TRAVERSE_WIDE_BODY with the box test BOX (a box_entry_wide* function).
+#define TRAVERSE_WIDE_BOXES(ANY, W, NODE, BOX)                                   \
     RAY_START                                                                     \
     STACK_START((W - 1) * STACK_SIZE)                                             \
     for (;;) {                                                                    \
@@ -607,7 +635,7 @@ BOX_ENTRY_WIDE(8, Wide8Node)
         float near_t[W];                                                          \
         uint k = 0;                                                               \
         float entries[W];                                                         \
-        vstore##W(box_entry_wide##W(&r, n, best.t), 0, entries);                  \
+        vstore##W(BOX(&r, n, best.t), 0, entries);                                \
         _Pragma("unroll")                                                         \
         for (uint c = 0; c < W; ++c) {                                            \
             float t = entries[c];                                                 \
@@ -668,6 +696,20 @@ inline Hit trace_closest_wide8_bvh(const __global Wide8Node* wnodes,
 inline Hit trace_any_wide8_bvh(const __global Wide8Node* wnodes, const __global uint* prim_ids,
                                const __global float4* tris, GEOM_DECL(positions), Ray ray) {
     TRAVERSE_WIDE_BODY(1, 8, Wide8Node)
+}
+
+// The closest hit of `ray` through the quantized 8-wide layout.
+inline Hit trace_closest_wide8q_bvh(const __global Wide8QNode* wnodes,
+                                    const __global uint* prim_ids, const __global float4* tris,
+                                    GEOM_DECL(positions), Ray ray) {
+    TRAVERSE_WIDE_BOXES(0, 8, Wide8QNode, box_entry_wide8q)
+}
+
+// Any hit of `ray` through the quantized 8-wide layout.
+inline Hit trace_any_wide8q_bvh(const __global Wide8QNode* wnodes,
+                                const __global uint* prim_ids, const __global float4* tris,
+                                GEOM_DECL(positions), Ray ray) {
+    TRAVERSE_WIDE_BOXES(1, 8, Wide8QNode, box_entry_wide8q)
 }
 
 // The closest hit by stackless traversal of the escape-index layout: entries

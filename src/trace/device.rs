@@ -12,6 +12,7 @@
 //! rays, hits, n)` as often as the bounces need, all on the device.
 
 use super::escape::{stackless_layout_into, StacklessNode};
+use super::quantized::{quantize_into, Wide8QNode};
 use super::settings::Traversal;
 use super::traverse::check_depth;
 use super::wide::{
@@ -43,11 +44,16 @@ pub enum TraceKind {
     ClosestWide8,
     /// Any hit through the 8-wide layout.
     AnyWide8,
+    /// Closest hit through the 8-wide layout with quantized boxes (needs
+    /// `upload_wide8_quantized`).
+    ClosestWide8Q,
+    /// Any hit through the quantized 8-wide layout.
+    AnyWide8Q,
 }
 
 impl TraceKind {
     /// Every kind, in declaration order (`kind as usize` indexes it).
-    const ALL: [TraceKind; 7] = [
+    const ALL: [TraceKind; 9] = [
         TraceKind::Closest,
         TraceKind::Any,
         TraceKind::ClosestStackless,
@@ -55,6 +61,8 @@ impl TraceKind {
         TraceKind::AnyWide,
         TraceKind::ClosestWide8,
         TraceKind::AnyWide8,
+        TraceKind::ClosestWide8Q,
+        TraceKind::AnyWide8Q,
     ];
 
     /// The kernel of `trace.cl` that runs it.
@@ -67,6 +75,8 @@ impl TraceKind {
             TraceKind::AnyWide => "trace_any_wide",
             TraceKind::ClosestWide8 => "trace_closest_wide8",
             TraceKind::AnyWide8 => "trace_any_wide8",
+            TraceKind::ClosestWide8Q => "trace_closest_wide8q",
+            TraceKind::AnyWide8Q => "trace_any_wide8q",
         }
     }
 
@@ -78,6 +88,8 @@ impl TraceKind {
                 | TraceKind::AnyWide
                 | TraceKind::ClosestWide8
                 | TraceKind::AnyWide8
+                | TraceKind::ClosestWide8Q
+                | TraceKind::AnyWide8Q
         )
     }
 
@@ -91,6 +103,8 @@ impl TraceKind {
             TraceKind::AnyWide => "trace/any_wide",
             TraceKind::ClosestWide8 => "trace/closest_wide8",
             TraceKind::AnyWide8 => "trace/any_wide8",
+            TraceKind::ClosestWide8Q => "trace/closest_wide8q",
+            TraceKind::AnyWide8Q => "trace/any_wide8q",
         }
     }
 }
@@ -119,6 +133,11 @@ pub struct TreeLayouts {
     depth: Option<u32>,
     wide4: WideTree<WideNode>,
     wide8: WideTree<Wide8Node>,
+    /// The 8-wide layout quantized (`upload_wide8_quantized`); its leaves
+    /// are the 8-wide layout's.
+    wide8q: GrowBuffer<Wide8QNode>,
+    wide8q_host: Vec<Wide8QNode>,
+    wide8q_count: usize,
     snodes: GrowBuffer<StacklessNode>,
     snode_host: Vec<StacklessNode>,
     snode_count: usize,
@@ -130,6 +149,7 @@ impl TreeLayouts {
         self.nodes.allocations()
             + self.wide4.allocations()
             + self.wide8.allocations()
+            + self.wide8q.allocations()
             + self.snodes.allocations()
     }
 
@@ -180,6 +200,8 @@ impl TreeLayouts {
         device.write(self.nodes.ensure(device, 1)?, &[BvhNode::empty()])?;
         self.wide4.upload_empty(device)?;
         self.wide8.upload_empty(device)?;
+        device.write(self.wide8q.ensure(device, 1)?, &[Wide8QNode::empty()])?;
+        self.wide8q_count = 1;
         self.snodes.ensure(device, 1)?;
         self.depth = Some(0);
         self.snode_count = 0;
@@ -235,6 +257,24 @@ impl TreeLayouts {
     /// The 4-wide nodes, once uploaded.
     pub fn wide(&self) -> Option<&Buffer<WideNode>> {
         self.wide4.uploaded()
+    }
+
+    /// Quantizes the uploaded 8-wide layout's host copy and uploads it.
+    pub fn upload_wide8_quantized(&mut self, device: &Device) -> Result<LayoutStats, TraceError> {
+        self.wide8q_count = 0;
+        if self.wide8.count == 0 {
+            return Err(TraceError::Malformed("no 8-wide layout to quantize".into()));
+        }
+        let start = Instant::now();
+        quantize_into(&self.wide8.host, &mut self.wide8q_host)?;
+        let stats = upload_layout(device, &mut self.wide8q, &self.wide8q_host, start)?;
+        self.wide8q_count = stats.entries;
+        Ok(stats)
+    }
+
+    /// The quantized 8-wide nodes, once uploaded.
+    pub fn wide8_quantized(&self) -> Option<&Buffer<Wide8QNode>> {
+        self.wide8q.buffer().filter(|_| self.wide8q_count > 0)
     }
 
     /// The 8-wide nodes, once uploaded.
@@ -483,6 +523,23 @@ impl<'d> DeviceTracer<'d> {
         self.upload_wide_as(Traversal::Wide8, bvh, positions, prim_ids)
     }
 
+    /// As `upload_wide8`, then the same layout with quantized boxes: needed
+    /// after every build before `ClosestWide8Q`/`AnyWide8Q`.
+    pub fn upload_wide8_quantized(
+        &mut self,
+        bvh: &Bvh,
+        positions: &Buffer<[f32; 4]>,
+        prim_ids: &Buffer<u32>,
+    ) -> Result<LayoutStats, TraceError> {
+        let wide = self.upload_wide_as(Traversal::Wide8, bvh, positions, prim_ids)?;
+        let q = self.layouts.upload_wide8_quantized(self.device)?;
+        Ok(LayoutStats {
+            layout_ms: wide.layout_ms + q.layout_ms,
+            upload_ms: wide.upload_ms + q.upload_ms,
+            entries: q.entries,
+        })
+    }
+
     fn upload_wide_as(
         &mut self,
         traversal: Traversal,
@@ -562,6 +619,16 @@ impl<'d> DeviceTracer<'d> {
             TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
                 let nodes = (self.layouts.wide8())
                     .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
+                let leaves = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
+                vec![
+                    Arg::Buf(nodes),
+                    Arg::Buf(leaves.slots),
+                    Arg::Buf(leaves.tris),
+                ]
+            }
+            TraceKind::ClosestWide8Q | TraceKind::AnyWide8Q => {
+                let nodes = (self.layouts.wide8_quantized())
+                    .ok_or_else(|| missing("quantized 8-wide layout", "upload_wide8_quantized"))?;
                 let leaves = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
                 vec![
                     Arg::Buf(nodes),

@@ -32,6 +32,7 @@ pub mod lights;
 pub mod material;
 pub mod media;
 pub mod motion;
+pub mod quantized;
 pub mod render;
 pub mod sampling;
 pub mod settings;

@@ -61,6 +61,10 @@ pub struct Traced {
     pub dev_any_wide: Vec<Hit>,
     pub dev_wide8: Vec<Hit>,
     pub dev_any_wide8: Vec<Hit>,
+    /// The quantized 8-wide layout's: it visits more boxes than the 8-wide
+    /// layout, so its any-hit may find another occluder.
+    pub dev_wide8q: Vec<Hit>,
+    pub dev_any_wide8q: Vec<Hit>,
     pub bvh: Bvh,
 }
 
@@ -77,7 +81,9 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     tracer.upload_stackless(&bvh).unwrap();
     let prim_ids = builder.device_prim_ids().unwrap();
     tracer.upload_wide(&bvh, &positions, prim_ids).unwrap();
-    tracer.upload_wide8(&bvh, &positions, prim_ids).unwrap();
+    tracer
+        .upload_wide8_quantized(&bvh, &positions, prim_ids)
+        .unwrap();
     let mut dev = |k| tracer.trace_rays(k, &positions, prim_ids, rays).unwrap();
     let dev_closest = dev(TraceKind::Closest);
     let dev_stackless = dev(TraceKind::ClosestStackless);
@@ -86,6 +92,8 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
     let dev_any_wide = dev(TraceKind::AnyWide);
     let dev_wide8 = dev(TraceKind::ClosestWide8);
     let dev_any_wide8 = dev(TraceKind::AnyWide8);
+    let dev_wide8q = dev(TraceKind::ClosestWide8Q);
+    let dev_any_wide8q = dev(TraceKind::AnyWide8Q);
     let snodes = trace::stackless_layout(&bvh).unwrap();
     let (wnodes, blocks) = trace::wide_layout::<trace::WideNode>(&bvh).unwrap();
     let (w8nodes, blocks8) = trace::wide_layout::<trace::Wide8Node>(&bvh).unwrap();
@@ -125,6 +133,8 @@ pub fn trace_everything(d: &Device, soup: &Soup, rays: &[Ray]) -> Traced {
         dev_any_wide,
         dev_wide8,
         dev_any_wide8,
+        dev_wide8q,
+        dev_any_wide8q,
         bvh,
     }
 }
