@@ -606,30 +606,34 @@ impl<'d> DeviceTracer<'d> {
                     nodes.ok_or_else(|| missing("tree", "upload_bvh"))?,
                 )]
             }
-            TraceKind::ClosestWide | TraceKind::AnyWide => {
-                let nodes =
-                    (self.layouts.wide()).ok_or_else(|| missing("4-wide layout", "upload_wide"))?;
-                let leaves = self.layouts.leaf_args(Traversal::Wide).expect("uploaded");
-                vec![
-                    Arg::Buf(nodes),
-                    Arg::Buf(leaves.slots),
-                    Arg::Buf(leaves.tris),
-                ]
-            }
-            TraceKind::ClosestWide8 | TraceKind::AnyWide8 => {
-                let nodes = (self.layouts.wide8())
-                    .ok_or_else(|| missing("8-wide layout", "upload_wide8"))?;
-                let leaves = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
-                vec![
-                    Arg::Buf(nodes),
-                    Arg::Buf(leaves.slots),
-                    Arg::Buf(leaves.tris),
-                ]
-            }
-            TraceKind::ClosestWide8Q | TraceKind::AnyWide8Q => {
-                let nodes = (self.layouts.wide8_quantized())
-                    .ok_or_else(|| missing("quantized 8-wide layout", "upload_wide8_quantized"))?;
-                let leaves = self.layouts.leaf_args(Traversal::Wide8).expect("uploaded");
+            TraceKind::ClosestWide
+            | TraceKind::AnyWide
+            | TraceKind::ClosestWide8
+            | TraceKind::AnyWide8
+            | TraceKind::ClosestWide8Q
+            | TraceKind::AnyWide8Q => {
+                // The nodes, then the leaves they share with their layout.
+                let (nodes, traversal): (Option<&dyn BufferArg>, _) = match kind {
+                    TraceKind::ClosestWide | TraceKind::AnyWide => (
+                        self.layouts.wide().map(|b| b as &dyn BufferArg),
+                        Traversal::Wide,
+                    ),
+                    TraceKind::ClosestWide8 | TraceKind::AnyWide8 => (
+                        self.layouts.wide8().map(|b| b as &dyn BufferArg),
+                        Traversal::Wide8,
+                    ),
+                    _ => (
+                        self.layouts.wide8_quantized().map(|b| b as &dyn BufferArg),
+                        Traversal::Wide8,
+                    ),
+                };
+                let nodes = nodes.ok_or_else(|| {
+                    missing(
+                        &format!("{kind:?} layout"),
+                        "upload_wide, upload_wide8 or upload_wide8_quantized",
+                    )
+                })?;
+                let leaves = self.layouts.leaf_args(traversal).expect("uploaded");
                 vec![
                     Arg::Buf(nodes),
                     Arg::Buf(leaves.slots),
