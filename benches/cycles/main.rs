@@ -718,12 +718,13 @@ fn combine_runs(rows: Vec<Row>) -> Vec<Row> {
                 v.sort_by(f64::total_cmp);
                 v[v.len() / 2]
             };
+            let run_rel_mse: Vec<f64> = g
+                .iter()
+                .flat_map(|r| r.run_rel_mse.iter().copied())
+                .collect();
             Row {
-                rel_mse: g.iter().map(|r| r.rel_mse).sum::<f64>() / g.len() as f64,
-                run_rel_mse: g
-                    .iter()
-                    .flat_map(|r| r.run_rel_mse.iter().copied())
-                    .collect(),
+                rel_mse: run_rel_mse.iter().sum::<f64>() / run_rel_mse.len() as f64,
+                run_rel_mse,
                 times: Times {
                     time: median(|r| r.times.time),
                     total: median(|r| r.times.total),

@@ -188,7 +188,11 @@ impl TreeLayouts {
         leaves: &LeafSource,
     ) -> Result<LayoutStats, TraceError> {
         match traversal {
-            Traversal::Wide8 => self.wide8.upload(device, bvh, leaves),
+            Traversal::Wide8 => {
+                // A quantized layout of the tree before is stale now.
+                self.wide8q_count = 0;
+                self.wide8.upload(device, bvh, leaves)
+            }
             Traversal::Wide => self.wide4.upload(device, bvh, leaves),
             Traversal::Stack | Traversal::Stackless => Err(not_wide(traversal)),
         }

@@ -71,31 +71,30 @@ pub fn quantize_into(nodes: &[Wide8Node], out: &mut Vec<Wide8QNode>) -> Result<(
     out.clear();
     out.reserve(nodes.len());
     for n in nodes {
-        let mut q = Wide8QNode::zeroed();
-        let present: Vec<usize> = (0..8).filter(|&k| n.slot(k).0 != Child::Empty).collect();
-        for k in 0..8 {
-            let (child, count) = n.child_count(k);
-            q.child[k] = child;
+        // An absent slot is stored as (EMPTY_CHILD, 0) in both layouts.
+        let mut q = Wide8QNode {
+            child: n.child,
+            ..Wide8QNode::zeroed()
+        };
+        for (k, &count) in n.count.iter().enumerate() {
             q.count[k] = u8::try_from(count).map_err(|_| {
                 TraceError::Unsupported(format!("a leaf of {count} triangles (at most 255)"))
             })?;
-            if n.slot(k).0 == Child::Empty {
-                q.child[k] = EMPTY_CHILD;
-                q.count[k] = 0;
-            }
+        }
+        let present = |k: &usize| n.slot(*k).0 != Child::Empty;
+        if !(0..8).any(|k| present(&k)) {
+            out.push(q); // an empty root: every slot masked
+            continue;
         }
         for a in 0..3 {
-            let lo = present
-                .iter()
-                .map(|&k| n.lo[a][k])
+            let lo = (0..8)
+                .filter(present)
+                .map(|k| n.lo[a][k])
                 .fold(f32::INFINITY, f32::min);
-            let hi = present
-                .iter()
-                .map(|&k| n.hi[a][k])
+            let hi = (0..8)
+                .filter(present)
+                .map(|k| n.hi[a][k])
                 .fold(f32::NEG_INFINITY, f32::max);
-            if present.is_empty() {
-                continue; // an empty root: every slot masked
-            }
             if !(lo.is_finite() && hi.is_finite()) {
                 return Err(TraceError::Unsupported(format!(
                     "a box of infinite or NaN extent on axis {a} ({lo}..{hi})"
@@ -115,7 +114,7 @@ pub fn quantize_into(nodes: &[Wide8Node], out: &mut Vec<Wide8QNode>) -> Result<(
             }
             q.origin[a] = origin;
             q.scale[a] = scale;
-            for &k in &present {
+            for k in (0..8).filter(present) {
                 let (l, h) = (n.lo[a][k], n.hi[a][k]);
                 let mut ql = (((f64::from(l) - f64::from(origin)) / f64::from(scale)).floor())
                     .clamp(0.0, 255.0) as u8;
