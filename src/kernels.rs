@@ -53,6 +53,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
     kernel!("trace" / "path_sample.h"),
     kernel!("trace" / "pathtrace.cl"),
     kernel!("trace" / "pt_probe.cl"),
+    kernel!("trace" / "light_tree.cl"),
     kernel!("trace" / "motion.h"),
     kernel!("trace" / "motion.cl"),
 ];

@@ -202,7 +202,7 @@ fn variants() -> Vec<Variant> {
             .collect(),
         codegen: true,
     });
-    for entry in ["texture_probe.cl", STRUCT_PROBE] {
+    for entry in ["texture_probe.cl", "light_tree.cl", STRUCT_PROBE] {
         v.push(Variant {
             entry,
             defines: Vec::new(),

@@ -302,7 +302,7 @@ fn light_tree_picks_as_the_reference() {
     let tree = light_tree::build(&lights, 200, &emitters);
     let nodes = &tree.nodes;
     assert_eq!(nodes.len(), 2 * 500 - 1, "one leaf per light and emitter");
-    let trails: Vec<u32> = tree.emitter_trails.iter().map(|t| t.unwrap()).collect();
+    let trails = tree.emitter_trails.clone();
     let n = 4000;
     let mut input = Vec::new();
     for i in 0..n {
@@ -366,15 +366,169 @@ fn light_tree_picks_as_the_reference() {
                 emitters_picked += (l & light_tree::LIGHT_NODE_EMITTER != 0) as usize;
             }
             Some(_) => {}
-            None => assert_eq!(leaf, -1, "{what}"),
+            None => {
+                assert_eq!(leaf, -1, "{what}");
+                same += 1;
+            }
         }
     }
-    // Where u falls within rounding of a split, the two may part ways.
+    // Where u falls within rounding of a split, the two may part ways;
+    // where no light reaches, both say so.
     assert!(same >= n * 99 / 100, "{same} of {n} picks agree");
     assert!(
         emitters_picked > n / 10,
         "{emitters_picked} emitters picked"
     );
+}
+
+/// The light tree built on the device (`light_tree::device`) is the
+/// reference's (`light_tree::build`): the same shape, leaves and trails, and
+/// bounds within the device's acos and cos; with motion steps, a
+/// directional light and a degenerate emitter (leaves that send nothing),
+/// and with the emitters left out.
+#[test]
+fn light_tree_builds_on_the_device_as_the_reference() {
+    use soupray::device::GrowBuffer;
+    use soupray::trace::light_tree::device::{LightTreeBuilder, LightTreeInputs};
+    use soupray::trace::material::DeviceMaterial;
+    let d = common::device();
+    let mut builder = LightTreeBuilder::new(&d).unwrap();
+    let mut rng = Rng::new(21);
+    for (lights_n, emitters_n, steps) in [(200, 300, 1), (40, 700, 3), (0, 1, 1), (9, 0, 2)] {
+        let mut lights = random_lights(&mut rng, lights_n, steps);
+        if lights_n > 5 {
+            for s in 0..steps {
+                lights[s * lights_n + 5].kind = soupray::trace::lights::LIGHT_DIRECTIONAL;
+            }
+        }
+        let mut emitters = random_emitters(&mut rng, emitters_n, steps);
+        // Triangles of the soup: the emitters among as many that are not.
+        let triangles = 2 * emitters_n + 1;
+        let prims: Vec<u32> = (0..emitters_n as u32).map(|k| 2 * k + 1).collect();
+        let mut power = vec![0.0f32; triangles];
+        let mut material_ids = vec![1u32; triangles];
+        let mut positions = vec![[0.0f32; 4]; 3 * triangles * steps];
+        if emitters_n > 3 {
+            // Degenerate at the last step only.
+            let c = &mut emitters[3].corners[steps - 1];
+            c[2] = c[1];
+        }
+        for (k, t) in emitters.iter_mut().enumerate() {
+            let prim = prims[k] as usize;
+            power[prim] = t.power;
+            t.power *= std::f32::consts::PI;
+            material_ids[prim] = if t.two_sided { 0 } else { 1 };
+            for (s, c) in t.corners.iter().enumerate() {
+                for (j, v) in c.iter().enumerate() {
+                    positions[3 * (s * triangles + prim) + j] = [v.x, v.y, v.z, 0.0];
+                }
+            }
+        }
+        let mut materials = [<DeviceMaterial as bytemuck::Zeroable>::zeroed(); 2];
+        materials[0].flags = soupray::trace::material::MAT_DOUBLE_SIDED;
+        // A buffer is never empty: a zeroed record where there is nothing.
+        let mut light_records = lights.clone();
+        light_records.push(<DeviceLight as bytemuck::Zeroable>::zeroed());
+        let light_buf = upload(&d, &light_records);
+        let inputs = LightTreeInputs {
+            positions: &upload(&d, &positions),
+            triangles: triangles as u32,
+            steps: steps as u32,
+            material_ids: &upload(&d, &material_ids),
+            materials: &upload(&d, &materials),
+            material_count: 2,
+            prims: &upload(&d, &[prims.as_slice(), &[0]].concat()),
+            emitters: emitters_n as u32,
+            power: &upload(&d, &power),
+            lights: &light_buf,
+            light_count: lights_n as u32,
+            light_steps: steps as u32,
+        };
+        let boxes = builder.make_leaves(&d, &inputs).unwrap();
+        for with_emitters in [true, false] {
+            let what = format!("{lights_n} lights, {emitters_n} emitters, {steps} steps, emitters in: {with_emitters}");
+            let want = light_tree::build(
+                &lights,
+                lights_n,
+                if with_emitters { &emitters } else { &[] },
+            );
+            let mut nodes = GrowBuffer::new();
+            let trails = upload(&d, &vec![u32::MAX; triangles]);
+            let built = builder
+                .build(&d, with_emitters, inputs.prims, &mut nodes, &trails)
+                .unwrap();
+            d.finish().unwrap();
+            assert_eq!(built.nodes as usize, want.nodes.len(), "{what}");
+            if want.nodes.is_empty() {
+                continue;
+            }
+            assert_eq!(
+                built.holds_emitters,
+                with_emitters && emitters_n > 0,
+                "{what}"
+            );
+            let mut got = vec![light_tree::DeviceLightNode::default(); want.nodes.len()];
+            d.read(nodes.get(), &mut got).unwrap();
+            close(built.root_phi, want.nodes[0].phi, 1e-5, &what);
+            for (i, (g, w)) in got.iter().zip(&want.nodes).enumerate() {
+                let at = format!("{what}, node {i}");
+                assert_eq!((g.child, g.two_sided), (w.child, w.two_sided), "{at}");
+                assert_eq!((g.lo, g.hi), (w.lo, w.hi), "{at}");
+                close(g.phi, w.phi, 1e-5, &at);
+                // A cone within about 10 degrees of every direction may
+                // round to the whole sphere on one side and not the other
+                // (θo ≥ π in the union), and its axis then means little.
+                if g.cos_theta_o > -0.985 && w.cos_theta_o > -0.985 {
+                    for k in 0..3 {
+                        assert!((g.w[k] - w.w[k]).abs() < 2e-3, "{at}: {g:?} vs {w:?}");
+                    }
+                    let cos_o = (g.cos_theta_o - w.cos_theta_o).abs();
+                    assert!(cos_o < 2e-3, "{at}: {g:?} vs {w:?}");
+                } else {
+                    assert!(
+                        g.cos_theta_o.max(w.cos_theta_o) < -0.95,
+                        "{at}: {g:?} vs {w:?}"
+                    );
+                }
+                assert!(
+                    (g.cos_theta_e - w.cos_theta_e).abs() < 2e-3,
+                    "{at}: {g:?} vs {w:?}"
+                );
+            }
+            if with_emitters {
+                let mut got_trails = vec![0u32; triangles];
+                d.read(&trails, &mut got_trails).unwrap();
+                for (k, &prim) in prims.iter().enumerate() {
+                    assert_eq!(
+                        got_trails[prim as usize], want.emitter_trails[k],
+                        "{what}, emitter {k}"
+                    );
+                }
+            }
+            // Leaves that send nothing are in the tree, and never chosen.
+            let leaves = || {
+                want.nodes
+                    .iter()
+                    .filter(|n| n.child & light_tree::LIGHT_NODE_LEAF != 0)
+            };
+            let nothing = leaves().filter(|n| n.phi == 0.0).count();
+            let expected = (lights_n > 5) as usize + (with_emitters && emitters_n > 3) as usize;
+            assert_eq!(nothing, expected, "{what}");
+        }
+        // The emitters' box, the degenerate one left out.
+        let corners = emitters
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != 3)
+            .flat_map(|(_, t)| t.corners.iter().flatten());
+        let want = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+        assert_eq!(
+            boxes.emitters, want,
+            "{lights_n} lights, {emitters_n} emitters"
+        );
+    }
 }
 
 /// The tree's probabilities over its lights and emitters sum to at most 1

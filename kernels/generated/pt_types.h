@@ -232,7 +232,7 @@ typedef struct {
 // emitters). `child`: an inner node's first child (the second follows
 // it), or `LIGHT_NODE_LEAF` and a leaf's light (or `LIGHT_NODE_EMITTER`
 // and emitter) index.
-// `DeviceLightNode` in src/trace/light_tree.rs (64 bytes).
+// `DeviceLightNode` in src/trace/light_tree/mod.rs (64 bytes).
 typedef struct {
     float lo[3];
     float phi;

@@ -604,30 +604,6 @@ __kernel void pt_emissive_texture_factor(__global const float* uvs, __global con
 }
 #endif
 
-// The corners of the frame's emitters (`prims`, `count` of them) at motion
-// step `step` of the soup's `triangles` (step 0 without motion), and
-// whether each is double-sided: 10 floats each, from which the host builds
-// the light tree.
-__kernel void pt_gather_emitters(__global const float* positions,
-                                 __global const uint* material_ids,
-                                 __global const PtMaterial* materials, uint material_count,
-                                 __global const uint* prims, uint count, uint step,
-                                 uint triangles, __global float* out) {
-    uint k = get_global_id(0);
-    if (k >= count) return;
-    uint prim = prims[k];
-    const __global float* p =
-        positions + ((size_t)step * (size_t)triangles + (size_t)prim) * 12u;
-    __global float* o = out + (size_t)k * 10u;
-    for (uint c = 0u; c < 3u; ++c) {
-        o[3u * c] = p[4u * c];
-        o[3u * c + 1u] = p[4u * c + 1u];
-        o[3u * c + 2u] = p[4u * c + 2u];
-    }
-    PtMaterial m = materials[min(prim < triangles ? material_ids[prim] : 0u, material_count - 1u)];
-    o[9] = (m.flags & MAT_DOUBLE_SIDED) != 0u ? 1.0f : 0.0f;
-}
-
 // Each word of `current` against `kept`, which then holds it: `same` (1 on
 // entry) becomes 0 at any difference. The host keeps the emissive texture
 // factors from frame to frame while their inputs stay the same bit for bit.

@@ -223,6 +223,10 @@ pub struct RenderLog {
     /// `--no-light-tree`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub emitter_spread: Option<f64>,
+    /// The light tree's build on the device, in milliseconds of wall time
+    /// (part of the trace's): absent without a tree.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_tree_ms: Option<f64>,
 }
 
 /// The camera of the frame, in world space. `projection` is `perspective`

@@ -67,6 +67,7 @@ impl FrameRenderer<'_> {
                 .collect(),
             light_selection: self.tracer.light_selection().to_owned(),
             emitter_spread: self.tracer.emitter_spread().map(f64::from),
+            light_tree_ms: self.tracer.light_tree_ms(),
         };
         log.camera = camera_log(&f.ev.info.camera);
         // The lens the frame was traced through (the focus moves with

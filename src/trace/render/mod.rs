@@ -56,7 +56,8 @@ pub use upload::{frame_consts, DeviceFrame};
 use opencl3::memory::Buffer;
 
 use super::device::TreeLayouts;
-use super::light_tree::{DeviceLightNode, LightTree};
+use super::light_tree::device::{BuiltTree, LightTreeBuilder};
+use super::light_tree::DeviceLightNode;
 use super::lights::{DeviceEnv, DeviceLight};
 use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
 use super::texture::{TextureBinding, TextureSet};
@@ -110,6 +111,15 @@ impl RenderOutput {
 }
 
 /// A frame's soup on the device, whoever made it.
+/// The frame's light tree as the host keeps it: what the device built, and
+/// which punctual lights it holds (the others stay entries of the frame's
+/// selection).
+#[derive(Default)]
+struct FrameLightTree {
+    built: BuiltTree,
+    holds_light: Vec<bool>,
+}
+
 struct SoupBuffers<'a> {
     positions: &'a Buffer<[f32; 4]>,
     normals: Option<&'a Buffer<[f32; 4]>>,
@@ -191,18 +201,21 @@ pub struct PathTracer<'d> {
     /// The frame's tree in the layout of `settings.traversal`.
     layouts: TreeLayouts,
     lights: GrowBuffer<DeviceLight>,
-    /// The frame's light tree (`light_tree::build`; empty without one) and
-    /// its copy on the device.
-    light_tree: LightTree,
+    /// The frame's light tree, built on the device (`light_tree::device`):
+    /// its node count (0 without one), root power and which punctual lights
+    /// it holds.
+    light_tree: FrameLightTree,
+    /// The light tree's kernels, compiled for the first frame that has one.
+    light_tree_builder: Option<LightTreeBuilder>,
+    /// The wall time of the last frame's light tree build (`None`: no tree).
+    light_tree_ms: Option<f64>,
     /// The frame's emitters' extent over the scene's (`emitter_spread`).
     emitter_spread: Option<f32>,
     light_nodes: GrowBuffer<DeviceLightNode>,
-    /// Each triangle's trail in the light tree (`LightTree::emitter_trails`).
+    /// Each emissive triangle's trail in the light tree, by triangle.
     emit_trails: GrowBuffer<u32>,
     /// The frame's lights as uploaded (with motion, at every step).
     host_lights: Vec<DeviceLight>,
-    /// `pt_gather_emitters`' output.
-    emitter_corners: GrowBuffer<f32>,
     power: GrowBuffer<f32>,
     power_host: Vec<f32>,
     /// The textured emitters' factors, kept while their inputs stay.
@@ -290,12 +303,18 @@ impl<'d> PathTracer<'d> {
         self.emitter_spread
     }
 
+    /// The wall time of the last frame's light tree build on the device,
+    /// its leaves to its root (`None` without a tree).
+    pub fn light_tree_ms(&self) -> Option<f64> {
+        self.light_tree_ms
+    }
+
     /// How the last frame's light samples chose among its lights
     /// (`RenderLog::light_selection`).
     pub fn light_selection(&self) -> &'static str {
-        if self.light_tree.holds_emitters() {
+        if self.light_tree.built.holds_emitters {
             "tree"
-        } else if !self.light_tree.nodes.is_empty() {
+        } else if self.light_tree.built.nodes > 0 {
             "tree for point lights"
         } else {
             "power"
@@ -456,12 +475,13 @@ impl<'d> PathTracer<'d> {
             dummy_f4,
             layouts: TreeLayouts::default(),
             lights: GrowBuffer::new(),
-            light_tree: LightTree::default(),
+            light_tree: FrameLightTree::default(),
+            light_tree_builder: None,
+            light_tree_ms: None,
             emitter_spread: None,
             light_nodes: GrowBuffer::new(),
             emit_trails: GrowBuffer::new(),
             host_lights: Vec::new(),
-            emitter_corners: GrowBuffer::new(),
             power: GrowBuffer::new(),
             power_host: Vec::new(),
             texture_factors: emitters::TextureFactors::new(),

@@ -22,7 +22,6 @@ pub(super) struct Kernels {
     /// `pt_emissive_texture_factor`, compiled with textures only.
     pub(super) emissive_texture_factor: Option<Kernel>,
     pub(super) compare_and_keep: Kernel,
-    pub(super) gather_emitters: Kernel,
     /// The wide layouts' leaves (`leaf_gather`, kernels/trace/leaf_gather.h).
     pub(super) leaf_gather: Kernel,
     _program: Program,
@@ -46,7 +45,6 @@ impl Kernels {
                 None
             },
             compare_and_keep: device.kernel(&program, "pt_compare_and_keep")?,
-            gather_emitters: device.kernel(&program, "pt_gather_emitters")?,
             leaf_gather: device.kernel(&program, "leaf_gather")?,
             _program: program,
         })

@@ -7,15 +7,15 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use opencl3::memory::Buffer;
 
-use super::{usage, MotionSteps, PathTracer, SoupBuffers};
-use crate::bvh::{Aabb, Bvh};
-use crate::device::{Arg, Device};
+use super::{usage, FrameLightTree, MotionSteps, PathTracer, SoupBuffers};
+use crate::bvh::Bvh;
+use crate::device::Device;
 use crate::device_struct::{device_consts, device_struct};
 use crate::scene::FrameCamera;
 use crate::scene::FrameLight;
 use crate::trace::camera::{device_camera, with_lens, DeviceCamera};
 use crate::trace::device::LeafSource;
-use crate::trace::light_tree::{self, EmissiveTriangle, LIGHT_NODE_EMITTER, LIGHT_NODE_LEAF};
+use crate::trace::light_tree::{self, device::LightTreeBuilder, device::LightTreeInputs};
 use crate::trace::lights::{
     environment_power, punctual_power, DeviceLight, EmissiveDistribution, LightSelection,
     ENV_CONSTANT, ENV_NONE,
@@ -228,9 +228,9 @@ impl PathTracer<'_> {
 
     /// The light tree over the point and spot lights (when there are more
     /// than are looped over) and the emitters `emit` of `soup` at each of
-    /// its `steps` motion steps, with each emitter's trail, as
-    /// `settings.light_tree` asks (`LightTreeUse`; `bvh` bounds the scene);
-    /// `--no-light-tree` leaves it empty.
+    /// its `steps` motion steps, built on the device with each emitter's
+    /// trail, as `settings.light_tree` asks (`LightTreeUse`; `bvh` bounds
+    /// the scene); `--no-light-tree` leaves it empty.
     pub(super) fn upload_light_tree(
         &mut self,
         soup: &SoupBuffers,
@@ -247,99 +247,62 @@ impl PathTracer<'_> {
         } else {
             0
         };
-        let mut emitters = if on && !emit.is_empty() {
-            self.gather_emitters(soup, emit, steps)?
-        } else {
-            Vec::new()
+        let emitters = if on { emit.prims.len() } else { 0 };
+        self.light_tree = FrameLightTree::default();
+        self.emitter_spread = None;
+        self.light_tree_ms = None;
+        // The render kernel takes both whether or not there is a tree.
+        self.light_nodes.ensure(d, 1)?;
+        self.emit_trails.ensure(d, soup.triangles.max(1))?;
+        if punctual == 0 && emitters == 0 {
+            return Ok(());
+        }
+        let start = std::time::Instant::now();
+        let builder = match &mut self.light_tree_builder {
+            Some(b) => b,
+            None => self.light_tree_builder.insert(LightTreeBuilder::new(d)?),
         };
+        let light_steps = self.host_lights.len().checked_div(light_count).unwrap_or(1);
+        let boxes = builder.make_leaves(
+            d,
+            &LightTreeInputs {
+                positions: soup.positions,
+                triangles: soup.triangles as u32,
+                steps: steps.max(1),
+                material_ids: soup.material_ids,
+                materials: &self.materials,
+                material_count: self.material_count,
+                prims: self.emit_prims.buffer().unwrap_or(&self.dummy_u32),
+                emitters: emitters as u32,
+                power: self.power.buffer().unwrap_or(&self.dummy_f32),
+                lights: self.lights.get(),
+                light_count: punctual as u32,
+                light_steps: light_steps as u32,
+            },
+        )?;
         let scene = 2.0 * scene_radius(bvh);
-        self.emitter_spread = (!emitters.is_empty() && scene > 0.0)
-            .then(|| (emitters_extent(&emitters) / scene).min(1.0));
-        if use_tree == LightTreeUse::Auto
-            && self.emitter_spread.is_some_and(|s| s < EMITTER_SPREAD_MIN)
-        {
-            emitters.clear();
-        }
-        let lights = &self.host_lights[..if punctual > 0 {
-            self.host_lights.len()
-        } else {
-            0
-        }];
-        self.light_tree = light_tree::build(lights, punctual, &emitters);
-        let nodes = self
-            .light_nodes
-            .ensure(d, self.light_tree.nodes.len().max(1))?;
-        if !self.light_tree.nodes.is_empty() {
-            d.write(nodes, &self.light_tree.nodes)?;
-        }
-        let n = soup.triangles.max(1);
-        let trails = self.emit_trails.ensure(d, n)?;
-        if self.light_tree.holds_emitters() {
-            let mut by_prim = vec![0u32; n];
-            let mut pmf = emit.pmf_by_prim.clone();
-            for (&prim, trail) in emit.prims.iter().zip(&self.light_tree.emitter_trails) {
-                match trail {
-                    Some(t) => by_prim[prim as usize] = *t,
-                    // Not in the tree (degenerate at some motion step): the
-                    // tree never chooses it, so MIS must not count on it.
-                    None => pmf[prim as usize] = 0.0,
-                }
-            }
-            d.write(trails, &by_prim)?;
-            if self.light_tree.emitter_trails.iter().any(Option::is_none) {
-                d.write(self.emit_pmf.ensure(d, pmf.len())?, &pmf)?;
-            }
-        }
-        Ok(())
-    }
-
-    /// The emitters' corners at each motion step and their sidedness, read
-    /// back from the device (`pt_gather_emitters`), with their power.
-    fn gather_emitters(
-        &mut self,
-        soup: &SoupBuffers,
-        emit: &EmissiveDistribution,
-        steps: u32,
-    ) -> Result<Vec<EmissiveTriangle>, TraceError> {
-        let d = self.device;
-        let count = emit.prims.len();
-        let out = self.emitter_corners.ensure(d, 10 * count)?;
-        let mut host = vec![0.0f32; 10 * count];
-        let mut emitters: Vec<EmissiveTriangle> = emit
-            .prims
-            .iter()
-            .map(|&prim| EmissiveTriangle {
-                corners: Vec::with_capacity(steps as usize),
-                power: std::f32::consts::PI * self.power_host[prim as usize],
-                two_sided: false,
+        self.emitter_spread =
+            (emitters > 0 && scene > 0.0).then(|| (boxes.emitters_extent() / scene).min(1.0));
+        let with_emitters = emitters > 0
+            && !(use_tree == LightTreeUse::Auto
+                && self.emitter_spread.is_some_and(|s| s < EMITTER_SPREAD_MIN));
+        let built = builder.build(
+            d,
+            with_emitters,
+            self.emit_prims.buffer().unwrap_or(&self.dummy_u32),
+            &mut self.light_nodes,
+            self.emit_trails.get(),
+        )?;
+        let holds_light = (0..light_count)
+            .map(|i| {
+                built.nodes > 0
+                    && punctual > 0
+                    && light_tree::holds_light(&self.host_lights, light_count, i)
             })
             .collect();
-        for step in 0..steps.max(1) {
-            d.launch(
-                "pathtrace/gather_emitters",
-                &self.kernels.gather_emitters,
-                count.div_ceil(64),
-                64,
-                &[
-                    Arg::Buf(soup.positions),
-                    Arg::Buf(soup.material_ids),
-                    Arg::Buf(&self.materials),
-                    Arg::U32(self.material_count),
-                    Arg::Buf(self.emit_prims.get()),
-                    Arg::U32(count as u32),
-                    Arg::U32(step),
-                    Arg::U32(soup.triangles as u32),
-                    Arg::Buf(&*out),
-                ],
-            )?;
-            d.read(out, &mut host)?;
-            for (t, c) in emitters.iter_mut().zip(host.chunks_exact(10)) {
-                let v = |i: usize| Vec3::new(c[3 * i], c[3 * i + 1], c[3 * i + 2]);
-                t.corners.push([v(0), v(1), v(2)]);
-                t.two_sided = c[9] != 0.0;
-            }
-        }
-        Ok(emitters)
+        self.light_tree_ms = (built.nodes > 0).then(|| start.elapsed().as_secs_f64() * 1e3);
+        self.light_tree = FrameLightTree { built, holds_light };
+        Ok(())
     }
 
     /// The environment. The default: the studio sky unless the scene has
@@ -431,14 +394,15 @@ impl PathTracer<'_> {
             )),
             _ => None,
         };
+        let built = self.light_tree.built;
         let mut in_tree = vec![false; f.lights.len()];
-        for n in &self.light_tree.nodes {
-            if n.child & (LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER) == LIGHT_NODE_LEAF {
-                in_tree[(n.child & !LIGHT_NODE_LEAF) as usize] = true;
+        for (i, &held) in self.light_tree.holds_light.iter().enumerate() {
+            if let Some(slot) = in_tree.get_mut(i) {
+                *slot = held;
             }
         }
-        let emit_tree = self.light_tree.holds_emitters();
-        let tree = self.light_tree.nodes.first().map(|root| root.phi as f64);
+        let emit_tree = built.holds_emitters;
+        let tree = (built.nodes > 0).then_some(built.root_phi as f64);
         let selection = LightSelection::new(
             &punctual,
             tree.map(|power| (power, in_tree.as_slice())),
@@ -469,11 +433,7 @@ impl PathTracer<'_> {
                 selection.emit_pmf
             },
             env_select_pmf: selection.env_pmf,
-            light_tree: if selection.tree {
-                self.light_tree.nodes.len() as u32
-            } else {
-                0
-            },
+            light_tree: if selection.tree { built.nodes } else { 0 },
             emit_tree: emit_tree as u32,
             pad: [0; 3],
         };
@@ -512,16 +472,6 @@ impl PathTracer<'_> {
         d.write(self.motion_cameras.ensure(d, cams.len())?, &cams)?;
         Ok(Some(steps))
     }
-}
-
-/// The diagonal of the emitters' bounds over every motion step (0 without
-/// emitters).
-fn emitters_extent(emitters: &[EmissiveTriangle]) -> f32 {
-    let mut bounds = Aabb::EMPTY;
-    for p in emitters.iter().flat_map(|e| e.corners.iter().flatten()) {
-        bounds.grow(p.to_array());
-    }
-    bounds.diagonal()
 }
 
 /// The radius of the scene's bounding sphere: half the diagonal of the

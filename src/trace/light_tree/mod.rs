@@ -1,23 +1,28 @@
 //! The light tree: a bounding-volume hierarchy over the punctual point and
 //! spot lights and the emissive triangles, with the cone of each node's
-//! emission directions (Conty
-//! Estevez & Kulla 2018, "Importance Sampling of Many Lights with Adaptive
-//! Tree Splitting"; the bounds, importance and traversal of pbrt-v4's
-//! `BVHLightSampler`). Next-event estimation walks it from the root,
-//! choosing each child in proportion to its importance at the shading
-//! point, so a point is lit mostly by the lights near it and facing it
-//! instead of by all of them in proportion to their power.
+//! emission directions (Conty Estevez & Kulla 2018, "Importance Sampling
+//! of Many Lights with Adaptive Tree Splitting"; the bounds, importance and
+//! traversal of pbrt-v4's `BVHLightSampler`). Next-event estimation walks
+//! it from the root, choosing each child in proportion to its importance at
+//! the shading point, so a point is lit mostly by the lights near it and
+//! facing it instead of by all of them in proportion to their power.
 //!
-//! Built on the host each frame from the frame's lights and emitters (at
-//! every motion step, so that a moving light stays inside its nodes'
-//! bounds for the whole shutter); `light_tree_pick` and `light_tree_pmf`
-//! in `kernels/trace/lights.h` are the kernel twins of [`pick`] and
+//! Built on the device each frame, beside the scene's tree, from the
+//! frame's lights and emitters at every motion step, so that a moving light
+//! stays inside its nodes' bounds for the whole shutter (`device`, the
+//! kernels of `kernels/trace/light_tree.cl`). Its shape suits a parallel
+//! build: the leaves sorted by the Morton code of their centres, then a
+//! complete binary tree over them in heap order (node i's children are
+//! 2i + 1 and 2i + 2), whose bounds are unions of its children's, one level
+//! at a time from the leaves up. [`build`] is the plain Rust reference of
+//! that build; `light_tree_pick` and `light_tree_pmf` in
+//! `kernels/trace/lights.h` are the kernel twins of [`pick`] and
 //! [`trail_pmf`]. Directional lights and the environment are not in the
 //! tree: they stay entries of the frame's selection distribution
 //! (`LightSelection`). A BSDF-sampled ray that hits an emitter needs the
-//! probability that the tree would have chosen it from the previous
-//! vertex (for MIS): each emitter's path from the root, its trail, gives
-//! it without a search.
+//! probability that the tree would have chosen it from the previous vertex
+//! (for MIS): each emitter's path from the root, its trail, gives it
+//! without a search.
 
 // `!(x > 0.0)` is meant: it is also true for NaN, as in the kernels.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -28,6 +33,8 @@ use glam::Vec3;
 use super::lights::{DeviceLight, LIGHT_DIRECTIONAL, LIGHT_SPOT};
 use super::sampling::luminance;
 use crate::device_struct::{device_consts, device_struct};
+
+pub mod device;
 
 device_consts! {
     fn light_tree_consts;
@@ -78,7 +85,8 @@ struct LightBounds {
 
 /// The cone of directions around `a` of half-angle acos(`cos_a`) and the
 /// one around `b` of acos(`cos_b`), in one cone (pbrt-v4's
-/// `DirectionCone::Union`).
+/// `DirectionCone::Union`). `a` turns towards `b` by Rodrigues' formula,
+/// as `lt_cone_union` in the kernels does.
 fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
     let pi = std::f32::consts::PI;
     let theta_a = cos_a.clamp(-1.0, 1.0).acos();
@@ -91,16 +99,43 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
         return (b, cos_b);
     }
     let theta_o = 0.5 * (theta_a + theta_d + theta_b);
-    let axis = a.cross(b);
-    if theta_o >= pi || axis.length_squared() == 0.0 {
+    if theta_o >= pi {
         return (Vec3::Z, -1.0);
     }
-    let w = glam::Quat::from_axis_angle(axis.normalize(), theta_o - theta_a) * a;
+    // Axes parallel to rounding (the same emitter at two motion steps):
+    // the cone around `a`, or every direction where they are opposite.
+    let axis = a.cross(b);
+    if axis.length_squared() == 0.0 {
+        return if a.dot(b) > 0.0 {
+            (a, theta_o.cos())
+        } else {
+            (Vec3::Z, -1.0)
+        };
+    }
+    let k = axis.normalize();
+    let turn = theta_o - theta_a;
+    let (s, c) = (turn.sin(), turn.cos());
+    let w = a * c + k.cross(a) * s + k * (k.dot(a) * (1.0 - c));
     (w.normalize(), theta_o.cos())
 }
 
 impl LightBounds {
-    fn union(&self, o: &LightBounds) -> LightBounds {
+    /// A leaf that sends nothing: a light the tree never chooses (a
+    /// directional light, one without power, an emitter degenerate at some
+    /// motion step). It keeps its place, so that every light and emitter
+    /// has a leaf, and its importance is 0 everywhere.
+    const NOTHING: LightBounds = LightBounds {
+        lo: Vec3::ZERO,
+        hi: Vec3::ZERO,
+        phi: 0.0,
+        w: Vec3::Z,
+        cos_theta_o: 1.0,
+        cos_theta_e: 0.0,
+        two_sided: false,
+    };
+
+    /// Both bounds in one; the power is summed.
+    fn merge(&self, o: &LightBounds) -> LightBounds {
         let (w, cos_theta_o) = cone_union(self.w, self.cos_theta_o, o.w, o.cos_theta_o);
         LightBounds {
             lo: self.lo.min(o.lo),
@@ -110,6 +145,18 @@ impl LightBounds {
             cos_theta_o,
             cos_theta_e: self.cos_theta_e.min(o.cos_theta_e),
             two_sided: self.two_sided || o.two_sided,
+        }
+    }
+
+    /// The bounds of a node over both children: one that sends nothing
+    /// adds nothing (pbrt-v4's `Union`).
+    fn union(&self, o: &LightBounds) -> LightBounds {
+        if self.phi == 0.0 {
+            *o
+        } else if o.phi == 0.0 {
+            *self
+        } else {
+            self.merge(o)
         }
     }
 
@@ -137,6 +184,10 @@ impl LightBounds {
             cos_theta_e: n.cos_theta_e,
             two_sided: n.two_sided != 0,
         }
+    }
+
+    fn centre(&self) -> Vec3 {
+        0.5 * (self.lo + self.hi)
     }
 }
 
@@ -203,17 +254,24 @@ fn light_bounds(steps: &[DeviceLight]) -> Option<LightBounds> {
         };
         out = Some(match out {
             // The same light at another time: its power is the largest.
-            Some(a) => {
-                let u = a.union(&b);
-                LightBounds {
-                    phi: a.phi.max(b.phi),
-                    ..u
-                }
-            }
+            Some(a) => LightBounds {
+                phi: a.phi.max(b.phi),
+                ..a.merge(&b)
+            },
             None => b,
         });
     }
     out.filter(|b| b.phi > 0.0 && b.lo.is_finite() && b.hi.is_finite())
+}
+
+/// Whether the light tree holds light `i` of `lights` (`count` lights,
+/// then the same lights at each further motion step): a point or spot
+/// light that sends something. The others stay entries of the frame's
+/// selection.
+pub fn holds_light(lights: &[DeviceLight], count: usize, i: usize) -> bool {
+    let steps = lights.len().checked_div(count).unwrap_or(0);
+    let at: Vec<DeviceLight> = (0..steps).map(|s| lights[s * count + i]).collect();
+    light_bounds(&at).is_some()
 }
 
 /// An emissive triangle as the tree takes it: its corners at each motion
@@ -248,7 +306,7 @@ fn emitter_bounds(t: &EmissiveTriangle) -> Option<LightBounds> {
         out = Some(match out {
             Some(a) => LightBounds {
                 phi: a.phi,
-                ..a.union(&b)
+                ..a.merge(&b)
             },
             None => b,
         });
@@ -258,89 +316,147 @@ fn emitter_bounds(t: &EmissiveTriangle) -> Option<LightBounds> {
 
 /// A frame's light tree: its nodes (node 0 the root; empty when nothing
 /// is in it), and each emitter's trail, the turns from the root to its
-/// leaf (bit k: 1 for the second child at depth k; `None`: not in the
-/// tree).
+/// leaf (bit k: 1 for the second child at depth k).
 #[derive(Clone, Debug, Default)]
 pub struct LightTree {
     pub nodes: Vec<DeviceLightNode>,
-    pub emitter_trails: Vec<Option<u32>>,
+    pub emitter_trails: Vec<u32>,
 }
 
-impl LightTree {
-    /// Whether the tree holds emitters (otherwise they are chosen by power).
-    pub fn holds_emitters(&self) -> bool {
-        self.emitter_trails.iter().any(Option::is_some)
+/// The Morton code's bits per axis: 1024 cells along each side of the
+/// leaves' centres' box.
+pub const MORTON_BITS: u32 = 10;
+
+/// The sort key of a leaf that sends nothing: after every Morton code.
+const KEY_NOTHING: u32 = u32::MAX;
+
+/// The quantization of the leaves' centres: the lower corner of their box
+/// and, per axis, the cells per unit, the same along every axis (0 where
+/// the box is a point). Cubic cells keep the box's shape: along a street
+/// of lamps the upper splits all cut the street, as a split of the
+/// longest axis would, instead of cutting its height and width as early.
+/// The host computes it from the box (`lt_bounds`' partial boxes) and hands
+/// it to `lt_keys`, so both sides quantize with the same numbers.
+pub fn morton_grid(lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    let cells = (1u32 << MORTON_BITS) as f32;
+    let ext = (hi - lo).max_element();
+    let scale = if ext > 0.0 { cells / ext } else { 0.0 };
+    (lo, Vec3::splat(if scale.is_finite() { scale } else { 0.0 }))
+}
+
+/// `x`'s low 10 bits spread to every third bit.
+fn spread_bits(mut x: u32) -> u32 {
+    x &= 0x3ff;
+    x = (x | (x << 16)) & 0x0300_00ff;
+    x = (x | (x << 8)) & 0x0300_f00f;
+    x = (x | (x << 4)) & 0x030c_30c3;
+    (x | (x << 2)) & 0x0924_9249
+}
+
+/// The Morton code of centre `c` in the grid (`morton_grid`).
+pub fn morton_code(c: Vec3, lo: Vec3, scale: Vec3) -> u32 {
+    let top = ((1u32 << MORTON_BITS) - 1) as f32;
+    let q = |a: usize| ((c[a] - lo[a]) * scale[a]).clamp(0.0, top) as u32;
+    (spread_bits(q(0)) << 2) | (spread_bits(q(1)) << 1) | spread_bits(q(2))
+}
+
+/// The heap index of the leaf at position `s` of `n` sorted leaves in a
+/// complete binary tree of 2n − 1 nodes: the deepest level's leaves come
+/// first from the left, then those of the level above.
+pub fn leaf_slot(s: u32, n: u32) -> u32 {
+    let nodes = 2 * n - 1;
+    let deepest = 1u32 << (31 - nodes.leading_zeros());
+    let at_bottom = nodes + 1 - deepest;
+    if s < at_bottom {
+        deepest - 1 + s
+    } else {
+        n - 1 + (s - at_bottom)
     }
+}
+
+/// The trail of heap node `k`: the bits of k + 1 below its leading one
+/// are the turns from the root, the first turn the highest.
+pub fn heap_trail(k: u32) -> u32 {
+    let path = k + 1;
+    let depth = 31 - path.leading_zeros();
+    let mut trail = 0;
+    for d in 0..depth {
+        trail |= ((path >> (depth - 1 - d)) & 1) << d;
+    }
+    trail
 }
 
 /// The light tree over the point and spot lights of `lights` (`count`
 /// lights, then, with motion, the same lights at each further step) and
-/// the emissive triangles `emitters`.
+/// the emissive triangles `emitters`: the plain Rust reference of the
+/// device's build (`device::LightTreeBuilder`), the same leaves, order and
+/// unions. Every light and emitter has a leaf (payload: the light's index,
+/// or `LIGHT_NODE_EMITTER` and the emitter's), the emitters' first; one
+/// that sends nothing has a leaf of power 0, which the walk never takes.
+/// The tree is empty when nothing in it sends light.
 pub fn build(lights: &[DeviceLight], count: usize, emitters: &[EmissiveTriangle]) -> LightTree {
     let steps = lights.len().checked_div(count).unwrap_or(0);
-    let mut leaves: Vec<(u32, LightBounds)> = (0..count)
-        .filter_map(|i| {
-            let at: Vec<DeviceLight> = (0..steps).map(|s| lights[s * count + i]).collect();
-            light_bounds(&at).map(|b| (i as u32, b))
+    let mut leaves: Vec<DeviceLightNode> = emitters
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            emitter_bounds(t)
+                .unwrap_or(LightBounds::NOTHING)
+                .node(LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER | k as u32)
         })
         .collect();
-    leaves.extend(
-        emitters
-            .iter()
-            .enumerate()
-            .filter_map(|(k, t)| emitter_bounds(t).map(|b| (LIGHT_NODE_EMITTER | k as u32, b))),
-    );
+    leaves.extend((0..count).map(|i| {
+        let at: Vec<DeviceLight> = (0..steps).map(|s| lights[s * count + i]).collect();
+        light_bounds(&at)
+            .unwrap_or(LightBounds::NOTHING)
+            .node(LIGHT_NODE_LEAF | i as u32)
+    }));
     let mut tree = LightTree {
         nodes: Vec::new(),
-        emitter_trails: vec![None; emitters.len()],
+        emitter_trails: vec![0; emitters.len()],
     };
-    if leaves.is_empty() {
+    let n = leaves.len();
+    if !leaves.iter().any(|l| l.phi > 0.0) || n > 1 << 30 {
         return tree;
     }
-    tree.nodes.push(DeviceLightNode::default());
-    build_node(&mut tree.nodes, 0, &mut leaves);
-    // Each emitter's trail: a median split is at most 32 levels deep for
-    // the 2^30 emitters a leaf can name.
-    let mut stack = vec![(0usize, 0u32, 0u32)];
-    while let Some((at, trail, depth)) = stack.pop() {
-        let n = tree.nodes[at];
-        if n.child & LIGHT_NODE_LEAF != 0 {
-            if n.child & LIGHT_NODE_EMITTER != 0 {
-                let k = (n.child & !(LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER)) as usize;
-                tree.emitter_trails[k] = Some(trail);
-            }
-            continue;
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for l in leaves.iter().filter(|l| l.phi > 0.0) {
+        let c = LightBounds::of_node(l).centre();
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    let (lo, scale) = morton_grid(lo, hi);
+    let mut keys: Vec<u64> = leaves
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let code = if l.phi > 0.0 {
+                morton_code(LightBounds::of_node(l).centre(), lo, scale)
+            } else {
+                KEY_NOTHING
+            };
+            ((code as u64) << 32) | i as u64
+        })
+        .collect();
+    keys.sort_unstable();
+    tree.nodes = vec![DeviceLightNode::default(); 2 * n - 1];
+    for (s, key) in keys.iter().enumerate() {
+        let leaf = leaves[(*key & 0xffff_ffff) as usize];
+        let slot = leaf_slot(s as u32, n as u32);
+        tree.nodes[slot as usize] = leaf;
+        if leaf.child & LIGHT_NODE_EMITTER != 0 {
+            let k = (leaf.child & !(LIGHT_NODE_LEAF | LIGHT_NODE_EMITTER)) as usize;
+            tree.emitter_trails[k] = heap_trail(slot);
         }
-        let c = n.child as usize;
-        stack.push((c, trail, depth + 1));
-        stack.push((c + 1, trail | (1u32 << depth), depth + 1));
+    }
+    // The children come after their parent: from the last inner node
+    // back, each is the union of two that are done.
+    for i in (0..n - 1).rev() {
+        let a = LightBounds::of_node(&tree.nodes[2 * i + 1]);
+        let b = LightBounds::of_node(&tree.nodes[2 * i + 2]);
+        tree.nodes[i] = a.union(&b).node(2 * i as u32 + 1);
     }
     tree
-}
-
-/// Fills node `at` with `leaves`: one leaf, or two children split at the
-/// median of the longest axis of their bounds' centres.
-fn build_node(nodes: &mut Vec<DeviceLightNode>, at: usize, leaves: &mut [(u32, LightBounds)]) {
-    if let [(payload, b)] = leaves {
-        nodes[at] = b.node(LIGHT_NODE_LEAF | *payload);
-        return;
-    }
-    let centre = |b: &LightBounds| 0.5 * (b.lo + b.hi);
-    let (lo, hi) = leaves.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), (_, b)| (lo.min(centre(b)), hi.max(centre(b))),
-    );
-    let axis = (hi - lo).max_position();
-    // Ties keep the leaves' order, so the tree is the same on every run.
-    leaves.sort_by(|a, b| centre(&a.1)[axis].total_cmp(&centre(&b.1)[axis]));
-    let child = nodes.len();
-    nodes.extend([DeviceLightNode::default(); 2]);
-    let (left, right) = leaves.split_at_mut(leaves.len() / 2);
-    build_node(nodes, child, left);
-    build_node(nodes, child + 1, right);
-    nodes[at] = LightBounds::of_node(&nodes[child])
-        .union(&LightBounds::of_node(&nodes[child + 1]))
-        .node(child as u32);
 }
 
 /// cos(max(θa − θb, 0)) from the sines and cosines.
