@@ -132,7 +132,7 @@ inline float3 env_sample(PtEnv env, const __global float4* texels, const __globa
     return t.xyz * (float3)(env.color[0], env.color[1], env.color[2]);
 }
 
-// The light tree (src/trace/light_tree.rs, whose `importance` and `pick`
+// The light tree (src/trace/light_tree/mod.rs, whose `importance` and `pick`
 // these mirror): how much node `n`'s lights may send to a surface at `p`
 // with normal `nrm` (pbrt-v4's LightBounds::Importance).
 inline float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
