@@ -12,6 +12,7 @@ use common::{mesh, random_soup, random_triangles};
 use soupray::bvh::device_builder::DeviceBuilder;
 use soupray::bvh::{sweep, BuildParams, Bvh, BvhNode, Child, MAX_DEPTH};
 use soupray::soup::Soup;
+use soupray::trace::intersect::is_degenerate;
 use soupray::trace::settings::Traversal;
 use soupray::trace::traverse::all_hits;
 use soupray::trace::{self, DeviceTracer, Hit, PinholeCamera, Ray, TraceError, TraceKind};
@@ -363,7 +364,8 @@ fn primary_rays_match_the_host_camera() {
 /// and any hit: the device intersects a leaf's triangles four at a time, so
 /// leaves of 2, 3, 5 and 8 leave lanes unused in their last four, and the
 /// coincident triangles (ties at equal t) and the rays through shared edges
-/// of a grid send lanes to the one-triangle test.
+/// of a grid send lanes to the one-triangle test. Degenerate triangles in
+/// the grid's leaves are gathered as NaN lanes and never hit.
 #[test]
 fn leaves_of_every_size_agree_hit_for_hit() {
     let d = device();
@@ -378,8 +380,19 @@ fn leaves_of_every_size_agree_hit_for_hit() {
             tris.push([[x, y, -2.0], [x + 1.0, y + 1.0, -2.0], [x, y + 1.0, -2.0]]);
         }
     }
+    // Degenerate triangles among them: repeated and collinear corners.
+    for i in 0..8 {
+        let (x, y) = (i as f32 + 0.25, i as f32 + 0.5);
+        tris.push([[x, y, -2.0], [x, y, -2.0], [x + 0.5, y, -2.0]]);
+        tris.push([
+            [x, y, -1.5],
+            [x + 0.5, y + 0.5, -1.5],
+            [x + 1.0, y + 1.0, -1.5],
+        ]);
+    }
     tris.extend(random_triangles(2_000, 0.05, 21));
     let soup = Soup::from_triangles(&tris);
+    assert!((0..soup.triangle_count() as u32).any(|p| is_degenerate(&soup.positions, p)));
     let mut rays = random_rays(&soup, 3_000, 22);
     // Interior points only: on the grid's border, the top-left rule gives
     // half the outer edges to no triangle.

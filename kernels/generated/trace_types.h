@@ -10,6 +10,9 @@
 
 // `Hit::prim` of a ray that hit nothing.
 #define MISS 4294967295u
+// The bits of the quiet NaN that a leaf block holds for a degenerate
+// triangle's coordinates (`wide::leaf_arrays`).
+#define LEAF_FLAT_BITS 2143289344u
 // Bits of `StacklessNode::leaf` that hold the primitive count.
 #define LEAF_COUNT_BITS 7u
 

@@ -30,7 +30,7 @@
 //
 // Boxes: the slab test with near/far planes chosen by the direction's sign
 // bit (so -0 and +0 both work, and 0 * inf = NaN from a ray lying in a slab
-// plane is ignored by fmax/fmin), and the far distance scaled by 1 + 2*gamma(3)
+// plane is ignored by the max and min), and the far distance scaled by 1 + 2*gamma(3)
 // (Ize, "Robust BVH Ray Traversal", JCGT 2013) so a box is never missed by
 // rounding.
 #ifndef SOUPRAY_TRACE_COMMON_H
@@ -150,6 +150,14 @@ __attribute__((always_inline)) inline bool ray_prepare(RayPre* r, Ray ray) {
     return true;
 }
 
+// max(a, m) and min(a, m) that return m where a is NaN, for an m that is
+// never NaN: fmax and fmin then agree with them (a slab's NaN, 0 x inf from
+// a ray parallel to it starting on its plane, leaves the others to decide),
+// but cost one instruction where fmax is three on x86 (maxps, then a
+// compare and blend for NaNs), and a chain of them needs no NaN checks.
+#define MAX_NAN_KEEPS(a, m) ((a) > (m) ? (a) : (m))
+#define MIN_NAN_KEEPS(a, m) ((a) < (m) ? (a) : (m))
+
 // The entry distance of the box [lo, hi], or INFINITY when the ray misses it
 // or enters it beyond `best` (the closest hit so far).
 inline float box_entry(const RayPre* r, float lo0, float lo1, float lo2,
@@ -160,8 +168,9 @@ inline float box_entry(const RayPre* r, float lo0, float lo1, float lo2,
     float tfx = ((r->nx ? lo0 : hi0) - r->ox) * r->ix;
     float tfy = ((r->ny ? lo1 : hi1) - r->oy) * r->iy;
     float tfz = ((r->nz ? lo2 : hi2) - r->oz) * r->iz;
-    float tn = fmax(fmax(tnx, tny), fmax(tnz, r->tmin));
-    float tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;
+    float tn = MAX_NAN_KEEPS(tnz, MAX_NAN_KEEPS(tny, MAX_NAN_KEEPS(tnx, r->tmin)));
+    float tf = MIN_NAN_KEEPS(tfz, MIN_NAN_KEEPS(tfy, MIN_NAN_KEEPS(tfx, INFINITY)));
+    tf = tf * BOX_FAR_SCALE;
     return (tn <= tf && tn <= best * CULL_SCALE) ? tn : INFINITY;
 }
 
@@ -326,6 +335,12 @@ __attribute__((always_inline)) inline LeafHits4 leaf_intersect4(const RayPre* r,
                                  uint count) {
     int kx = r->kx, ky = r->ky, kz = r->kz;
     float4 pax, pay, paz, pbx, pby, pbz, pcx, pcy, pcz;
+    // Lanes of degenerate triangles, never hit. The leaf blocks hold NaN
+    // for them (leaf_gather), which no lane test passes; triangles read from
+    // the soup are checked here, by their 3D normal: in the permuted axes its
+    // components are the same products, so each is +-0 exactly when
+    // intersect_triangle's is.
+    int4 flat = (int4)(0);
 #ifndef MOTION_BLUR
     if (tris != 0) {
         const __global float4* b = tris + (size_t)(first >> 2) * 9u;
@@ -347,6 +362,12 @@ __attribute__((always_inline)) inline LeafHits4 leaf_intersect4(const RayPre* r,
         pbx = LANES(4 + kx), pby = LANES(4 + ky), pbz = LANES(4 + kz);
         pcx = LANES(8 + kx), pcy = LANES(8 + ky), pcz = LANES(8 + kz);
 #undef LANES
+        float4 e1x = pbx - pax, e1y = pby - pay, e1z = pbz - paz;
+        float4 e2x = pcx - pax, e2y = pcy - pay, e2z = pcz - paz;
+        float4 nx = e1y * e2z - e1z * e2y;
+        float4 ny = e1z * e2x - e1x * e2z;
+        float4 nz = e1x * e2y - e1y * e2x;
+        flat = (nx == 0.0f) & (ny == 0.0f) & (nz == 0.0f);
     }
     float4 az_ = paz - r->okz;
     float4 bz_ = pbz - r->okz;
@@ -384,16 +405,7 @@ __attribute__((always_inline)) inline LeafHits4 leaf_intersect4(const RayPre* r,
     h.t = tt * rcp;
     h.u = v * rcp;
     h.v = w * rcp;
-    here &= (h.t > r->tmin) & (h.t < r->tmax);
-    // Degenerate triangles, by their 3D normal: in the permuted axes its
-    // components are the same products, so each is +-0 exactly when
-    // intersect_triangle's is.
-    float4 e1x = pbx - pax, e1y = pby - pay, e1z = pbz - paz;
-    float4 e2x = pcx - pax, e2y = pcy - pay, e2z = pcz - paz;
-    float4 nx = e1y * e2z - e1z * e2y;
-    float4 ny = e1z * e2x - e1x * e2z;
-    float4 nz = e1x * e2y - e1y * e2x;
-    here &= (nx != 0.0f) | (ny != 0.0f) | (nz != 0.0f);
+    here &= (h.t > r->tmin) & (h.t < r->tmax) & ~flat;
     h.hit = lane_bits(here);
     h.exact = lane_bits(exact);
     return h;
@@ -578,8 +590,14 @@ inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* pri
         float##W tfx = (vload##W(0, f + fx) - r->ox) * r->ix;                     \
         float##W tfy = (vload##W(0, f + fy) - r->oy) * r->iy;                     \
         float##W tfz = (vload##W(0, f + fz) - r->oz) * r->iz;                     \
-        float##W tn = fmax(fmax(tnx, tny), fmax(tnz, (float##W)(r->tmin)));      \
-        float##W tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;                 \
+        float##W tn = (float##W)(r->tmin);                                         \
+        tn = MAX_NAN_KEEPS(tnx, tn);                                              \
+        tn = MAX_NAN_KEEPS(tny, tn);                                              \
+        tn = MAX_NAN_KEEPS(tnz, tn);                                              \
+        float##W tf = (float##W)(INFINITY);                                       \
+        tf = MIN_NAN_KEEPS(tfx, tf);                                              \
+        tf = MIN_NAN_KEEPS(tfy, tf);                                              \
+        tf = MIN_NAN_KEEPS(tfz, tf) * BOX_FAR_SCALE;                              \
         int##W hit = (tn <= tf) & (tn <= (float##W)(best * CULL_SCALE));          \
         return select((float##W)(INFINITY), tn, hit);                             \
     }
@@ -604,8 +622,9 @@ inline float8 box_entry_wide8q(const RayPre* r, const __global Wide8QNode* n, fl
     float8 tfx = ((ox + convert_float8(vload8(0, q + fx)) * sx) - r->ox) * r->ix;
     float8 tfy = ((oy + convert_float8(vload8(0, q + fy)) * sy) - r->oy) * r->iy;
     float8 tfz = ((oz + convert_float8(vload8(0, q + fz)) * sz) - r->oz) * r->iz;
-    float8 tn = fmax(fmax(tnx, tny), fmax(tnz, (float8)(r->tmin)));
-    float8 tf = fmin(fmin(tfx, tfy), tfz) * BOX_FAR_SCALE;
+    float8 tn = MAX_NAN_KEEPS(tnz, MAX_NAN_KEEPS(tny, MAX_NAN_KEEPS(tnx, (float8)(r->tmin))));
+    float8 tf = MIN_NAN_KEEPS(tfz, MIN_NAN_KEEPS(tfy, MIN_NAN_KEEPS(tfx, (float8)(INFINITY))));
+    tf = tf * BOX_FAR_SCALE;
     int8 present = vload8(0, n->child) != (uint8)(EMPTY_CHILD);
     int8 hit = (tn <= tf) & (tn <= (float8)(best * CULL_SCALE)) & present;
     return select((float8)(INFINITY), tn, hit);

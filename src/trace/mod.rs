@@ -58,6 +58,9 @@ device_consts! {
     fn trace_consts;
     /// `Hit::prim` of a ray that hit nothing.
     pub const MISS: u32 = u32::MAX;
+    /// The bits of the quiet NaN that a leaf block holds for a degenerate
+    /// triangle's coordinates (`wide::leaf_arrays`).
+    pub const LEAF_FLAT_BITS: u32 = 0x7fc0_0000;
 }
 
 device_struct! {

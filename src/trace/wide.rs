@@ -20,7 +20,8 @@
 //! coordinates from each frame's soup on the device; `leaf_arrays` is its
 //! Rust twin.
 
-use super::TraceError;
+use super::intersect::is_degenerate;
+use super::{TraceError, LEAF_FLAT_BITS};
 use crate::bvh::{Aabb, Bvh, Child, EMPTY_CHILD};
 use crate::device_struct::device_struct;
 use bytemuck::{Pod, Zeroable};
@@ -230,9 +231,12 @@ pub fn wide_layout_into<N: WideLayout>(
 }
 
 /// The layout's triangles in leaf order (`leaf_gather`'s Rust twin), for
-/// the blocks `wide_layout_into` made: per slot its triangle, and with `positions` (the soup, three corners per
-/// triangle) per block the nine lane vectors of its coordinates, vertex by
-/// vertex and axis by axis.
+/// the blocks `wide_layout_into` made: per slot its triangle, and with
+/// `positions` (the soup, three corners per triangle) per block the nine
+/// lane vectors of its coordinates, vertex by vertex and axis by axis. A
+/// degenerate triangle's lane holds NaN (`LEAF_FLAT_BITS`) instead, which
+/// the four-lane test never hits, so it need not test each triangle's
+/// normal per ray.
 pub fn leaf_arrays(
     blocks: &[LeafBlock],
     prim_ids: &[u32],
@@ -246,9 +250,16 @@ pub fn leaf_arrays(
             std::array::from_fn(|i| prim_ids[(b.first + (i as u32).min(b.count - 1)) as usize]);
         slots.extend(q);
         if let Some(p) = positions {
+            let flat = q.map(|t| is_degenerate(p, t));
             for v in 0..3 {
                 for a in 0..3 {
-                    tris.push(q.map(|t| p[3 * t as usize + v][a]));
+                    tris.push(std::array::from_fn(|i| {
+                        if flat[i] {
+                            f32::from_bits(LEAF_FLAT_BITS)
+                        } else {
+                            p[3 * q[i] as usize + v][a]
+                        }
+                    }));
                 }
             }
         }
@@ -282,7 +293,14 @@ mod tests {
     fn check_layout<N: WideLayout>() {
         let w = N::WIDTH;
         for (n, seed) in [(1usize, 1u64), (3, 2), (100, 3), (5000, 4)] {
-            let soup = random_soup(n, 0.05, seed);
+            let mut soup = random_soup(n, 0.05, seed);
+            // Every seventh triangle degenerate (its last corner on its
+            // second), from the 100-triangle soup up.
+            if n >= 100 {
+                for t in (0..n).step_by(7) {
+                    soup.positions[3 * t + 2] = soup.positions[3 * t + 1];
+                }
+            }
             let bvh = binned::build(&soup, BuildParams::default()).unwrap();
             let (wide, blocks) = wide_layout::<N>(&bvh).unwrap();
             let (slots, tris) = leaf_arrays(&blocks, &bvh.prim_ids, Some(&soup.positions));
@@ -312,11 +330,16 @@ mod tests {
                                 let (b, lane) = (s / 4, s % 4);
                                 for v in 0..3 {
                                     for a in 0..3 {
-                                        let q = slots[s] as usize;
+                                        let q = slots[s];
+                                        let want = if is_degenerate(&soup.positions, q) {
+                                            LEAF_FLAT_BITS
+                                        } else {
+                                            soup.positions[3 * q as usize + v][a].to_bits()
+                                        };
                                         assert_eq!(
                                             tris[LEAF_BLOCK_FLOAT4S * b + 3 * v + a][lane]
                                                 .to_bits(),
-                                            soup.positions[3 * q + v][a].to_bits()
+                                            want
                                         );
                                     }
                                 }
