@@ -10,18 +10,6 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
-// Whether soup triangle `q`'s geometric normal (p1 - p0) x (p2 - p0) is
-// exactly zero, the same operations as intersect::is_degenerate.
-inline bool gather_degenerate(__global const float* positions, uint q) {
-    __global const float* p = positions + (size_t)q * 12u;
-    float e1x = p[4] - p[0], e1y = p[5] - p[1], e1z = p[6] - p[2];
-    float e2x = p[8] - p[0], e2y = p[9] - p[1], e2z = p[10] - p[2];
-    float nx = e1y * e2z - e1z * e2y;
-    float ny = e1z * e2x - e1x * e2z;
-    float nz = e1x * e2y - e1y * e2x;
-    return nx == 0.0f && ny == 0.0f && nz == 0.0f;
-}
-
 // One work-item per block: `leaf_prims[4 b + i]` is slot i's triangle and,
 // with `with_tris` (no motion blur), `leaf_tris[9 b + 3 v + a]` lane i is
 // coordinate a of its vertex v, as `leaf_intersect4` loads them, or NaN
@@ -41,10 +29,10 @@ __kernel void leaf_gather(__global const LeafBlock* blocks, uint block_count,
         leaf_prims[4u * b + i] = q[i];
     }
     if (with_tris == 0u) return;
-    int4 flat = (int4)(gather_degenerate(positions, q[0]) ? -1 : 0,
-                       gather_degenerate(positions, q[1]) ? -1 : 0,
-                       gather_degenerate(positions, q[2]) ? -1 : 0,
-                       gather_degenerate(positions, q[3]) ? -1 : 0);
+    int4 flat = (int4)(CORNERS_DEGENERATE(positions + (size_t)q[0] * 12u) ? -1 : 0,
+                       CORNERS_DEGENERATE(positions + (size_t)q[1] * 12u) ? -1 : 0,
+                       CORNERS_DEGENERATE(positions + (size_t)q[2] * 12u) ? -1 : 0,
+                       CORNERS_DEGENERATE(positions + (size_t)q[3] * 12u) ? -1 : 0);
     for (uint v = 0u; v < 3u; ++v) {
         for (uint a = 0u; a < 3u; ++a) {
             uint o = 4u * v + a;

@@ -158,6 +158,19 @@ __attribute__((always_inline)) inline bool ray_prepare(RayPre* r, Ray ray) {
 #define MAX_NAN_KEEPS(a, m) ((a) > (m) ? (a) : (m))
 #define MIN_NAN_KEEPS(a, m) ((a) < (m) ? (a) : (m))
 
+// The slab test's entry `tn` and exit `tf` (of type T, float or a vector)
+// from the per-axis near and far distances: the near planes' max with tmin,
+// the far planes' min scaled by BOX_FAR_SCALE, NaN distances ignored.
+#define SLAB_SPAN(T, tn, tf, nx, ny, nz, fx, fy, fz, tmin)                       \
+    T tn = (T)(tmin);                                                            \
+    tn = MAX_NAN_KEEPS(nx, tn);                                                  \
+    tn = MAX_NAN_KEEPS(ny, tn);                                                  \
+    tn = MAX_NAN_KEEPS(nz, tn);                                                  \
+    T tf = (T)(INFINITY);                                                        \
+    tf = MIN_NAN_KEEPS(fx, tf);                                                  \
+    tf = MIN_NAN_KEEPS(fy, tf);                                                  \
+    tf = MIN_NAN_KEEPS(fz, tf) * BOX_FAR_SCALE
+
 // The entry distance of the box [lo, hi], or INFINITY when the ray misses it
 // or enters it beyond `best` (the closest hit so far).
 inline float box_entry(const RayPre* r, float lo0, float lo1, float lo2,
@@ -168,9 +181,7 @@ inline float box_entry(const RayPre* r, float lo0, float lo1, float lo2,
     float tfx = ((r->nx ? lo0 : hi0) - r->ox) * r->ix;
     float tfy = ((r->ny ? lo1 : hi1) - r->oy) * r->iy;
     float tfz = ((r->nz ? lo2 : hi2) - r->oz) * r->iz;
-    float tn = MAX_NAN_KEEPS(tnz, MAX_NAN_KEEPS(tny, MAX_NAN_KEEPS(tnx, r->tmin)));
-    float tf = MIN_NAN_KEEPS(tfz, MIN_NAN_KEEPS(tfy, MIN_NAN_KEEPS(tfx, INFINITY)));
-    tf = tf * BOX_FAR_SCALE;
+    SLAB_SPAN(float, tn, tf, tnx, tny, tnz, tfx, tfy, tfz, r->tmin);
     return (tn <= tf && tn <= best * CULL_SCALE) ? tn : INFINITY;
 }
 
@@ -201,6 +212,18 @@ inline bool owns_edge(float px, float py, float qx, float qy, float det) {
     }
     return qy > py || (qy == py && qx > px);
 }
+
+// Whether triangle (a, b, c) has an exactly zero geometric normal
+// (b - a) x (c - a): the products of intersect::is_degenerate, on floats or
+// on float4 lanes (then -1 in each degenerate lane).
+#define ZERO_NORMAL(ax, ay, az, bx, by, bz, cx, cy, cz)                            \
+    (((((by) - (ay)) * ((cz) - (az)) - ((bz) - (az)) * ((cy) - (ay))) == 0.0f) &  \
+     ((((bz) - (az)) * ((cx) - (ax)) - ((bx) - (ax)) * ((cz) - (az))) == 0.0f) &  \
+     ((((bx) - (ax)) * ((cy) - (ay)) - ((by) - (ay)) * ((cx) - (ax))) == 0.0f))
+
+// ZERO_NORMAL of the 12-float corners `p` (xyz of each corner at 4k).
+#define CORNERS_DEGENERATE(p) ZERO_NORMAL((p)[0], (p)[1], (p)[2], (p)[4], (p)[5], (p)[6], \
+                                          (p)[8], (p)[9], (p)[10])
 
 // Intersects triangle `prim` (corners at positions[12*prim + 4*k], xyz).
 // Returns true with t, u, v when it is hit within (tmin, tmax); degenerate
@@ -259,12 +282,7 @@ __attribute__((always_inline)) inline bool intersect_triangle(const RayPre* r, G
     if (!(t > r->tmin && t < r->tmax)) return false;
     // Degenerate triangles: their projected area may round to non-zero, so
     // they are recognised in 3D, only for the few candidates that get here.
-    float e1x = p[4] - p[0], e1y = p[5] - p[1], e1z = p[6] - p[2];
-    float e2x = p[8] - p[0], e2y = p[9] - p[1], e2z = p[10] - p[2];
-    float nx = e1y * e2z - e1z * e2y;
-    float ny = e1z * e2x - e1x * e2z;
-    float nz = e1x * e2y - e1y * e2x;
-    if (nx == 0.0f && ny == 0.0f && nz == 0.0f) return false;
+    if (CORNERS_DEGENERATE(p)) return false;
     *t_out = t;
     *u_out = bu;
     *v_out = bv;
@@ -362,12 +380,7 @@ __attribute__((always_inline)) inline LeafHits4 leaf_intersect4(const RayPre* r,
         pbx = LANES(4 + kx), pby = LANES(4 + ky), pbz = LANES(4 + kz);
         pcx = LANES(8 + kx), pcy = LANES(8 + ky), pcz = LANES(8 + kz);
 #undef LANES
-        float4 e1x = pbx - pax, e1y = pby - pay, e1z = pbz - paz;
-        float4 e2x = pcx - pax, e2y = pcy - pay, e2z = pcz - paz;
-        float4 nx = e1y * e2z - e1z * e2y;
-        float4 ny = e1z * e2x - e1x * e2z;
-        float4 nz = e1x * e2y - e1y * e2x;
-        flat = (nx == 0.0f) & (ny == 0.0f) & (nz == 0.0f);
+        flat = ZERO_NORMAL(pax, pay, paz, pbx, pby, pbz, pcx, pcy, pcz);
     }
     float4 az_ = paz - r->okz;
     float4 bz_ = pbz - r->okz;
@@ -590,14 +603,7 @@ inline Hit trace_any_bvh(const __global BvhNode* nodes, const __global uint* pri
         float##W tfx = (vload##W(0, f + fx) - r->ox) * r->ix;                     \
         float##W tfy = (vload##W(0, f + fy) - r->oy) * r->iy;                     \
         float##W tfz = (vload##W(0, f + fz) - r->oz) * r->iz;                     \
-        float##W tn = (float##W)(r->tmin);                                         \
-        tn = MAX_NAN_KEEPS(tnx, tn);                                              \
-        tn = MAX_NAN_KEEPS(tny, tn);                                              \
-        tn = MAX_NAN_KEEPS(tnz, tn);                                              \
-        float##W tf = (float##W)(INFINITY);                                       \
-        tf = MIN_NAN_KEEPS(tfx, tf);                                              \
-        tf = MIN_NAN_KEEPS(tfy, tf);                                              \
-        tf = MIN_NAN_KEEPS(tfz, tf) * BOX_FAR_SCALE;                              \
+        SLAB_SPAN(float##W, tn, tf, tnx, tny, tnz, tfx, tfy, tfz, r->tmin);      \
         int##W hit = (tn <= tf) & (tn <= (float##W)(best * CULL_SCALE));          \
         return select((float##W)(INFINITY), tn, hit);                             \
     }
@@ -622,9 +628,7 @@ inline float8 box_entry_wide8q(const RayPre* r, const __global Wide8QNode* n, fl
     float8 tfx = ((ox + convert_float8(vload8(0, q + fx)) * sx) - r->ox) * r->ix;
     float8 tfy = ((oy + convert_float8(vload8(0, q + fy)) * sy) - r->oy) * r->iy;
     float8 tfz = ((oz + convert_float8(vload8(0, q + fz)) * sz) - r->oz) * r->iz;
-    float8 tn = MAX_NAN_KEEPS(tnz, MAX_NAN_KEEPS(tny, MAX_NAN_KEEPS(tnx, (float8)(r->tmin))));
-    float8 tf = MIN_NAN_KEEPS(tfz, MIN_NAN_KEEPS(tfy, MIN_NAN_KEEPS(tfx, (float8)(INFINITY))));
-    tf = tf * BOX_FAR_SCALE;
+    SLAB_SPAN(float8, tn, tf, tnx, tny, tnz, tfx, tfy, tfz, r->tmin);
     int8 present = vload8(0, n->child) != (uint8)(EMPTY_CHILD);
     int8 hit = (tn <= tf) & (tn <= (float8)(best * CULL_SCALE)) & present;
     return select((float8)(INFINITY), tn, hit);
