@@ -16,6 +16,14 @@
 //!     --meshes beast.ply,nefertiti.ply --leaf 4 --bins 16
 //! ```
 //!
+//! `--candidate NAME[=VALUE],...` measures a kernel variant against the
+//! default in the same process: the trace kernels are built a second time
+//! with those defines, and each ray set is traced by the default 8-wide
+//! traversal, the variant and Embree only. Each run times the default and
+//! the variant back to back, so besides the table it prints the median of
+//! their per-run ratios, which drift between processes leaves alone
+//! (`cargo bench --bench trace_primary -- --candidate BOX_FMA --runs 15`).
+//!
 //! Each timed run launches every tracer once, in turn (interleaved), and
 //! the table gives the median of the runs: device time (profiling events)
 //! for soupray, wall time for Embree and the CPU reference, Mrays/s, the
@@ -132,6 +140,19 @@ struct Settings {
     meshes: Vec<String>,
     /// The build's parameters (`--leaf`, `--bins`; the defaults otherwise).
     params: BuildParams,
+    /// `--candidate`: the defines of a kernel variant, `NAME[=VALUE],...`.
+    candidate: Option<String>,
+}
+
+/// `NAME[=VALUE],...` as build defines (a bare name is defined as 1).
+fn defines(list: &str) -> Vec<(&str, String)> {
+    list.split(',')
+        .filter(|d| !d.is_empty())
+        .map(|d| match d.split_once('=') {
+            Some((name, value)) => (name, value.to_owned()),
+            None => (d, "1".to_owned()),
+        })
+        .collect()
 }
 
 /// The meshes of the issue's table: three scans, two scanned statues and a
@@ -160,12 +181,29 @@ impl RaySet {
 #[derive(Clone, Copy)]
 enum Tracer {
     Device(TraceKind, &'static str),
+    /// The kernel variant of `--candidate`.
+    Candidate(TraceKind),
     #[cfg_attr(not(feature = "embree"), allow(dead_code))]
     Embree,
 }
 
-/// The tracers of a ray set, the default traversal first.
-fn tracers(set: RaySet) -> Vec<Tracer> {
+/// The tracers of a ray set, the default traversal first; with a
+/// candidate, the default, the candidate and Embree.
+fn tracers(set: RaySet, candidate: bool) -> Vec<Tracer> {
+    if candidate {
+        let kind = match set {
+            RaySet::Shadow => TraceKind::AnyWide8,
+            _ => TraceKind::ClosestWide8,
+        };
+        let mut t = vec![
+            Tracer::Device(kind, "soupray 8-wide (the default)"),
+            Tracer::Candidate(kind),
+        ];
+        if cfg!(feature = "embree") {
+            t.push(Tracer::Embree);
+        }
+        return t;
+    }
     let mut t = match set {
         RaySet::Shadow => vec![
             Tracer::Device(TraceKind::AnyWide8, "soupray 8-wide any-hit (the default)"),
@@ -227,6 +265,11 @@ fn main() {
             leaf_size: arg("--leaf", BuildParams::default().leaf_size as usize) as u32,
             bins: arg("--bins", BuildParams::default().bins as usize) as u32,
         },
+        candidate: args
+            .iter()
+            .position(|a| a == "--candidate")
+            .and_then(|i| args.get(i + 1))
+            .cloned(),
     };
     let device = Device::open(None).expect("an OpenCL device");
     println!(
@@ -357,6 +400,13 @@ fn bench_mesh(
     tracer
         .upload_wide8_quantized(&bvh, &positions, prim_ids)
         .unwrap();
+    let candidate = s.candidate.as_deref().map(|list| {
+        let mut c = DeviceTracer::with_defines(device, &defines(list)).unwrap();
+        c.local_size = s.local;
+        c.upload_bvh(&bvh).unwrap();
+        c.upload_wide8(&bvh, &positions, prim_ids).unwrap();
+        c
+    });
     // The device's own camera rays are the host's, bit for bit.
     let generated = device.buffer::<Ray>(primary.len()).unwrap();
     tracer.generate_primary(&camera, &generated).unwrap();
@@ -383,7 +433,7 @@ fn bench_mesh(
         let mut ray_buffer = device.buffer::<Ray>(count.max(1)).unwrap();
         device.write(&mut ray_buffer, &rays).unwrap();
         let hits = device.buffer::<Hit>(count.max(1)).unwrap();
-        let list = tracers(set);
+        let list = tracers(set, candidate.is_some());
         let mut ms: Vec<Vec<f64>> = vec![Vec::new(); list.len()];
         let mut agree = vec![0.0; list.len()];
         let mut out = vec![Hit::miss(0.0); count];
@@ -394,9 +444,12 @@ fn bench_mesh(
                 // has left busy (PoCL's workers spin for a while).
                 std::thread::sleep(std::time::Duration::from_millis(5));
                 let elapsed = match *t {
-                    Tracer::Device(kind, _) => {
-                        tracer
-                            .trace(kind, &positions, prim_ids, &ray_buffer, &hits, count)
+                    Tracer::Device(kind, _) | Tracer::Candidate(kind) => {
+                        let by = match *t {
+                            Tracer::Candidate(_) => candidate.as_ref().unwrap(),
+                            _ => &tracer,
+                        };
+                        by.trace(kind, &positions, prim_ids, &ray_buffer, &hits, count)
                             .unwrap();
                         let timings = device.take_timings().unwrap();
                         if run == 0 {
@@ -425,9 +478,30 @@ fn bench_mesh(
                 }
             }
         }
+        if candidate.is_some() {
+            // The default is list[0] and the candidate list[1], timed back
+            // to back in every run.
+            let mut ratios: Vec<f64> = ms[1].iter().zip(&ms[0]).map(|(c, d)| c / d).collect();
+            ratios.sort_by(f64::total_cmp);
+            println!(
+                "{name} {}: candidate / default, per run: median {:.3} (min {:.3}, max {:.3}, {} runs)",
+                set.name(),
+                median(ratios.clone()),
+                ratios[0],
+                ratios[ratios.len() - 1],
+                ratios.len()
+            );
+        }
         for (i, t) in list.iter().enumerate() {
             let (label, embree) = match *t {
                 Tracer::Device(_, label) => (label.to_owned(), false),
+                Tracer::Candidate(_) => (
+                    format!(
+                        "soupray 8-wide candidate ({})",
+                        s.candidate.as_deref().unwrap_or("")
+                    ),
+                    false,
+                ),
                 Tracer::Embree => {
                     let call = if set == RaySet::Shadow {
                         "rtcOccluded1"

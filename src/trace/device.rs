@@ -467,7 +467,19 @@ impl<'d> DeviceTracer<'d> {
     /// inner-node level: `STACK_SIZE = MAX_DEPTH + 1`, and `upload_bvh`
     /// refuses deeper trees.
     pub fn new(device: &'d Device) -> Result<DeviceTracer<'d>, TraceError> {
-        let program = device.build_program("trace.cl", &trace_defines())?;
+        Self::with_defines(device, &[])
+    }
+
+    /// As [`DeviceTracer::new`], with `extra` defines on top of
+    /// [`trace_defines`]: a kernel variant, for measuring a candidate
+    /// against the default in one process (`benches/trace_primary.rs`).
+    pub fn with_defines(
+        device: &'d Device,
+        extra: &[(&str, String)],
+    ) -> Result<DeviceTracer<'d>, TraceError> {
+        let mut defines: Vec<(&str, String)> = trace_defines();
+        defines.extend(extra.iter().cloned());
+        let program = device.build_program("trace.cl", &defines)?;
         let k = |name| device.kernel(&program, name);
         Ok(DeviceTracer {
             device,
