@@ -55,6 +55,8 @@ pub use atomic::{check_target, temporary_owner, temporary_sibling, write_atomic}
 use exr::meta::header::ImageAttributes;
 use exr::prelude::traits::*;
 use exr::prelude::{AttributeValue, Compression, IntegerBounds, LayerAttributes, Text, Vec2};
+/// OpenEXR's ZIP predictor and level, for `benches/exr_write.rs`.
+pub use exr_blocks::{zip_predict, zip_predict_bytewise, ZIP_LEVEL};
 pub use log::*;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -318,9 +320,16 @@ impl<'a> Strided<'a> {
         }
     }
 
-    /// Pixel `i`'s sample.
-    pub fn get(&self, i: usize) -> f32 {
-        self.data[i * self.stride + self.offset]
+    /// The samples of pixels `first..first + count`.
+    pub fn run(&self, first: usize, count: usize) -> impl Iterator<Item = f32> + 'a {
+        let start = first * self.stride + self.offset;
+        let end = (first + count - 1) * self.stride + self.offset + 1;
+        let data: &'a [f32] = if count == 0 {
+            &[]
+        } else {
+            &self.data[start..end]
+        };
+        data.iter().step_by(self.stride).copied()
     }
 }
 
@@ -740,8 +749,9 @@ mod tests {
                         FlatSamples::F32(v) => v.iter().map(|x| x.to_bits()).collect(),
                         FlatSamples::U32(v) => v.clone(),
                     };
-                    let want: Vec<u32> = (0..n)
-                        .map(|i| c.samples.get(i))
+                    let want: Vec<u32> = c
+                        .samples
+                        .run(0, n)
                         .map(|x| {
                             if c.half {
                                 exr::prelude::f16::from_f32(x).to_bits() as u32
