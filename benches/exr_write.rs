@@ -19,6 +19,9 @@
 //! ratio to the one it replaces (the byte loop; level 4), and the
 //! compressed size.
 
+#[path = "../tests/common/passes.rs"]
+mod passes;
+
 use soupray::cli::report::median;
 use soupray::output::{zip_predict, zip_predict_bytewise, ZIP_LEVEL};
 use std::io::Write;
@@ -44,14 +47,7 @@ fn frame_blocks(out: &std::path::Path) -> Result<(Vec<Vec<u8>>, usize), String> 
     let status = Command::new(env!("CARGO_BIN_EXE_soupray"))
         .args(["render", "--quiet", "--frame", "24", "--out"])
         .arg(out)
-        .args([
-            "--aov",
-            "depth,normal,albedo,motion,position,uv,object_id",
-            "--cryptomatte",
-            "object,material,asset",
-            "--passes",
-            "light",
-        ])
+        .args(passes::EVERY_PASS)
         .arg(&scene)
         .status()
         .map_err(|e| format!("soupray render: {e}"))?;

@@ -78,22 +78,11 @@ fn stable_log(path: &Path) -> serde_json::Value {
 fn frames_with_every_pass_split_over_runs_give_identical_files() {
     let walker = common::repo_file("animations/walker/walker.glb");
     let walker = walker.to_str().unwrap();
-    let every_pass = [
-        "--width",
-        "64",
-        "--height",
-        "36",
-        "--spp",
-        "2",
-        "--aov",
-        "depth,normal,albedo,motion,position,uv,object_id",
-        "--cryptomatte",
-        "object,material,asset",
-        "--passes",
-        "light",
-        "--shadow-catcher",
-        "ground",
-    ];
+    let every_pass: Vec<&str> = ["--width", "64", "--height", "36", "--spp", "2"]
+        .into_iter()
+        .chain(common::passes::EVERY_PASS)
+        .chain(["--shadow-catcher", "ground"])
+        .collect();
     let run = |out: &Path, frames: &str| {
         let mut args = vec!["render", walker, "--quiet", "--frames", frames];
         args.extend_from_slice(&every_pass);

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 pub mod geometry;
+pub mod passes;
 pub mod render;
 pub mod rng;
 pub mod scene;
