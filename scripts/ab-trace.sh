@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Side-by-side trace time of two soupray binaries on one scene: interleaved
 # runs (A, B, A, B, ...), each run's `timings_ms.trace` from its frame log,
-# then the runs, the median and the rays traced per binary.
+# then the runs, the median and the rays traced per binary, and the median
+# of the per-round ratios.
 #
 #   scripts/ab-trace.sh OLD_BINARY NEW_BINARY SCENE [RUNS] -- [render flags...]
 #   scripts/ab-trace.sh /tmp/old/soupray target/release/soupray scene.gltf 5 -- --spp 64 --clay
@@ -32,4 +33,8 @@ for v in "AB":
     listed = ", ".join("%.0f" % x for x in t)
     print("%s: runs %s ms, median %.0f ms, rays %s" % (v, listed, statistics.median(t), rays[v]))
 print("B/A median: %.3f" % (statistics.median(runs["B"]) / statistics.median(runs["A"])))
+# Each B run follows its A run: their ratio leaves out the drift of the machine
+# between rounds, which the medians above keep.
+paired = sorted(b / a for a, b in zip(runs["A"], runs["B"]))
+print("B/A per round: median %.3f (%.3f to %.3f)" % (statistics.median(paired), paired[0], paired[-1]))
 '

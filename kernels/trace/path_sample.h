@@ -501,6 +501,9 @@ inline void pt_interface(PtScene* s, PtMaterialExt mx, uint mat, bool volume, Pt
 // The BSDF sample at a vertex that continues path `p` (above: the ray
 // origin on the surface's front; sf.below its back), with Russian
 // roulette; false ends the path. A volume's interface enters or leaves it.
+// Always inline: with the light-path passes PoCL kept it as a call, and
+// inlined the walker's frames with every pass trace in 0.98x the time (21
+// paired rounds; the same image), without them in the same time.
 #ifdef HAS_TRANSMISSION
 #define SCATTER_VOLUME , volume, mat
 #define SCATTER_VOLUME_DECL , bool volume, uint mat
@@ -508,7 +511,7 @@ inline void pt_interface(PtScene* s, PtMaterialExt mx, uint mat, bool volume, Pt
 #define SCATTER_VOLUME
 #define SCATTER_VOLUME_DECL
 #endif
-inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, float3 wo, float3 t,
+__attribute__((always_inline)) inline bool pt_scatter(PtScene* s, PtSample* out, PtPath* p, BsdfParams bp, float3 wo, float3 t,
                        float3 b, PtSurface sf, float3 above, SampleRng rng, uint bounce,
                        bool last, float reach SCATTER_VOLUME_DECL) {
     float3 wi, f;
