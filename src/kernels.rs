@@ -63,7 +63,7 @@ pub const KERNEL_SOURCES: &[(&str, &str)] = &[
 /// them and probes every field's layout on the device.
 pub fn generated_headers() -> Vec<GeneratedHeader> {
     use bvh::layout as b;
-    use trace::{camera, escape, light_tree, lights, material, render, texture, wide};
+    use trace::{camera, escape, light_tree, lights, material, render, texture, vectors, wide};
     vec![
         GeneratedHeader {
             file: "bvh_types.h",
@@ -129,6 +129,7 @@ pub fn generated_headers() -> Vec<GeneratedHeader> {
             .concat(),
             structs: vec![
                 camera::DeviceCamera::layout(),
+                vectors::VectorCamera::layout(),
                 render::DeviceFrame::layout(),
                 material::DeviceMaterial::layout(),
                 material::DeviceMaterialExt::layout(),

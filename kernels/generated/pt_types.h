@@ -115,6 +115,25 @@ typedef struct {
     uint pad[2];
 } PtCamera;
 
+// A vector step's camera as the motion vectors project with it
+// (`vector_camera`): a world point `p` lands at pixel
+// `(dot(p - origin, to_x), dot(p - origin, to_y)) / w + centre`, with
+// `w = dot(p - origin, to_z)` for a perspective camera and 1 for an
+// orthographic one. The camera's axes come scaled by their squared lengths
+// and the image's half size, so that a projection takes one division
+// (three a sample for the three steps), not one per axis and the depth.
+// `VectorCamera` in src/trace/vectors.rs (80 bytes).
+typedef struct {
+    float origin[4];
+    float to_x[4];
+    float to_y[4];
+    float to_z[4];
+    // The image's centre in pixels.
+    float centre[2];
+    uint ortho;
+    uint pad;
+} PtVectorCamera;
+
 // Per-frame constants. Next-event estimation at a path vertex samples every
 // punctual light when `light_loop` is set, then one light drawn from the
 // selection distribution (`select_cdf`, `select_count` entries in this

@@ -72,7 +72,7 @@ typedef struct {
     // after (three steps of 3 * vector_triangles corners), and the camera
     // at each: the motion vectors' ends (trace::vectors).
     const __global float4* vector_positions;
-    const __global PtCamera* vector_cameras;
+    const __global PtVectorCamera* vector_cameras;
     uint vector_triangles;
 #endif
 #ifdef FILM_LIGHT
@@ -163,30 +163,26 @@ inline float3 lobe_share(float3 part, float3 f) {
 // at and a frame after the frame's centre, and per pixel the sum of the
 // first hits' vectors.
 #define VECTOR_DECL , __global const float4* vector_positions, \
-    __global const PtCamera* vector_cameras, uint vector_triangles, __global float4* accum_motion
+    __global const PtVectorCamera* vector_cameras, uint vector_triangles, __global float4* accum_motion
 #define VECTOR_CLEAR_DECL , __global float4* accum_motion
 
 // Where world point `p` lands on camera `c`'s image, in pixels from the
 // bottom-left corner (x right, y up, as Blender's and Nuke's vectors
-// count); false behind a perspective camera. The inverse of pt_path's
-// camera ray: a perspective ray runs along forward + right sx + up sy, an
-// orthographic one starts at origin + right sx + up sy, with the image
-// spanning sx, sy in [-1, 1] (Rust twin: trace::vectors::project).
-inline bool pt_project(PtCamera c, float3 p, float width, float height, float2* at) {
-    float3 o = (float3)(c.origin[0], c.origin[1], c.origin[2]);
-    float3 r = (float3)(c.right[0], c.right[1], c.right[2]);
-    float3 u = (float3)(c.up[0], c.up[1], c.up[2]);
-    float3 f = (float3)(c.forward[0], c.forward[1], c.forward[2]);
-    float3 d = p - o;
-    float sx = dot(d, r) / dot(r, r);
-    float sy = dot(d, u) / dot(u, u);
-    if (c.ortho == 0u) {
-        float z = dot(d, f) / dot(f, f);
-        if (!(z > 0.0f)) return false;
-        sx = sx / z;
-        sy = sy / z;
+// count); false behind a perspective camera. One division: the axes come
+// scaled (Rust twin: trace::vectors::project, which says how).
+inline bool pt_project(PtVectorCamera c, float3 p, float2* at) {
+    float3 d = p - (float3)(c.origin[0], c.origin[1], c.origin[2]);
+    float x = dot(d, (float3)(c.to_x[0], c.to_x[1], c.to_x[2]));
+    float y = dot(d, (float3)(c.to_y[0], c.to_y[1], c.to_y[2]));
+    float2 centre = (float2)(c.centre[0], c.centre[1]);
+    if (c.ortho != 0u) {
+        *at = (float2)(x, y) + centre;
+        return true;
     }
-    *at = (float2)((sx + 1.0f) * 0.5f * width, (sy + 1.0f) * 0.5f * height);
+    float z = dot(d, (float3)(c.to_z[0], c.to_z[1], c.to_z[2]));
+    if (!(z > 0.0f)) return false;
+    float inv = 1.0f / z;
+    *at = (float2)(x * inv, y * inv) + centre;
     return true;
 }
 
@@ -202,11 +198,10 @@ inline float3 pt_vector_point(const PtScene* s, uint k, uint prim, float u, floa
 // The same point of the surface (triangle and barycentrics) in each step,
 // seen by each step's camera; 0 where an end is behind the camera.
 inline float4 pt_motion_vector(const PtScene* s, uint prim, float u, float v) {
-    float w = (float)s->frame.width, h = (float)s->frame.height;
     float2 before, now, after;
-    bool seen = pt_project(s->vector_cameras[0], pt_vector_point(s, 0u, prim, u, v), w, h, &before);
-    seen = seen && pt_project(s->vector_cameras[1], pt_vector_point(s, 1u, prim, u, v), w, h, &now);
-    seen = seen && pt_project(s->vector_cameras[2], pt_vector_point(s, 2u, prim, u, v), w, h, &after);
+    bool seen = pt_project(s->vector_cameras[0], pt_vector_point(s, 0u, prim, u, v), &before);
+    seen = seen && pt_project(s->vector_cameras[1], pt_vector_point(s, 1u, prim, u, v), &now);
+    seen = seen && pt_project(s->vector_cameras[2], pt_vector_point(s, 2u, prim, u, v), &after);
     return seen ? (float4)(now - before, after - now) : (float4)(0.0f);
 }
 #else

@@ -61,7 +61,7 @@ use super::light_tree::DeviceLightNode;
 use super::lights::{DeviceEnv, DeviceLight};
 use super::material::{device_material_exts, device_materials, DeviceMaterial, DeviceMaterialExt};
 use super::texture::{TextureBinding, TextureSet};
-use super::vectors::VECTOR_STEPS;
+use super::vectors::{vector_camera, VectorCamera, VECTOR_STEPS};
 use super::TraceError;
 use crate::bvh::Bvh;
 use crate::device::{Arg, Device, GrowBuffer};
@@ -258,10 +258,10 @@ pub struct PathTracer<'d> {
     /// (`set_vector_step`), the steps set since the last frame (bits) for
     /// how many triangles, and the per-pixel sums.
     vector_positions: GrowBuffer<[f32; 4]>,
-    vector_cameras: Buffer<DeviceCamera>,
+    vector_cameras: Buffer<VectorCamera>,
     /// The host copy of `vector_cameras`, so setting a step writes it
     /// without reading the others back.
-    vector_cameras_host: [DeviceCamera; VECTOR_STEPS],
+    vector_cameras_host: [VectorCamera; VECTOR_STEPS],
     vector_steps: (u8, usize),
     accum_motion: GrowBuffer<[f32; 4]>,
     /// With shadow catchers or holdouts: each triangle's flags on the
@@ -508,7 +508,7 @@ impl<'d> PathTracer<'d> {
             matte_slots: GrowBuffer::new(),
             vector_positions: GrowBuffer::new(),
             vector_cameras: device.buffer(VECTOR_STEPS)?,
-            vector_cameras_host: [DeviceCamera::default(); VECTOR_STEPS],
+            vector_cameras_host: [VectorCamera::default(); VECTOR_STEPS],
             vector_steps: (0, 0),
             accum_motion: GrowBuffer::new(),
             triangle_flags: None,
@@ -555,7 +555,7 @@ impl<'d> PathTracer<'d> {
             d.copy(soup.positions(), positions, step * n3, n3)?;
         }
         let (w, h) = (self.settings.width, self.settings.height);
-        self.vector_cameras_host[step] = device_camera(camera, w, h);
+        self.vector_cameras_host[step] = vector_camera(&device_camera(camera, w, h), w, h);
         d.write(&mut self.vector_cameras, &self.vector_cameras_host)?;
         self.vector_steps.0 |= 1 << step;
         Ok(())
