@@ -162,22 +162,22 @@ inline void light_pass_found(PtSample* out, float3 c, uint depth, bool env) {
 // Adds a kept sample `r` to a pixel's light-path pass sums (film::light's
 // LIGHT_PASS_NAMES order): the light after the first vertex split by its
 // shares there, glossy taking what the other two do not.
-inline void light_sums_add(float3* light, PtSample r) {
+inline void light_sums_add(float3* light, const PtSample* r) {
     float3 zero = (float3)(0.0f);
-    float3 dd = r.after_direct * r.share_diffuse, dt = r.after_direct * r.share_transmit;
-    float3 id = r.after_indirect * r.share_diffuse, it = r.after_indirect * r.share_transmit;
-    float3 wd = r.weight * r.share_diffuse, wt = r.weight * r.share_transmit;
-    light[LIGHT_DIFFUSE] += r.first_diffuse + dd;
+    float3 dd = r->after_direct * r->share_diffuse, dt = r->after_direct * r->share_transmit;
+    float3 id = r->after_indirect * r->share_diffuse, it = r->after_indirect * r->share_transmit;
+    float3 wd = r->weight * r->share_diffuse, wt = r->weight * r->share_transmit;
+    light[LIGHT_DIFFUSE] += r->first_diffuse + dd;
     light[LIGHT_DIFFUSE + 1u] += id;
     light[LIGHT_DIFFUSE + 2u] += wd;
-    light[LIGHT_GLOSSY] += r.first_glossy + fmax((r.after_direct - dd) - dt, zero);
-    light[LIGHT_GLOSSY + 1u] += fmax((r.after_indirect - id) - it, zero);
-    light[LIGHT_GLOSSY + 2u] += fmax((r.weight - wd) - wt, zero);
-    light[LIGHT_TRANSMISSION] += r.first_transmit + dt;
+    light[LIGHT_GLOSSY] += r->first_glossy + fmax((r->after_direct - dd) - dt, zero);
+    light[LIGHT_GLOSSY + 1u] += fmax((r->after_indirect - id) - it, zero);
+    light[LIGHT_GLOSSY + 2u] += fmax((r->weight - wd) - wt, zero);
+    light[LIGHT_TRANSMISSION] += r->first_transmit + dt;
     light[LIGHT_TRANSMISSION + 1u] += it;
     light[LIGHT_TRANSMISSION + 2u] += wt;
-    light[LIGHT_EMIT] += r.seen_emit;
-    light[LIGHT_ENV] += r.seen_env;
+    light[LIGHT_EMIT] += r->seen_emit;
+    light[LIGHT_ENV] += r->seen_env;
 }
 #endif
 

@@ -250,50 +250,52 @@ typedef struct {
 #endif
 } PtPixelSums;
 
-// Adds one sample to a pixel's sums.
-inline void pixel_sums_add(PtPixelSums* p, PtSample r) {
-    bool finite = isfinite(r.radiance.x) && isfinite(r.radiance.y) &&
-                  isfinite(r.radiance.z) && isfinite(r.depth) && isfinite(r.normal.x) &&
-                  isfinite(r.normal.y) && isfinite(r.normal.z);
+// Adds one sample to a pixel's sums. The sample by pointer: PoCL kept
+// this function a call, and passed by value its 288 bytes with every pass
+// were copied (`rep movsb`) for every sample.
+inline void pixel_sums_add(PtPixelSums* p, const PtSample* r) {
+    bool finite = isfinite(r->radiance.x) && isfinite(r->radiance.y) &&
+                  isfinite(r->radiance.z) && isfinite(r->depth) && isfinite(r->normal.x) &&
+                  isfinite(r->normal.y) && isfinite(r->normal.z);
     if (!finite) {
         // Counted and dropped as a whole, as the film does.
         p->aux.z += 1.0f;
         return;
     }
-    p->color += (float4)(r.radiance, r.alpha);
-    p->nrm += (float4)(r.normal, 0.0f);
-    p->alb += (float4)(r.albedo, 0.0f);
-    if (r.alpha > 0.0f) {
-        p->aux.x += r.depth;
+    p->color += (float4)(r->radiance, r->alpha);
+    p->nrm += (float4)(r->normal, 0.0f);
+    p->alb += (float4)(r->albedo, 0.0f);
+    if (r->alpha > 0.0f) {
+        p->aux.x += r->depth;
         p->aux.y += 1.0f;
     }
 #ifdef FILM_MATTES
-    if (r.matte != 0u) matte_count(p->mattes, r.matte);
+    if (r->matte != 0u) matte_count(p->mattes, r->matte);
 #endif
 #ifdef FILM_LIGHT
     light_sums_add(p->light, r);
 #endif
 #ifdef FILM_GEOMETRY
     // Summed over the samples that hit, as depth is (film::resolve).
-    if (r.alpha > 0.0f) {
-        p->geometry_p += (float4)(r.position, 0.0f);
-        p->geometry_uv += (float4)(r.uv, 0.0f, 0.0f);
+    if (r->alpha > 0.0f) {
+        p->geometry_p += (float4)(r->position, 0.0f);
+        p->geometry_uv += (float4)(r->uv, 0.0f, 0.0f);
     }
 #endif
 #ifdef FILM_CATCHER
-    if (r.catcher && isfinite(r.catcher_lit.x) && isfinite(r.catcher_lit.y) &&
-        isfinite(r.catcher_lit.z) && isfinite(r.catcher_unshadowed.x) &&
-        isfinite(r.catcher_unshadowed.y) && isfinite(r.catcher_unshadowed.z)) {
-        p->catcher_lit += (float4)(r.catcher_lit, 1.0f);
-        p->catcher_unshadowed += (float4)(r.catcher_unshadowed, 0.0f);
-        p->catcher_behind += (float4)(r.radiance, r.alpha);
+    if (r->catcher && isfinite(r->catcher_lit.x) && isfinite(r->catcher_lit.y) &&
+        isfinite(r->catcher_lit.z) && isfinite(r->catcher_unshadowed.x) &&
+        isfinite(r->catcher_unshadowed.y) && isfinite(r->catcher_unshadowed.z)) {
+        p->catcher_lit += (float4)(r->catcher_lit, 1.0f);
+        p->catcher_unshadowed += (float4)(r->catcher_unshadowed, 0.0f);
+        p->catcher_behind += (float4)(r->radiance, r->alpha);
     }
 #endif
 #ifdef FILM_VECTORS
     // Summed over the samples that hit, as depth is (film::resolve).
-    if (r.alpha > 0.0f && isfinite(r.motion.x) && isfinite(r.motion.y) &&
-        isfinite(r.motion.z) && isfinite(r.motion.w)) {
-        p->motion += r.motion;
+    if (r->alpha > 0.0f && isfinite(r->motion.x) && isfinite(r->motion.y) &&
+        isfinite(r->motion.z) && isfinite(r->motion.w)) {
+        p->motion += r->motion;
     }
 #endif
 }
@@ -424,7 +426,8 @@ __kernel void pt_render(__global const BvhNode* nodes, __global const PtWideNode
                 snap1 = p.color;
             }
         }
-        pixel_sums_add(&p, pt_path(&s, camera, filter, px, py, k TEX_PASS));
+        PtSample r = pt_path(&s, camera, filter, px, py, k TEX_PASS);
+        pixel_sums_add(&p, &r);
     }
     p.aux.w += (float)(sample_end - sample_begin);
     accum_color[i] = p.color;
