@@ -201,8 +201,9 @@ pub fn trace_any(bvh: &Bvh, positions: &[[f32; 4]], ray: &Ray) -> Hit {
 
 /// `TRAVERSE_WIDE_BODY`: front-to-back stack traversal of a W-wide layout.
 /// Hit leaves are intersected in slot order as their boxes are tested; the
-/// hit inner children, sorted by entry distance (a stable insertion, as the
-/// kernel's), are entered nearest first, the rest stacked farthest first.
+/// hit inner children are pushed, each inserted among this node's pushes
+/// so that the nearest ends on top (equal distances in slot order, the
+/// first on top, as the kernel's), and the top is popped next.
 fn traverse_wide<N: WideLayout>(
     wnodes: &[N],
     prim_ids: &[u32],
@@ -214,8 +215,7 @@ fn traverse_wide<N: WideLayout>(
     let Some(r) = RayPre::new(ray) else {
         return best;
     };
-    let mut stack: Vec<(u32, f32)> = Vec::with_capacity((N::WIDTH - 1) * MAX_DEPTH as usize);
-    let mut near: Vec<(f32, u32)> = Vec::with_capacity(N::WIDTH);
+    let mut stack: Vec<(u32, f32)> = Vec::with_capacity((N::WIDTH - 1) * MAX_DEPTH as usize + 1);
     let mut entries = vec![0.0f32; N::WIDTH];
     let mut node = 0usize;
     loop {
@@ -226,7 +226,7 @@ fn traverse_wide<N: WideLayout>(
             let (lo, hi) = n.slot_box(c);
             *e = r.box_entry(&lo, &hi, best.t);
         }
-        near.clear();
+        let base = stack.len();
         for (c, &t) in entries.iter().enumerate() {
             if t == f32::INFINITY {
                 continue;
@@ -238,18 +238,15 @@ fn traverse_wide<N: WideLayout>(
                 }
                 continue;
             }
-            let at = near.iter().position(|&(u, _)| u > t).unwrap_or(near.len());
-            near.insert(at, (t, child));
+            // Below every push of this node at t or nearer.
+            let at = base
+                + stack[base..]
+                    .iter()
+                    .position(|&(_, u)| u <= t)
+                    .unwrap_or(stack.len() - base);
+            stack.insert(at, (child, t));
         }
-        let cull = best.t * CULL_SCALE;
-        while near.len() > 1 {
-            let (t, c) = near.pop().expect("more than one");
-            if t <= cull {
-                stack.push((c, t));
-            }
-        }
-        let next = near.first().filter(|&&(t, _)| t <= cull).map(|&(_, c)| c);
-        match next.or_else(|| pop_node(&mut stack, &best)) {
+        match pop_node(&mut stack, &best) {
             Some(c) => node = c as usize,
             None => return best,
         }
