@@ -250,9 +250,9 @@ typedef struct {
 #endif
 } PtPixelSums;
 
-// Adds one sample to a pixel's sums. The sample by pointer: PoCL kept
-// this function a call, and passed by value its 288 bytes with every pass
-// were copied (`rep movsb`) for every sample.
+// Adds one sample to a pixel's sums. The sample comes by pointer: PoCL
+// keeps this function a call, and by value the sample (288 bytes with
+// every pass) would be copied (`rep movsb`) for every sample.
 inline void pixel_sums_add(PtPixelSums* p, const PtSample* r) {
     bool finite = isfinite(r->radiance.x) && isfinite(r->radiance.y) &&
                   isfinite(r->radiance.z) && isfinite(r->depth) && isfinite(r->normal.x) &&
