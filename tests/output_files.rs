@@ -109,6 +109,7 @@ fn every_exr_compression_is_lossless_and_recorded_in_the_header() {
         let format = ExrFormat {
             half: false,
             compression,
+            ..ExrFormat::FLOAT
         };
         write_exr(&path, &img, &meta(), format).unwrap();
         let (layer, _, _) = read_back(&path);

@@ -270,10 +270,12 @@ fn a_killed_run_leaves_no_partial_frame_and_resumes() {
 
 #[test]
 fn exr_compression_is_chosen_logged_and_keeps_the_pixels() {
-    // The same frame with ZIP (the default) and RLE: the same pixels in
-    // every channel, the log naming the compression; an unknown one is a
+    // The same frame with ZIP (the default), RLE and ZIP at zlib's level 1:
+    // the same pixels in every channel, the log naming the compression; an
+    // unknown one, or a level where none is taken or out of range, is a
     // usage error naming the choices.
     let (zip, rle) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let zip1 = tempfile::tempdir().unwrap();
     let Some(out) = render(zip.path(), &["--frame", "0"]) else {
         return;
     };
@@ -295,7 +297,14 @@ fn exr_compression_is_chosen_logged_and_keeps_the_pixels() {
             .unwrap();
         dir.join(name)
     };
+    let out = render(zip1.path(), &["--frame", "0", "--exr-compression", "zip:1"]).unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(exr_pixels(&exr(zip.path())), exr_pixels(&exr(rle.path())));
+    assert_eq!(exr_pixels(&exr(zip.path())), exr_pixels(&exr(zip1.path())));
     let log = |dir: &Path| {
         let name = files(dir)
             .into_iter()
@@ -306,16 +315,28 @@ fn exr_compression_is_chosen_logged_and_keeps_the_pixels() {
         v["output"]["compression"].as_str().unwrap().to_owned()
     };
     assert_eq!(
-        (log(zip.path()), log(rle.path())),
-        ("zip".into(), "rle".into())
+        (log(zip.path()), log(rle.path()), log(zip1.path())),
+        ("zip".into(), "rle".into(), "zip:1".into())
     );
-    let out = render(rle.path(), &["--frame", "0", "--exr-compression", "lz4"]).unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("--exr-compression \"lz4\": use one of zip, zips, piz, rle, none"),
-        "{err}"
-    );
+    for (given, message) in [
+        (
+            "lz4",
+            "--exr-compression \"lz4\": use one of zip, zips, piz, rle, none (or zip:N",
+        ),
+        (
+            "rle:3",
+            "--exr-compression \"rle:3\": only zip and zips take a level",
+        ),
+        (
+            "zip:0",
+            "--exr-compression \"zip:0\": zlib's level is a whole number from 1",
+        ),
+    ] {
+        let out = render(rle.path(), &["--frame", "0", "--exr-compression", given]).unwrap();
+        assert_eq!(out.status.code(), Some(2), "{given}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(message), "{given}: {err}");
+    }
 }
 
 #[test]

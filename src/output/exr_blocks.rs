@@ -31,7 +31,8 @@ use exr::prelude::{Compression, LineOrder, SmallVec, Text, Vec2};
 use rayon::prelude::*;
 use std::io::{Seek, Write};
 
-/// The zlib level of the ZIP blocks. OpenEXR's default is 4; level 2
+/// The zlib level of the ZIP blocks unless `--exr-compression zip:N` asks
+/// for another. OpenEXR's default is 4; level 2
 /// (zlib-rs's fast deflate, no lazy matching) compresses a frame with every
 /// pass in 0.81-0.87x the time to files 0.3% larger (`cargo bench --bench
 /// exr_write`), time the next frame's trace gets back on a busy machine. The
@@ -40,12 +41,14 @@ pub const ZIP_LEVEL: u32 = 2;
 
 /// Writes a single-part scan-line EXR of `size` pixels to `out`: its
 /// channels `channels` (stored sorted by name, as EXR lists them), its
-/// blocks compressed with `compression`, and the given attributes.
+/// blocks compressed with `compression` (ZIP's at zlib level `zlib_level`),
+/// and the given attributes.
 pub(super) fn write_scan_lines<W: Write + Seek>(
     out: W,
     mut channels: Vec<ChannelView>,
     size: Vec2<usize>,
     compression: Compression,
+    zlib_level: u32,
     shared_attributes: ImageAttributes,
     own_attributes: LayerAttributes,
 ) -> UnitResult {
@@ -89,7 +92,9 @@ pub(super) fn write_scan_lines<W: Write + Seek>(
         for group in blocks.chunks(batch) {
             let chunks: Vec<Result<Chunk, Error>> = group
                 .par_iter()
-                .map(|&(_, index)| encode_block(&meta.headers, &channels, size.x(), index))
+                .map(|&(_, index)| {
+                    encode_block(&meta.headers, &channels, size.x(), index, zlib_level)
+                })
                 .collect();
             for (&(index_in_header, _), chunk) in group.iter().zip(chunks) {
                 writer.write_chunk(index_in_header, chunk?)?;
@@ -105,6 +110,7 @@ fn encode_block(
     channels: &[ChannelView],
     width: usize,
     index: BlockIndex,
+    zlib_level: u32,
 ) -> Result<Chunk, Error> {
     let header = &headers[index.layer];
     let zip = matches!(header.compression, Compression::ZIP16 | Compression::ZIP1);
@@ -121,7 +127,7 @@ fn encode_block(
         layer_index: index.layer,
         compressed_block: CompressedBlock::ScanLine(CompressedScanLineBlock {
             y_coordinate: y,
-            compressed_pixels_le: zip_compress(data)?,
+            compressed_pixels_le: zip_compress(data, zlib_level)?,
         }),
     })
 }
@@ -156,15 +162,14 @@ fn gather_lines(channels: &[ChannelView], width: usize, index: BlockIndex, le: b
     data
 }
 
-/// OpenEXR's ZIP compression of a block's little-endian bytes: the raw
-/// bytes where compressing does not shrink them, as OpenEXR does.
-fn zip_compress(raw: Vec<u8>) -> Result<Vec<u8>, Error> {
+/// OpenEXR's ZIP compression of a block's little-endian bytes at zlib
+/// level `level`: the raw bytes where compressing does not shrink them, as
+/// OpenEXR does.
+fn zip_compress(raw: Vec<u8>, level: u32) -> Result<Vec<u8>, Error> {
     let n = raw.len();
     let predicted = zip_predict(&raw);
-    let mut encoder = flate2::write::ZlibEncoder::new(
-        Vec::with_capacity(n / 2),
-        flate2::Compression::new(ZIP_LEVEL),
-    );
+    let mut encoder =
+        flate2::write::ZlibEncoder::new(Vec::with_capacity(n / 2), flate2::Compression::new(level));
     encoder.write_all(&predicted).map_err(Error::Io)?;
     let compressed = encoder.finish().map_err(Error::Io)?;
     Ok(if compressed.len() < n {

@@ -263,7 +263,8 @@ pub struct OutputLog {
     pub png: Option<String>,
     /// Whether the EXR's colour channels are f16 (`--half`).
     pub half: bool,
-    /// The EXR's compression, as `--exr-compression` names it.
+    /// The EXR's compression, as `--exr-compression` spells it (`zip:1`
+    /// where zlib's level is not the default).
     pub compression: String,
     /// The AOVs in the EXR, as `--aov` names them.
     pub aovs: Vec<String>,

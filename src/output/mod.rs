@@ -132,11 +132,20 @@ impl std::str::FromStr for ExrCompression {
 }
 
 /// How the EXR stores its samples: `--half` and `--exr-compression`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExrFormat {
     /// f16 colour channels (every channel but `Z` and the counts).
     pub half: bool,
     pub compression: ExrCompression,
+    /// zlib's level for `zip` and `zips` blocks, 1 to 9 (`zip:N`);
+    /// `ZIP_LEVEL` unless asked. Readers do not need it: it is not stored.
+    pub zlib_level: u32,
+}
+
+impl Default for ExrFormat {
+    fn default() -> Self {
+        ExrFormat::FLOAT
+    }
 }
 
 impl ExrFormat {
@@ -144,12 +153,57 @@ impl ExrFormat {
     pub const FLOAT: ExrFormat = ExrFormat {
         half: false,
         compression: ExrCompression::Zip,
+        zlib_level: ZIP_LEVEL,
     };
     /// f16 channels, ZIP (`--half`).
     pub const HALF: ExrFormat = ExrFormat {
         half: true,
         compression: ExrCompression::Zip,
+        zlib_level: ZIP_LEVEL,
     };
+
+    /// Parses `--exr-compression`: a compression's name, or `zip:N` or
+    /// `zips:N` with zlib's level N from 1 (fastest) to 9 (smallest), as
+    /// OpenImageIO spells it. The compression and the zlib level; the
+    /// error says what is wrong and what is accepted.
+    pub fn parse_compression(text: &str) -> Result<(ExrCompression, u32), String> {
+        let (name, level) = match text.split_once(':') {
+            Some((name, level)) => (name, Some(level)),
+            None => (text, None),
+        };
+        let compression: ExrCompression = name.parse().map_err(|_| {
+            format!(
+                "use one of {} (or zip:N, zips:N for zlib's level N from 1 to 9)",
+                ExrCompression::NAMES.join(", ")
+            )
+        })?;
+        let Some(level) = level else {
+            return Ok((compression, ZIP_LEVEL));
+        };
+        if !matches!(compression, ExrCompression::Zip | ExrCompression::Zips) {
+            return Err(format!(
+                "only zip and zips take a level (zip:N); {name} has none"
+            ));
+        }
+        match level.parse::<u32>() {
+            Ok(n @ 1..=9) => Ok((compression, n)),
+            _ => Err(format!(
+                "zlib's level is a whole number from 1 (fastest) to 9 (smallest files), not {level:?}"
+            )),
+        }
+    }
+
+    /// The compression as `--exr-compression` spells it: `zip:N` where the
+    /// level is not the default.
+    pub fn compression_name(&self) -> String {
+        let name = self.compression.name();
+        let zlib = matches!(self.compression, ExrCompression::Zip | ExrCompression::Zips);
+        if zlib && self.zlib_level != ZIP_LEVEL {
+            format!("{name}:{}", self.zlib_level)
+        } else {
+            name.to_owned()
+        }
+    }
 }
 
 /// What the EXR header records about how the frame was made.
@@ -265,6 +319,7 @@ pub fn write_exr_denoised(
         exr_channels(image, denoised, format.half),
         size,
         format.compression.exr(),
+        format.zlib_level,
         image_attributes,
         exr_attributes(image, meta),
     )
@@ -648,6 +703,39 @@ mod tests {
     use exr::prelude::FlatSamples;
 
     #[test]
+    fn exr_compression_parses_names_and_zlib_levels() {
+        let parse = ExrFormat::parse_compression;
+        assert_eq!(parse("zip"), Ok((ExrCompression::Zip, ZIP_LEVEL)));
+        assert_eq!(parse("rle"), Ok((ExrCompression::Rle, ZIP_LEVEL)));
+        assert_eq!(parse("zip:1"), Ok((ExrCompression::Zip, 1)));
+        assert_eq!(parse("zips:9"), Ok((ExrCompression::Zips, 9)));
+        for bad in ["zip:0", "zip:10", "zip:", "zip:x", "zip:-1"] {
+            let err = parse(bad).unwrap_err();
+            assert!(
+                err.starts_with("zlib's level is a whole number"),
+                "{bad}: {err}"
+            );
+        }
+        assert!(parse("piz:4").unwrap_err().contains("only zip and zips"));
+        assert!(parse("lz4")
+            .unwrap_err()
+            .starts_with("use one of zip, zips"));
+        // The log's spelling: the level only where it is not the default,
+        // and read back as given.
+        for text in ["zip", "zip:1", "zips:9", "rle", "none"] {
+            let (compression, zlib_level) = parse(text).unwrap();
+            let format = ExrFormat {
+                half: false,
+                compression,
+                zlib_level,
+            };
+            assert_eq!(format.compression_name(), text);
+        }
+        let explicit = parse(&format!("zip:{ZIP_LEVEL}")).unwrap();
+        assert_eq!(explicit, (ExrCompression::Zip, ZIP_LEVEL));
+    }
+
+    #[test]
     fn the_same_frame_is_the_same_file_byte_for_byte() {
         // The custom attributes live in a hash map whose order changes with
         // every map: without sorting, two writes differed.
@@ -725,12 +813,22 @@ mod tests {
             seed: 0,
         };
         let dir = tempfile::tempdir().unwrap();
-        for compression in ExrCompression::ALL {
+        // Every compression, and zip at zlib's fastest and smallest levels.
+        let formats = ExrCompression::ALL
+            .into_iter()
+            .map(|c| (c, ZIP_LEVEL))
+            .chain([(ExrCompression::Zip, 1), (ExrCompression::Zips, 9)]);
+        for (compression, zlib_level) in formats {
             for half in [false, true] {
+                let format = ExrFormat {
+                    half,
+                    compression,
+                    zlib_level,
+                };
                 let p = dir
                     .path()
-                    .join(format!("{}-{half}.exr", compression.name()));
-                write_exr(&p, &img, &meta, ExrFormat { half, compression }).unwrap();
+                    .join(format!("{}-{half}.exr", format.compression_name()));
+                write_exr(&p, &img, &meta, format).unwrap();
                 let read = exr::prelude::read()
                     .no_deep_data()
                     .largest_resolution_level()

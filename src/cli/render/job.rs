@@ -30,6 +30,8 @@ pub(super) struct Job {
     pub aov_names: Vec<String>,
     /// `--exr-compression`.
     pub exr_compression: crate::output::ExrCompression,
+    /// zlib's level for its ZIP blocks (`--exr-compression zip:N`).
+    pub zlib_level: u32,
 }
 
 fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
@@ -90,13 +92,10 @@ pub(super) fn resolve_job(
     }
     let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
     let layering = layering(args)?;
-    let exr_compression = args.exr_compression.parse().map_err(|_| {
-        UsageError(format!(
-            "--exr-compression {:?}: use one of {}",
-            args.exr_compression,
-            crate::output::ExrCompression::NAMES.join(", ")
-        ))
-    })?;
+    let (exr_compression, zlib_level) =
+        crate::output::ExrFormat::parse_compression(&args.exr_compression).map_err(|e| {
+            UsageError(format!("--exr-compression {:?}: {e}", args.exr_compression))
+        })?;
     let environment = environment(args, scene)?;
     let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?
         .with_light_passes(args.passes.as_deref().unwrap_or(""))?;
@@ -171,6 +170,7 @@ pub(super) fn resolve_job(
         },
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
         exr_compression,
+        zlib_level,
     })
 }
 
