@@ -926,11 +926,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     renderer.reuse_images(spare);
     let (writer, writer_done) = spawn_writer(
         WriteOptions {
-            format: output::ExrFormat {
-                half: args.half,
-                compression: job.exr_compression,
-                zlib_level: job.zlib_level,
-            },
+            format: job.exr_format,
             png: args.png,
             transparent: args.transparent,
             spp,

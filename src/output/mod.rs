@@ -113,6 +113,11 @@ impl ExrCompression {
         }
     }
 
+    /// Whether its blocks are zlib streams, which take a level (`zip:N`).
+    const fn is_zlib(self) -> bool {
+        matches!(self, ExrCompression::Zip | ExrCompression::Zips)
+    }
+
     fn exr(self) -> Compression {
         match self {
             ExrCompression::Zip => Compression::ZIP16,
@@ -180,7 +185,7 @@ impl ExrFormat {
         let Some(level) = level else {
             return Ok((compression, ZIP_LEVEL));
         };
-        if !matches!(compression, ExrCompression::Zip | ExrCompression::Zips) {
+        if !compression.is_zlib() {
             return Err(format!(
                 "only zip and zips take a level (zip:N); {name} has none"
             ));
@@ -197,8 +202,7 @@ impl ExrFormat {
     /// level is not the default.
     pub fn compression_name(&self) -> String {
         let name = self.compression.name();
-        let zlib = matches!(self.compression, ExrCompression::Zip | ExrCompression::Zips);
-        if zlib && self.zlib_level != ZIP_LEVEL {
+        if self.compression.is_zlib() && self.zlib_level != ZIP_LEVEL {
             format!("{name}:{}", self.zlib_level)
         } else {
             name.to_owned()

@@ -28,10 +28,8 @@ pub(super) struct Job {
     pub settings: FrameSettings,
     /// The AOVs written to the EXR, by name, for the log.
     pub aov_names: Vec<String>,
-    /// `--exr-compression`.
-    pub exr_compression: crate::output::ExrCompression,
-    /// zlib's level for its ZIP blocks (`--exr-compression zip:N`).
-    pub zlib_level: u32,
+    /// How the EXRs store their samples: `--half` and `--exr-compression`.
+    pub exr_format: crate::output::ExrFormat,
 }
 
 fn parse_env_color(s: &str) -> Result<[f32; 3], UsageError> {
@@ -92,10 +90,15 @@ pub(super) fn resolve_job(
     }
     let (traversal, sampler, noise_pattern) = tracer_kinds(args)?;
     let layering = layering(args)?;
-    let (exr_compression, zlib_level) =
+    let (compression, zlib_level) =
         crate::output::ExrFormat::parse_compression(&args.exr_compression).map_err(|e| {
             UsageError(format!("--exr-compression {:?}: {e}", args.exr_compression))
         })?;
+    let exr_format = crate::output::ExrFormat {
+        half: args.half,
+        compression,
+        zlib_level,
+    };
     let environment = environment(args, scene)?;
     let output_aovs = Aovs::parse(args.aov.as_deref().unwrap_or(""))?
         .with_light_passes(args.passes.as_deref().unwrap_or(""))?;
@@ -169,8 +172,7 @@ pub(super) fn resolve_job(
             focus_node: focus_node(args, scene)?,
         },
         aov_names: output_aovs.names().iter().map(|s| s.to_string()).collect(),
-        exr_compression,
-        zlib_level,
+        exr_format,
     })
 }
 
