@@ -625,8 +625,10 @@ fn spawn_writer(
     let (send, receive) = mpsc::sync_channel::<FrameResult>(1);
     let handle = std::thread::spawn(move || {
         let mut results = Vec::new();
+        // The encoded file, reused from frame to frame (`write_exr_denoised`).
+        let mut encoded = Vec::new();
         for mut done in receive {
-            let written = write_frame(&mut done, options);
+            let written = write_frame(&mut done, options, &mut encoded);
             // The run's start-up, on the line of the frame whose log has it.
             let startup = match done.log.timings_ms.startup {
                 ms if ms > 0.0 => format!(" startup_ms={ms:.1}"),
@@ -656,7 +658,11 @@ fn spawn_writer(
 }
 
 /// Writes one frame's EXR, preview and log, and records the write time.
-fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), output::OutputError> {
+fn write_frame(
+    done: &mut FrameResult,
+    options: WriteOptions,
+    encoded: &mut Vec<u8>,
+) -> Result<(), output::OutputError> {
     let WriteOptions {
         format,
         png,
@@ -677,6 +683,7 @@ fn write_frame(done: &mut FrameResult, options: WriteOptions) -> Result<(), outp
         done.denoised.as_deref(),
         &meta,
         format,
+        encoded,
     )?;
     if png {
         // The preview shows the final (denoised) beauty.

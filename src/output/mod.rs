@@ -277,18 +277,23 @@ pub fn write_exr(
     meta: &FrameMetadata,
     format: ExrFormat,
 ) -> Result<(), OutputError> {
-    write_exr_denoised(path, image, None, meta, format)
+    write_exr_denoised(path, image, None, meta, format, &mut Vec::new())
 }
 
 /// `write_exr`, with the denoised beauty `denoised` (one RGB per pixel)
 /// when given: it goes to `R`, `G`, `B`, and `image`'s raw RGB to the
-/// `noisy` layer (see the module documentation).
+/// `noisy` layer (see the module documentation). The file is encoded in
+/// `encoded` first (cleared, its capacity kept): a writer of many frames
+/// passes the same one each time, as a fresh buffer grows by copies into
+/// fresh pages, a page fault per 4 KiB (80 MB a frame uncompressed with
+/// every pass).
 pub fn write_exr_denoised(
     path: &Path,
     image: &Image,
     denoised: Option<&[[f32; 3]]>,
     meta: &FrameMetadata,
     format: ExrFormat,
+    encoded: &mut Vec<u8>,
 ) -> Result<(), OutputError> {
     let n = image.width as usize * image.height as usize;
     if image.rgba.len() != n {
@@ -317,8 +322,9 @@ pub fn write_exr_denoised(
     // (frame, time, spp, seed) in its hash map's order, which changes from
     // run to run; `canonical_attribute_order` sorts them, so the same frame
     // is the same file byte for byte (for checksums and `cmp`).
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    exr_blocks::write_scan_lines(
+    encoded.clear();
+    let mut bytes = std::io::Cursor::new(std::mem::take(encoded));
+    let written = exr_blocks::write_scan_lines(
         &mut bytes,
         exr_channels(image, denoised, format.half),
         size,
@@ -326,16 +332,16 @@ pub fn write_exr_denoised(
         format.zlib_level,
         image_attributes,
         exr_attributes(image, meta),
-    )
-    .map_err(|e| OutputError::Encode {
+    );
+    *encoded = bytes.into_inner();
+    written.map_err(|e| OutputError::Encode {
         path: path.to_path_buf(),
         format: "EXR",
         message: e.to_string(),
     })?;
-    let mut bytes = bytes.into_inner();
-    canonical_attribute_order(&mut bytes);
+    canonical_attribute_order(encoded);
     write_atomic(path, |out| {
-        out.write_all(&bytes).map_err(|source| OutputError::Io {
+        out.write_all(encoded).map_err(|source| OutputError::Io {
             path: path.to_path_buf(),
             action: "write",
             source,
@@ -778,6 +784,37 @@ mod tests {
             names.windows(2).all(|w| w[0] < w[1]),
             "not sorted: {names:?}"
         );
+    }
+
+    /// A writer's reused buffer gives each file as a fresh one does: a
+    /// small frame after a large one is not left with the large one's tail.
+    #[test]
+    fn a_reused_encoding_buffer_writes_each_file_as_a_fresh_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let meta = FrameMetadata {
+            frame: 1,
+            time: 0.0,
+            spp: 4,
+            seed: 0,
+        };
+        let mut large = Image::new(40, 30, Aovs::ALL);
+        for (i, p) in large.rgba.iter_mut().enumerate() {
+            *p = [i as f32 * 0.37, 0.5, (i % 7) as f32, 1.0];
+        }
+        let small = Image::new(3, 2, Aovs::NONE);
+        let mut encoded = Vec::new();
+        for (k, img) in [&large, &small, &large].into_iter().enumerate() {
+            let reused = dir.path().join(format!("reused{k}.exr"));
+            let fresh = dir.path().join(format!("fresh{k}.exr"));
+            let format = ExrFormat::FLOAT;
+            write_exr_denoised(&reused, img, None, &meta, format, &mut encoded).unwrap();
+            write_exr(&fresh, img, &meta, format).unwrap();
+            assert_eq!(
+                std::fs::read(&reused).unwrap(),
+                std::fs::read(&fresh).unwrap(),
+                "file {k}"
+            );
+        }
     }
 
     /// Every compression, in f16 and f32, reads back with the `exr` crate
