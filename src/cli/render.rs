@@ -599,9 +599,6 @@ fn ms(t: Instant) -> f64 {
 /// A frame the writer finished: its farm-log line, or why it failed.
 type Written = (i64, Result<String, String>);
 
-/// Writes finished frames on its own thread, in order: EXR, preview, then
-/// the log (which records the write time), each atomically. The log comes
-/// last, so a frame counts as done only when everything is on disk.
 /// How the writer thread writes each frame.
 #[derive(Clone, Copy)]
 struct WriteOptions {
@@ -613,6 +610,9 @@ struct WriteOptions {
     seed: u64,
 }
 
+/// Writes finished frames on its own thread, in order: EXR, preview, then
+/// the log (which records the write time), each atomically. The log comes
+/// last, so a frame counts as done only when everything is on disk.
 fn spawn_writer(
     options: WriteOptions,
     spare: mpsc::Sender<Image>,

@@ -323,18 +323,16 @@ pub fn write_exr_denoised(
     // run to run; `canonical_attribute_order` sorts them, so the same frame
     // is the same file byte for byte (for checksums and `cmp`).
     encoded.clear();
-    let mut bytes = std::io::Cursor::new(std::mem::take(encoded));
-    let written = exr_blocks::write_scan_lines(
-        &mut bytes,
+    exr_blocks::write_scan_lines(
+        std::io::Cursor::new(&mut *encoded),
         exr_channels(image, denoised, format.half),
         size,
         format.compression.exr(),
         format.zlib_level,
         image_attributes,
         exr_attributes(image, meta),
-    );
-    *encoded = bytes.into_inner();
-    written.map_err(|e| OutputError::Encode {
+    )
+    .map_err(|e| OutputError::Encode {
         path: path.to_path_buf(),
         format: "EXR",
         message: e.to_string(),
