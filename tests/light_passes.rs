@@ -244,21 +244,17 @@ fn every_lobe() -> (Soup, Vec<Material>) {
     (s, materials)
 }
 
-fn pass<'a>(img: &'a Image, name: &str) -> &'a [[f32; 3]] {
-    &img.light
-        .iter()
-        .find(|p| p.name() == name)
+fn pass(img: &Image, name: &str) -> Vec<[f32; 3]> {
+    img.light
+        .pass(name)
         .unwrap_or_else(|| panic!("no {name} pass"))
-        .pixels
 }
 
 /// A pixel's passes, in `LIGHT_PASS_NAMES` order.
 fn passes_at(img: &Image, i: usize) -> [[f32; 3]; LIGHT_PASSES as usize] {
-    let mut out = [[0.0; 3]; LIGHT_PASSES as usize];
-    for (k, name) in LIGHT_PASS_NAMES.iter().enumerate() {
-        out[k] = pass(img, name)[i];
-    }
-    out
+    let names: Vec<&str> = img.light.names().collect();
+    assert_eq!(names, LIGHT_PASS_NAMES, "every pass is written");
+    img.light.pixels[i]
 }
 
 fn light_settings(size: u32, spp: u32) -> soupray::trace::render::RenderSettings {

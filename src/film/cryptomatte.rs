@@ -21,6 +21,7 @@
 //! names, `<key>` being the first 7 hex digits of the hash of the layer's
 //! name.
 
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 use crate::scene::MatteTable;
@@ -260,27 +261,32 @@ pub fn resolve_mattes(
             // `Image::reusing`).
             let mut ranks = spare.pop().map(|l| l.ranks).unwrap_or_default();
             ranks.clear();
-            ranks.reserve(kept.len() * depth);
-            let mut named: Vec<(u32, u32)> = Vec::with_capacity(per_pixel);
-            for (pixel, &n) in kept.iter().enumerate() {
-                named.clear();
-                for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
-                    if let Some(pair) = s[0].checked_sub(1) {
-                        if let Some(id) = ids.get(pair as usize) {
-                            add_count(&mut named, id.to_bits(), s[1]);
+            ranks.resize(kept.len() * depth, [0.0, 0.0]);
+            // The pixels split among the threads (the device is idle
+            // meanwhile), each with its own list of names.
+            ranks
+                .par_chunks_mut(depth.max(1))
+                .zip(kept.par_iter())
+                .enumerate()
+                .for_each_init(
+                    || Vec::with_capacity(per_pixel),
+                    |named: &mut Vec<(u32, u32)>, (pixel, (out, &n))| {
+                        named.clear();
+                        for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
+                            if let Some(pair) = s[0].checked_sub(1) {
+                                if let Some(id) = ids.get(pair as usize) {
+                                    add_count(named, id.to_bits(), s[1]);
+                                }
+                            }
                         }
-                    }
-                }
-                // Most coverage first; equal coverage by id.
-                named.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-                let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
-                for r in 0..depth {
-                    ranks.push(match named.get(r) {
-                        Some(&(id, count)) => [f32::from_bits(id), count as f32 * inv],
-                        None => [0.0, 0.0],
-                    });
-                }
-            }
+                        // Most coverage first; equal coverage by id.
+                        named.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+                        let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
+                        for (rank, &(id, count)) in out.iter_mut().zip(named.iter()) {
+                            *rank = [f32::from_bits(id), count as f32 * inv];
+                        }
+                    },
+                );
             MatteLayer {
                 kind,
                 depth,
@@ -311,22 +317,24 @@ pub fn resolve_object_ids(
     table: &MatteTable,
     ids: &mut [f32],
 ) {
-    let mut counts: Vec<(usize, u32)> = Vec::with_capacity(per_pixel);
-    for (pixel, id) in ids.iter_mut().enumerate() {
-        counts.clear();
-        for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
-            if let Some(pair) = s[0]
-                .checked_sub(1)
-                .and_then(|p| table.pairs.get(p as usize))
-            {
-                add_count(&mut counts, pair.node, s[1]);
+    ids.par_iter_mut().enumerate().for_each_init(
+        || Vec::with_capacity(per_pixel),
+        |counts: &mut Vec<(usize, u32)>, (pixel, id)| {
+            counts.clear();
+            for s in &slots[pixel * per_pixel..(pixel + 1) * per_pixel] {
+                if let Some(pair) = s[0]
+                    .checked_sub(1)
+                    .and_then(|p| table.pairs.get(p as usize))
+                {
+                    add_count(counts, pair.node, s[1]);
+                }
             }
-        }
-        *id = counts
-            .iter()
-            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
-            .map_or(0.0, |&(node, _)| (node + 1) as f32);
-    }
+            *id = counts
+                .iter()
+                .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+                .map_or(0.0, |&(node, _)| (node + 1) as f32);
+        },
+    );
 }
 
 #[cfg(test)]

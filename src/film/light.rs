@@ -51,24 +51,43 @@ pub const LIGHT_PASS_NAMES: [&str; LIGHT_PASSES as usize] = [
     "TransCol", "Emit", "Env",
 ];
 
-/// One resolved light pass: its place in `LIGHT_PASS_NAMES` (and in a
-/// pixel's sums) and a value per pixel.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LightPass {
-    pub index: usize,
-    pub pixels: Vec<[f32; 3]>,
+/// A pixel's light passes, in `LIGHT_PASS_NAMES` order.
+pub type PixelPasses = [[f32; 3]; LIGHT_PASSES as usize];
+
+/// A frame's light-path passes: the ones to write, and every pass's value
+/// per pixel. A pixel's passes lie together, as the kernel's sums do, so
+/// that resolving them is one stream in and one out; and all of them are
+/// kept whichever are asked for, since the kernel sums them all.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LightPasses {
+    /// The passes asked for, as places in `LIGHT_PASS_NAMES`, in order;
+    /// empty when none is (and then `pixels` is empty too).
+    pub written: Vec<usize>,
+    pub pixels: Vec<PixelPasses>,
 }
 
-impl LightPass {
-    /// Its EXR layer name, as Blender's.
-    pub fn name(&self) -> &'static str {
-        LIGHT_PASS_NAMES[self.index]
+impl LightPasses {
+    pub fn is_empty(&self) -> bool {
+        self.written.is_empty()
+    }
+
+    /// The EXR layer names of the passes written, as Blender's.
+    pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.written.iter().map(|&k| LIGHT_PASS_NAMES[k])
+    }
+
+    /// Pass `name`'s value per pixel, if it is written.
+    pub fn pass(&self, name: &str) -> Option<Vec<[f32; 3]>> {
+        let k = self
+            .written
+            .iter()
+            .find(|&&k| LIGHT_PASS_NAMES[k] == name)?;
+        Some(self.pixels.iter().map(|p| p[*k]).collect())
     }
 }
 
-/// The black passes `aovs` asks for, of `pixels` pixels each, in the
-/// buffers of `spare` where it has them (`Image::reusing`).
-pub fn passes_of(aovs: Aovs, pixels: usize, mut spare: Vec<LightPass>) -> Vec<LightPass> {
+/// Which passes `aovs` asks for, as places in `LIGHT_PASS_NAMES`.
+fn written(aovs: Aovs) -> Vec<usize> {
     let on = [
         aovs.diffuse,
         aovs.diffuse,
@@ -82,13 +101,36 @@ pub fn passes_of(aovs: Aovs, pixels: usize, mut spare: Vec<LightPass>) -> Vec<Li
         aovs.emission,
         aovs.environment,
     ];
-    (0..LIGHT_PASS_NAMES.len())
-        .filter(|&index| on[index])
-        .map(|index| LightPass {
-            index,
-            pixels: super::refill(spare.pop().map(|p| p.pixels), pixels, [0.0; 3]),
-        })
-        .collect()
+    (0..LIGHT_PASS_NAMES.len()).filter(|&k| on[k]).collect()
+}
+
+/// The black passes `aovs` asks for, of `pixels` pixels, in the buffer of
+/// `spare` where it has one (`Image::reusing`).
+pub fn black(aovs: Aovs, pixels: usize, spare: LightPasses) -> LightPasses {
+    let written = written(aovs);
+    let n = if written.is_empty() { 0 } else { pixels };
+    LightPasses {
+        written,
+        pixels: super::refill(Some(spare.pixels), n, [[0.0; 3]; LIGHT_PASSES as usize]),
+    }
+}
+
+/// The passes `aovs` asks for, from the frame's sums (3 * LIGHT_PASSES
+/// floats per pixel, as the kernel leaves them) over each pixel's `kept`
+/// samples (`resolve_pixel`), in the buffer of `spare` where it has one;
+/// the pixels split among the threads.
+pub fn resolve(aovs: Aovs, sums: &[f32], kept: &[u32], spare: LightPasses) -> LightPasses {
+    use rayon::prelude::*;
+    let mut out = black(aovs, 0, spare);
+    if !out.is_empty() {
+        let per = 3 * LIGHT_PASSES as usize;
+        out.pixels.par_extend(
+            sums.par_chunks_exact(per)
+                .zip(kept.par_iter())
+                .map(|(s, &n)| resolve_pixel(s, n)),
+        );
+    }
+    out
 }
 
 /// A pixel's light passes from its sums (3 * LIGHT_PASSES floats, as the
@@ -97,7 +139,7 @@ pub fn passes_of(aovs: Aovs, pixels: usize, mut spare: Vec<LightPass>) -> Vec<Li
 /// and light still came through that lobe (a lobe the sampled directions
 /// never weighed), the colour is 1 and the light passes carry the light, so
 /// that the passes still add up to the beauty.
-pub fn resolve_pixel(sums: &[f32], kept: u32) -> [[f32; 3]; LIGHT_PASSES as usize] {
+pub fn resolve_pixel(sums: &[f32], kept: u32) -> PixelPasses {
     let mut out = [[0.0f32; 3]; LIGHT_PASSES as usize];
     if kept == 0 {
         return out;
@@ -124,7 +166,7 @@ pub fn resolve_pixel(sums: &[f32], kept: u32) -> [[f32; 3]; LIGHT_PASSES as usiz
 }
 
 /// The beauty the passes of one pixel add up to (the formula above).
-pub fn recombine(passes: &[[f32; 3]; LIGHT_PASSES as usize]) -> [f32; 3] {
+pub fn recombine(passes: &PixelPasses) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
     for c in 0..3 {
         for lobe in [LIGHT_DIFFUSE, LIGHT_GLOSSY, LIGHT_TRANSMISSION] {

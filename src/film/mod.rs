@@ -28,9 +28,10 @@ pub mod cryptomatte;
 pub mod light;
 
 pub use cryptomatte::{Cryptomatte, MatteKind, MatteLayer};
-pub use light::LightPass;
+pub use light::LightPasses;
 
 use crate::UsageError;
+use rayon::prelude::*;
 
 /// Depth written where no sample hit anything (Blender's value).
 pub const BACKGROUND_DEPTH: f32 = 1.0e10;
@@ -371,9 +372,8 @@ pub struct Image {
     pub object_id: Option<Vec<f32>>,
     /// The Cryptomatte layers (`--cryptomatte`), or none.
     pub mattes: Vec<MatteLayer>,
-    /// The light-path passes asked for (`film::light`), in
-    /// `LIGHT_PASS_NAMES` order, or none.
-    pub light: Vec<LightPass>,
+    /// The light-path passes asked for (`film::light`), or none.
+    pub light: LightPasses,
     /// With shadow catchers: per pixel, the share of the light that
     /// reaches the catcher (1: no shadow, 0: all of it shadowed), the
     /// factor to multiply a plate by; 1 where no catcher is seen.
@@ -453,7 +453,7 @@ impl Image {
             uv: aovs.uv.then(|| refill(s.uv.take(), n, [0.0; 2])),
             object_id: aovs.object_id.then(|| refill(s.object_id.take(), n, 0.0)),
             mattes: Vec::new(),
-            light: light::passes_of(aovs, n, std::mem::take(&mut s.light)),
+            light: light::black(aovs, n, std::mem::take(&mut s.light)),
             shadow: None,
         }
     }
@@ -475,7 +475,7 @@ impl Image {
             uv: None,
             object_id: None,
             mattes: Vec::new(),
-            light: Vec::new(),
+            light: LightPasses::default(),
             shadow: None,
         }
     }
@@ -502,7 +502,7 @@ impl Image {
     }
 
     fn has_light_pass(&self, name: &str) -> bool {
-        self.light.iter().any(|p| p.name() == name)
+        self.light.names().any(|n| n == name)
     }
 }
 
@@ -608,6 +608,8 @@ pub struct Accumulated {
 pub struct Resolved {
     pub image: Image,
     pub counts: Vec<u32>,
+    /// Samples each pixel kept: `counts` less those dropped.
+    pub kept: Vec<u32>,
     pub estimates: Vec<f32>,
     /// Samples dropped for NaN or infinite values, of `taken`.
     pub dropped: u64,
@@ -618,111 +620,194 @@ pub struct Resolved {
 /// samples: the reconstruction filter is applied where samples are drawn,
 /// by importance), its AOVs and its noise estimate; in `spare`'s buffers
 /// where it has them (`Image::reusing`).
+///
+/// Each output is written in one pass over the pixels, straight into its
+/// buffer, with the pixels split among the threads (the device is idle
+/// meanwhile): one loop over the pixels that stored into every output at
+/// once (30 streams with every pass on) took several times as long
+/// (BENCHMARKS.md, "Choices measured").
 pub fn resolve(
     acc: &Accumulated,
     width: u32,
     height: u32,
     aovs: Aovs,
-    mut spare: Option<Image>,
+    spare: Option<Image>,
 ) -> Resolved {
     let pixels = width as usize * height as usize;
-    let mut spare_shadow = spare.as_mut().and_then(|s| s.shadow.take());
-    let mut image = Image::reusing(spare, width, height, aovs);
-    let mut out = Resolved {
-        image: Image::empty(),
-        counts: Vec::with_capacity(pixels),
-        estimates: Vec::with_capacity(pixels),
-        dropped: 0,
-        taken: 0,
+    let mut spare = spare.unwrap_or_else(Image::empty);
+    let aux = &acc.aux[..pixels];
+    let counts: Vec<u32> = aux.par_iter().map(|a| a[3] as u32).collect();
+    let kept: Vec<u32> = aux
+        .par_iter()
+        .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
+        .collect();
+    let estimates: Vec<f32> = (0..pixels)
+        .into_par_iter()
+        .map(|i| {
+            let snapshots = [acc.snapshots[2 * i], acc.snapshots[2 * i + 1]];
+            noise_estimate(acc.color[i], snapshots, aux[i])
+        })
+        .collect();
+    let dropped = aux.iter().map(|a| a[2] as u32 as u64).sum();
+    let taken = counts.iter().map(|&c| c as u64).sum();
+    let spare_light = std::mem::take(&mut spare.light);
+    let mut image = resolve_image(
+        acc,
+        width,
+        height,
+        aovs,
+        spare,
+        (&counts, &kept, &estimates),
+    );
+    image.light = if acc.light.is_empty() {
+        light::black(aovs, pixels, spare_light)
+    } else {
+        light::resolve(aovs, &acc.light, &kept, spare_light)
     };
-    for i in 0..pixels {
-        let aux = acc.aux[i];
-        let bad = aux[2] as u32;
-        let samples = aux[3] as u32;
-        out.dropped += bad as u64;
-        out.taken += samples as u64;
-        out.counts.push(samples);
-        let snapshots = [acc.snapshots[2 * i], acc.snapshots[2 * i + 1]];
-        let e = noise_estimate(acc.color[i], snapshots, aux);
-        out.estimates.push(e);
-        if let Some(c) = &mut image.sample_count {
-            c[i] = samples as f32;
+    Resolved {
+        image,
+        counts,
+        kept,
+        estimates,
+        dropped,
+        taken,
+    }
+}
+
+/// `resolve`'s image but for the light passes, from the pixels' sample
+/// counts, kept samples and noise estimates.
+fn resolve_image(
+    acc: &Accumulated,
+    width: u32,
+    height: u32,
+    aovs: Aovs,
+    mut s: Image,
+    (counts, kept, estimates): (&[u32], &[u32], &[f32]),
+) -> Image {
+    let pixels = width as usize * height as usize;
+    let aux = &acc.aux[..pixels];
+    // The mean's weight, 1 / kept, where a pixel kept samples; a pixel
+    // that kept none keeps each output's default.
+    let inv = |i: usize| 1.0 / kept[i] as f32;
+    // Averaged over the samples that hit, as depth is.
+    let hit = |i: usize| kept[i] > 0 && aux[i][1] > 0.0;
+    let mut rgba = fill(Some(std::mem::take(&mut s.rgba)), pixels, |i| {
+        if kept[i] == 0 {
+            return [0.0; 4];
         }
-        if let Some(n) = &mut image.noise {
-            n[i] = e;
-        }
-        if let Some(r) = &mut image.rays {
-            r[i] = acc.rays[i] as f32;
-        }
-        let kept = samples.saturating_sub(bad);
-        if kept == 0 {
-            continue;
-        }
-        let inv = 1.0 / kept as f32;
-        let c = acc.color[i];
-        image.rgba[i] = [c[0] * inv, c[1] * inv, c[2] * inv, c[3] * inv];
-        if let Some(n) = &mut image.normal {
-            let s = acc.normal[i];
-            n[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
-        }
-        if let Some(a) = &mut image.albedo {
-            let s = acc.albedo[i];
-            a[i] = [s[0] * inv, s[1] * inv, s[2] * inv];
-        }
-        if aux[1] > 0.0 {
-            let inv_hits = 1.0 / aux[1];
-            if let Some(p) = &mut image.position {
-                let s = acc.geometry[2 * i];
-                p[i] = [s[0] * inv_hits, s[1] * inv_hits, s[2] * inv_hits];
+        let (c, w) = (acc.color[i], inv(i));
+        [c[0] * w, c[1] * w, c[2] * w, c[3] * w]
+    });
+    let mean3 = |sums: &[[f32; 4]], spare: Option<Vec<[f32; 3]>>| {
+        fill(spare, pixels, |i| {
+            if kept[i] == 0 {
+                return [0.0; 3];
             }
-            if let Some(t) = &mut image.uv {
-                let s = acc.geometry[2 * i + 1];
-                t[i] = [s[0] * inv_hits, s[1] * inv_hits];
+            let (c, w) = (sums[i], inv(i));
+            [c[0] * w, c[1] * w, c[2] * w]
+        })
+    };
+    let normal = aovs.normal.then(|| mean3(&acc.normal, s.normal.take()));
+    let albedo = aovs.albedo.then(|| mean3(&acc.albedo, s.albedo.take()));
+    let position = aovs.position.then(|| {
+        fill(s.position.take(), pixels, |i| {
+            if !hit(i) {
+                return [0.0; 3];
             }
-        }
-        if let Some(m) = &mut image.motion {
-            // Averaged over the samples that hit, as depth is.
-            if aux[1] > 0.0 {
-                let s = acc.motion[i];
-                m[i] = [s[0], s[1], s[2], s[3]].map(|v| v / aux[1]);
+            let (p, w) = (acc.geometry[2 * i], 1.0 / aux[i][1]);
+            [p[0] * w, p[1] * w, p[2] * w]
+        })
+    });
+    let uv = aovs.uv.then(|| {
+        fill(s.uv.take(), pixels, |i| {
+            if !hit(i) {
+                return [0.0; 2];
             }
-        }
-        if !acc.catcher.is_empty() {
-            let shadow = image
-                .shadow
-                .get_or_insert_with(|| refill(spare_shadow.take(), pixels, [1.0; 3]));
-            let cast = catcher_shadow(
-                [
-                    acc.catcher[3 * i],
-                    acc.catcher[3 * i + 1],
-                    acc.catcher[3 * i + 2],
-                ],
-                kept,
-            );
-            if let Some((factor, rgba)) = cast {
+            let (t, w) = (acc.geometry[2 * i + 1], 1.0 / aux[i][1]);
+            [t[0] * w, t[1] * w]
+        })
+    });
+    let motion = aovs.motion.then(|| {
+        fill(s.motion.take(), pixels, |i| {
+            if !hit(i) {
+                return [0.0; 4];
+            }
+            let (m, hits) = (acc.motion[i], aux[i][1]);
+            [m[0] / hits, m[1] / hits, m[2] / hits, m[3] / hits]
+        })
+    });
+    let depth = aovs.depth.then(|| {
+        fill(s.depth.take(), pixels, |i| {
+            if hit(i) {
+                aux[i][0] / aux[i][1]
+            } else {
+                BACKGROUND_DEPTH
+            }
+        })
+    });
+    let sample_count = aovs
+        .sample_count
+        .then(|| fill(s.sample_count.take(), pixels, |i| counts[i] as f32));
+    let noise = aovs
+        .noise
+        .then(|| fill(s.noise.take(), pixels, |i| estimates[i]));
+    let rays = aovs
+        .rays
+        .then(|| fill(s.rays.take(), pixels, |i| acc.rays[i] as f32));
+    // Filled from the mattes' slots after (cryptomatte::resolve_object_ids).
+    let object_id = aovs
+        .object_id
+        .then(|| refill(s.object_id.take(), pixels, 0.0));
+    let mut shadow = None;
+    if !acc.catcher.is_empty() {
+        for i in (0..pixels).filter(|&i| kept[i] > 0) {
+            let sums = [
+                acc.catcher[3 * i],
+                acc.catcher[3 * i + 1],
+                acc.catcher[3 * i + 2],
+            ];
+            // Only a frame with a pixel that kept a sample has the pass.
+            let shadow = shadow.get_or_insert_with(|| refill(s.shadow.take(), pixels, [1.0; 3]));
+            if let Some((factor, add)) = catcher_shadow(sums, kept[i]) {
                 shadow[i] = factor;
                 for k in 0..4 {
-                    image.rgba[i][k] += rgba[k];
+                    rgba[i][k] += add[k];
                 }
             }
         }
-        if !acc.light.is_empty() && !image.light.is_empty() {
-            let per = 3 * light::LIGHT_PASSES as usize;
-            let passes = light::resolve_pixel(&acc.light[per * i..per * (i + 1)], kept);
-            for pass in &mut image.light {
-                pass.pixels[i] = passes[pass.index];
-            }
-        }
-        if let Some(z) = &mut image.depth {
-            z[i] = if aux[1] > 0.0 {
-                aux[0] / aux[1]
-            } else {
-                BACKGROUND_DEPTH
-            };
-        }
     }
-    out.image = image;
-    out
+    Image {
+        width,
+        height,
+        rgba,
+        depth,
+        normal,
+        albedo,
+        sample_count,
+        noise,
+        rays,
+        motion,
+        position,
+        uv,
+        object_id,
+        mattes: Vec::new(),
+        light: LightPasses::default(),
+        shadow,
+    }
+}
+
+/// `value(i)` for each of the `n` pixels, in `spare`'s memory when it has
+/// the room (written once: `refill` then a store per pixel writes twice),
+/// the pixels split among the threads.
+fn fill<T: Send>(
+    spare: Option<Vec<T>>,
+    n: usize,
+    value: impl Fn(usize) -> T + Sync + Send,
+) -> Vec<T> {
+    let mut v = spare.unwrap_or_default();
+    v.clear();
+    v.par_extend((0..n).into_par_iter().map(value));
+    v
 }
 
 /// A pixel's shadow-catcher sums (`Accumulated::catcher`) over its `kept`
@@ -1011,6 +1096,102 @@ mod tests {
         assert_eq!(r.counts, [4, 2]);
         // Fewer than two kept samples: no estimate.
         assert!(r.estimates[1].is_infinite());
+    }
+
+    /// Sums for `pixels` pixels from a seed, with pixels that kept no
+    /// sample, that dropped some and that no sample hit.
+    fn random_sums(pixels: usize, seed: u32) -> Accumulated {
+        let mut state = seed.wrapping_mul(747_796_405).wrapping_add(1);
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut quad = |k: usize| -> Vec<[f32; 4]> {
+            (0..k).map(|_| [next(), next(), next(), next()]).collect()
+        };
+        let color = quad(pixels);
+        let (normal, albedo, snapshots) = (quad(pixels), quad(pixels), quad(2 * pixels));
+        let (motion, geometry, catcher) = (quad(pixels), quad(2 * pixels), quad(3 * pixels));
+        let aux = (0..pixels)
+            .map(|i| match i % 4 {
+                0 => [0.0, 0.0, 3.0, 3.0], // every sample dropped
+                1 => [2.0, 0.0, 0.0, 8.0], // no sample hit
+                2 => [5.0, 4.0, 1.0, 8.0], // one dropped
+                _ => [9.0, 8.0, 0.0, 8.0],
+            })
+            .collect();
+        let light = (0..3 * light::LIGHT_PASSES as usize * pixels)
+            .map(|k| {
+                if k % 7 == 0 {
+                    0.0
+                } else {
+                    (k % 13) as f32 * 0.25
+                }
+            })
+            .collect();
+        Accumulated {
+            color,
+            normal,
+            albedo,
+            snapshots,
+            aux,
+            rays: (0..pixels as u32).collect(),
+            motion,
+            geometry,
+            catcher,
+            matte_slots: Vec::new(),
+            light,
+        }
+    }
+
+    #[test]
+    fn resolve_writes_every_output_per_pixel_whatever_buffers_it_reuses() {
+        let (w, h) = (37, 5);
+        let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays,motion,position,uv")
+            .unwrap()
+            .with_light_passes("light")
+            .unwrap();
+        let acc = random_sums((w * h) as usize, 1);
+        let fresh = resolve(&acc, w, h, every, None);
+        // A larger frame's buffers, another frame's, and a frame with no
+        // AOV's, reused.
+        for (sw, sh, aovs) in [(64, 9, every), (w, h, every), (w, h, Aovs::NONE)] {
+            let spare = resolve(&random_sums((sw * sh) as usize, 2), sw, sh, aovs, None);
+            let reused = resolve(&acc, w, h, every, Some(spare.image));
+            assert_eq!(
+                reused.image, fresh.image,
+                "reusing a {sw}x{sh} frame's buffers"
+            );
+        }
+        let image = &fresh.image;
+        let per = 3 * light::LIGHT_PASSES as usize;
+        for i in 0..(w * h) as usize {
+            let kept = fresh.kept[i];
+            let hits = acc.aux[i][1];
+            assert_eq!(
+                image.light.pixels[i],
+                light::resolve_pixel(&acc.light[per * i..per * (i + 1)], kept)
+            );
+            let position = image.position.as_ref().unwrap()[i];
+            let motion = image.motion.as_ref().unwrap()[i];
+            if kept == 0 || hits == 0.0 {
+                assert_eq!(position, [0.0; 3], "pixel {i}");
+                assert_eq!(motion, [0.0; 4], "pixel {i}");
+                assert_eq!(image.depth.as_ref().unwrap()[i], BACKGROUND_DEPTH);
+            } else {
+                let (p, inv) = (acc.geometry[2 * i], 1.0 / hits);
+                assert_eq!(position, [p[0] * inv, p[1] * inv, p[2] * inv]);
+                assert_eq!(motion, acc.motion[i].map(|v| v / hits));
+            }
+            if kept == 0 {
+                assert_eq!(image.rgba[i], [0.0; 4]);
+            }
+        }
+        // The catcher's sums make a shadow pass, 1 where no sample was kept.
+        let shadow = image.shadow.as_ref().unwrap();
+        assert!((0..(w * h) as usize).all(|i| fresh.kept[i] > 0 || shadow[i] == [1.0; 3]));
     }
 
     #[test]

@@ -49,6 +49,7 @@ mod exr_blocks;
 mod log;
 
 use crate::denoise::NOISY_LAYER;
+use crate::film::light::LIGHT_PASSES;
 use crate::film::Image;
 pub(crate) use atomic::io_err;
 pub use atomic::{check_target, temporary_owner, temporary_sibling, write_atomic};
@@ -481,10 +482,15 @@ fn exr_channels<'a>(
         }
     }
     // Light-path passes are colours, as the beauty is: --half applies.
-    for pass in &image.light {
+    let light = image.light.pixels.as_flattened().as_flattened();
+    for (&k, pass) in image.light.written.iter().zip(image.light.names()) {
         for (c, component) in ["R", "G", "B"].into_iter().enumerate() {
-            let name = format!("{}.{component}", pass.name());
-            push(name, Strided::component(&pass.pixels, c), half);
+            let samples = Strided {
+                data: light,
+                stride: 3 * LIGHT_PASSES as usize,
+                offset: 3 * k + c,
+            };
+            push(format!("{pass}.{component}"), samples, half);
         }
     }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id

@@ -804,14 +804,9 @@ impl<'d> PathTracer<'d> {
         let spare_mattes = spare.as_mut().map(|s| std::mem::take(&mut s.mattes));
         let mut resolved = film::resolve(accumulated, w, h, self.settings.aovs, spare);
         if let (Some(c), Some((table, _))) = (&self.settings.cryptomatte, &self.mattes) {
-            let kept: Vec<u32> = accumulated
-                .aux
-                .iter()
-                .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
-                .collect();
             resolved.image.mattes = film::cryptomatte::resolve_mattes(
                 &accumulated.matte_slots,
-                &kept,
+                &resolved.kept,
                 table,
                 c,
                 spare_mattes.unwrap_or_default(),
