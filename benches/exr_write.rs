@@ -21,6 +21,7 @@
 
 #[path = "../tests/common/passes.rs"]
 mod passes;
+mod support;
 
 use soupray::cli::report::median;
 use soupray::output::{zip_predict, zip_predict_bytewise, ZIP_LEVEL};
@@ -28,18 +29,10 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
+use support::flag;
 
 /// The zlib level OpenEXR writes ZIP blocks at by default.
 const OPENEXR_LEVEL: u32 = 4;
-
-/// `--name VALUE` from the command line.
-fn flag(name: &str) -> Option<String> {
-    let args: Vec<String> = std::env::args().collect();
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1))
-        .cloned()
-}
 
 /// Renders the frame and returns its blocks' raw bytes.
 fn frame_blocks(out: &std::path::Path) -> Result<(Vec<Vec<u8>>, usize), String> {

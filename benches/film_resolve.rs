@@ -17,37 +17,35 @@
 //! other, reusing the last frame's buffers as the renderer does; the table
 //! gives their medians and ratio.
 
+mod support;
+
 use soupray::cli::report::median;
 use soupray::film::cryptomatte::{resolve_mattes, resolve_object_ids};
 use soupray::film::light::LIGHT_PASSES;
 use soupray::film::{self, Accumulated, Aovs, Cryptomatte, Image, MatteLayer};
 use soupray::scene::mattes::{MattePair, MatteTable};
 use std::time::Instant;
+use support::flag;
 
 const WIDTH: u32 = 640;
 const HEIGHT: u32 = 360;
 const SPP: f32 = 16.0;
 const PAIRS: usize = 204;
 
-/// `--name VALUE` from the command line.
-fn flag(name: &str) -> Option<String> {
-    let args: Vec<String> = std::env::args().collect();
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1))
-        .cloned()
-}
-
-/// A frame's sums as the device leaves them, from a fixed seed.
-fn sums(cryptomatte: &Cryptomatte) -> Accumulated {
-    let pixels = (WIDTH * HEIGHT) as usize;
-    let mut state = 0x9e37_79b9u32;
-    let mut next = move || {
+/// Marsaglia's xorshift32 from `state` (not 0).
+fn xorshift(mut state: u32) -> impl FnMut() -> u32 {
+    move || {
         state ^= state << 13;
         state ^= state >> 17;
         state ^= state << 5;
         state
-    };
+    }
+}
+
+/// A frame's sums as the device leaves them, from fixed seeds.
+fn sums(cryptomatte: &Cryptomatte) -> Accumulated {
+    let pixels = (WIDTH * HEIGHT) as usize;
+    let mut next = xorshift(0x9e37_79b9);
     let mut unit = move || (next() >> 8) as f32 / (1u32 << 24) as f32;
     let mut quads = |n: usize, scale: f32| -> Vec<[f32; 4]> {
         (0..n)
@@ -66,18 +64,12 @@ fn sums(cryptomatte: &Cryptomatte) -> Accumulated {
     let snapshots = quads(2 * pixels, SPP);
     let (motion, geometry) = (quads(pixels, SPP), quads(2 * pixels, SPP));
     let light = quads(3 * LIGHT_PASSES as usize * pixels / 4, SPP).concat();
-    let mut state = 7u32;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        state
-    };
+    let mut next = xorshift(7);
     let aux = (0..pixels)
         .map(|_| {
             let r = next();
-            let hits = if r % 10 == 0 { 0.0 } else { SPP };
-            let dropped = if r % 97 == 0 { 1.0 } else { 0.0 };
+            let hits = if r.is_multiple_of(10) { 0.0 } else { SPP };
+            let dropped = if r.is_multiple_of(97) { 1.0 } else { 0.0 };
             [hits * 3.0, hits, dropped, SPP]
         })
         .collect();

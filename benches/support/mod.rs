@@ -129,3 +129,12 @@ pub fn render_frame(
         log: soupray::output::read_log(&log).map_err(|e| format!("{}: {e}", log.display()))?,
     })
 }
+
+/// `--name VALUE` from the command line.
+pub fn flag(name: &str) -> Option<String> {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1))
+        .cloned()
+}
