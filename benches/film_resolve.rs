@@ -1,6 +1,6 @@
 //! What resolving a frame's sums into its image costs on the host with
-//! every compositing pass: `film::resolve` (the beauty, the AOVs and the
-//! light passes) and the Cryptomatte ranks and object ids, at the shipped
+//! every compositing pass: `film::resolve` (the beauty, the AOVs, the
+//! light passes, the Cryptomatte ranks and the object ids), at the shipped
 //! animation's 640x360 and 16 samples per pixel. The device is idle while
 //! this runs, so it is time the frame waits.
 //!
@@ -20,9 +20,8 @@
 mod support;
 
 use soupray::cli::report::median;
-use soupray::film::cryptomatte::{resolve_mattes, resolve_object_ids};
 use soupray::film::light::LIGHT_PASSES;
-use soupray::film::{self, Accumulated, Aovs, Cryptomatte, Image, MatteLayer};
+use soupray::film::{self, Accumulated, Aovs, Cryptomatte, Image};
 use soupray::scene::mattes::{MattePair, MatteTable};
 use std::time::Instant;
 use support::flag;
@@ -114,35 +113,6 @@ fn table() -> MatteTable {
     }
 }
 
-/// The host's part of a frame, as the tracer does it after reading the
-/// sums back; in `spare`'s buffers.
-fn resolve(
-    acc: &Accumulated,
-    aovs: Aovs,
-    cryptomatte: &Cryptomatte,
-    table: &MatteTable,
-    spare: Option<Image>,
-) -> Image {
-    let mut spare = spare;
-    let spare_mattes: Vec<MatteLayer> = spare
-        .as_mut()
-        .map(|s| std::mem::take(&mut s.mattes))
-        .unwrap_or_default();
-    let mut resolved = film::resolve(acc, WIDTH, HEIGHT, aovs, spare);
-    let kept: Vec<u32> = acc
-        .aux
-        .iter()
-        .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
-        .collect();
-    resolved.image.mattes =
-        resolve_mattes(&acc.matte_slots, &kept, table, cryptomatte, spare_mattes);
-    if let Some(ids) = &mut resolved.image.object_id {
-        let slots = cryptomatte.slots() as usize;
-        resolve_object_ids(&acc.matte_slots, slots, table, ids);
-    }
-    resolved.image
-}
-
 fn main() {
     let runs: usize = flag("--runs").and_then(|r| r.parse().ok()).unwrap_or(15);
     let aovs = Aovs::parse("depth,normal,albedo,motion,position,uv,object_id")
@@ -155,17 +125,23 @@ fn main() {
         .num_threads(1)
         .build()
         .expect("a one-thread pool");
+    // The host's part of a frame, as the tracer does it after reading the
+    // sums back.
+    let resolve = |spare: Option<Image>| {
+        let (c, t) = (Some(&cryptomatte), Some(&table));
+        film::resolve(&acc, WIDTH, HEIGHT, aovs, c, t, spare).image
+    };
     let threads = rayon::current_num_threads();
     let (mut all, mut single) = (Vec::new(), Vec::new());
     let (mut spare_all, mut spare_one) = (None, None);
     // One run of each first: the buffers' pages are touched once.
     for run in 0..=runs {
         let t = Instant::now();
-        let image = resolve(&acc, aovs, &cryptomatte, &table, spare_all.take());
+        let image = resolve(spare_all.take());
         let ms_all = t.elapsed().as_secs_f64() * 1e3;
         spare_all = Some(image);
         let t = Instant::now();
-        let image = one.install(|| resolve(&acc, aovs, &cryptomatte, &table, spare_one.take()));
+        let image = one.install(|| resolve(spare_one.take()));
         let ms_one = t.elapsed().as_secs_f64() * 1e3;
         spare_one = Some(image);
         if run > 0 {

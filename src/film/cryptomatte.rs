@@ -258,7 +258,7 @@ pub fn resolve_mattes(
                 .map(|p| (name_of(p).to_owned(), ids[p].to_bits()))
                 .collect();
             // In a written frame's buffer where there is one (as
-            // `Image::reusing`).
+            // `film::resolve`'s other outputs).
             let mut ranks = spare.pop().map(|l| l.ranks).unwrap_or_default();
             ranks.clear();
             ranks.resize(kept.len() * depth, [0.0, 0.0]);

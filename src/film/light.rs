@@ -105,7 +105,7 @@ fn written(aovs: Aovs) -> Vec<usize> {
 }
 
 /// The black passes `aovs` asks for, of `pixels` pixels, in the buffer of
-/// `spare` where it has one (`Image::reusing`).
+/// `spare` where it has one.
 pub fn black(aovs: Aovs, pixels: usize, spare: LightPasses) -> LightPasses {
     let written = written(aovs);
     let n = if written.is_empty() { 0 } else { pixels };

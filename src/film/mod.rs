@@ -30,6 +30,7 @@ pub mod light;
 pub use cryptomatte::{Cryptomatte, MatteKind, MatteLayer};
 pub use light::LightPasses;
 
+use crate::scene::MatteTable;
 use crate::UsageError;
 use rayon::prelude::*;
 
@@ -421,61 +422,23 @@ impl Image {
 
     /// A black, transparent image with the given AOVs (background depth).
     pub fn new(width: u32, height: u32, aovs: Aovs) -> Image {
-        Image::reusing(None, width, height, aovs)
-    }
-
-    /// As `new`, in the buffers of `spare` (an image whose files are
-    /// written) where it has them. A frame's buffers are tens of megabytes
-    /// (80 MB at 640x360 with every pass), and fresh ones cost the kernel
-    /// a page fault and a zeroed page per 4 KiB on first touch: refilling
-    /// old ones costs a memset.
-    pub fn reusing(spare: Option<Image>, width: u32, height: u32, aovs: Aovs) -> Image {
         let n = width as usize * height as usize;
-        let mut s = spare.unwrap_or_else(Image::empty);
         Image {
             width,
             height,
-            rgba: refill(Some(std::mem::take(&mut s.rgba)), n, [0.0; 4]),
-            depth: aovs
-                .depth
-                .then(|| refill(s.depth.take(), n, BACKGROUND_DEPTH)),
-            normal: aovs.normal.then(|| refill(s.normal.take(), n, [0.0; 3])),
-            albedo: aovs.albedo.then(|| refill(s.albedo.take(), n, [0.0; 3])),
-            sample_count: aovs
-                .sample_count
-                .then(|| refill(s.sample_count.take(), n, 0.0)),
-            noise: aovs.noise.then(|| refill(s.noise.take(), n, 0.0)),
-            rays: aovs.rays.then(|| refill(s.rays.take(), n, 0.0)),
-            motion: aovs.motion.then(|| refill(s.motion.take(), n, [0.0; 4])),
-            position: aovs
-                .position
-                .then(|| refill(s.position.take(), n, [0.0; 3])),
-            uv: aovs.uv.then(|| refill(s.uv.take(), n, [0.0; 2])),
-            object_id: aovs.object_id.then(|| refill(s.object_id.take(), n, 0.0)),
+            rgba: vec![[0.0; 4]; n],
+            depth: aovs.depth.then(|| vec![BACKGROUND_DEPTH; n]),
+            normal: aovs.normal.then(|| vec![[0.0; 3]; n]),
+            albedo: aovs.albedo.then(|| vec![[0.0; 3]; n]),
+            sample_count: aovs.sample_count.then(|| vec![0.0; n]),
+            noise: aovs.noise.then(|| vec![0.0; n]),
+            rays: aovs.rays.then(|| vec![0.0; n]),
+            motion: aovs.motion.then(|| vec![[0.0; 4]; n]),
+            position: aovs.position.then(|| vec![[0.0; 3]; n]),
+            uv: aovs.uv.then(|| vec![[0.0; 2]; n]),
+            object_id: aovs.object_id.then(|| vec![0.0; n]),
             mattes: Vec::new(),
-            light: light::black(aovs, n, std::mem::take(&mut s.light)),
-            shadow: None,
-        }
-    }
-
-    /// An image of no pixels and no AOVs.
-    fn empty() -> Image {
-        Image {
-            width: 0,
-            height: 0,
-            rgba: Vec::new(),
-            depth: None,
-            normal: None,
-            albedo: None,
-            sample_count: None,
-            noise: None,
-            rays: None,
-            motion: None,
-            position: None,
-            uv: None,
-            object_id: None,
-            mattes: Vec::new(),
-            light: LightPasses::default(),
+            light: light::black(aovs, n, LightPasses::default()),
             shadow: None,
         }
     }
@@ -544,8 +507,10 @@ pub fn noise_estimate(color: [f32; 4], snapshots: [[f32; 4]; 2], aux: [f32; 4]) 
 }
 
 /// Written frames' images, handed back by the writer so that a later
-/// frame's resolve fills their buffers (`Image::reusing`) instead of fresh
-/// ones. Only images already written come back, so a job holds no more
+/// frame's resolve (`resolve`) fills their buffers instead of fresh ones: a
+/// frame's buffers are tens of megabytes (80 MB at 640x360 with every
+/// pass), and fresh ones cost a page fault and a zeroed page per 4 KiB on
+/// first touch. Only images already written come back, so a job holds no more
 /// images at once than it would without.
 pub struct SpareImages(std::sync::mpsc::Receiver<Image>);
 
@@ -608,8 +573,6 @@ pub struct Accumulated {
 pub struct Resolved {
     pub image: Image,
     pub counts: Vec<u32>,
-    /// Samples each pixel kept: `counts` less those dropped.
-    pub kept: Vec<u32>,
     pub estimates: Vec<f32>,
     /// Samples dropped for NaN or infinite values, of `taken`.
     pub dropped: u64,
@@ -618,8 +581,10 @@ pub struct Resolved {
 
 /// Each pixel's mean over its kept samples (a box over the pixel's own
 /// samples: the reconstruction filter is applied where samples are drawn,
-/// by importance), its AOVs and its noise estimate; in `spare`'s buffers
-/// where it has them (`Image::reusing`).
+/// by importance), its AOVs, its noise estimate, and with the scene's
+/// matte names (`table`) its object ids and the `cryptomatte` layers; in
+/// the buffers of `spare` (a written frame's image, `SpareImages`) where
+/// it has them.
 ///
 /// Each output is written in one pass over the pixels, straight into its
 /// buffer, with the pixels split among the threads (the device is idle
@@ -631,16 +596,18 @@ pub fn resolve(
     width: u32,
     height: u32,
     aovs: Aovs,
+    cryptomatte: Option<&Cryptomatte>,
+    table: Option<&MatteTable>,
     spare: Option<Image>,
 ) -> Resolved {
     let pixels = width as usize * height as usize;
-    let mut spare = spare.unwrap_or_else(Image::empty);
+    let mut spare = spare.unwrap_or_else(|| Image::new(0, 0, Aovs::NONE));
     let aux = &acc.aux[..pixels];
-    let counts: Vec<u32> = aux.par_iter().map(|a| a[3] as u32).collect();
-    let kept: Vec<u32> = aux
+    // Samples taken, and kept: less those dropped.
+    let (counts, kept): (Vec<u32>, Vec<u32>) = aux
         .par_iter()
-        .map(|a| (a[3] as u32).saturating_sub(a[2] as u32))
-        .collect();
+        .map(|a| (a[3] as u32, (a[3] as u32).saturating_sub(a[2] as u32)))
+        .unzip();
     let estimates: Vec<f32> = (0..pixels)
         .into_par_iter()
         .map(|i| {
@@ -651,6 +618,7 @@ pub fn resolve(
     let dropped = aux.iter().map(|a| a[2] as u32 as u64).sum();
     let taken = counts.iter().map(|&c| c as u64).sum();
     let spare_light = std::mem::take(&mut spare.light);
+    let spare_mattes = std::mem::take(&mut spare.mattes);
     let mut image = resolve_image(
         acc,
         width,
@@ -664,10 +632,16 @@ pub fn resolve(
     } else {
         light::resolve(aovs, &acc.light, &kept, spare_light)
     };
+    if let (Some(c), Some(table)) = (cryptomatte, table) {
+        image.mattes = cryptomatte::resolve_mattes(&acc.matte_slots, &kept, table, c, spare_mattes);
+    }
+    if let (Some(ids), Some(table)) = (&mut image.object_id, table) {
+        let slots = acc.matte_slots.len() / pixels.max(1);
+        cryptomatte::resolve_object_ids(&acc.matte_slots, slots, table, ids);
+    }
     Resolved {
         image,
         counts,
-        kept,
         estimates,
         dropped,
         taken,
@@ -754,7 +728,7 @@ fn resolve_image(
     let rays = aovs
         .rays
         .then(|| fill(s.rays.take(), pixels, |i| acc.rays[i] as f32));
-    // Filled from the mattes' slots after (cryptomatte::resolve_object_ids).
+    // Filled from the mattes' slots after (`resolve`).
     let object_id = aovs
         .object_id
         .then(|| refill(s.object_id.take(), pixels, 0.0));
@@ -1083,7 +1057,7 @@ mod tests {
             ..Accumulated::default()
         };
         let every = Aovs::parse("depth,normal,albedo,sample_count,noise,rays").unwrap();
-        let r = resolve(&acc, 2, 1, every, None);
+        let r = resolve(&acc, 2, 1, every, None, None, None);
         assert_eq!(r.image.rgba[0], [1.0, 2.0, 0.5, 1.0]);
         assert_eq!(r.image.normal.as_ref().unwrap()[0], [0.0, 1.0, 0.0]);
         assert_eq!(r.image.albedo.as_ref().unwrap()[0], [0.5, 0.5, 0.5]);
@@ -1154,12 +1128,20 @@ mod tests {
             .with_light_passes("light")
             .unwrap();
         let acc = random_sums((w * h) as usize, 1);
-        let fresh = resolve(&acc, w, h, every, None);
+        let fresh = resolve(&acc, w, h, every, None, None, None);
         // A larger frame's buffers, another frame's, and a frame with no
         // AOV's, reused.
         for (sw, sh, aovs) in [(64, 9, every), (w, h, every), (w, h, Aovs::NONE)] {
-            let spare = resolve(&random_sums((sw * sh) as usize, 2), sw, sh, aovs, None);
-            let reused = resolve(&acc, w, h, every, Some(spare.image));
+            let spare = resolve(
+                &random_sums((sw * sh) as usize, 2),
+                sw,
+                sh,
+                aovs,
+                None,
+                None,
+                None,
+            );
+            let reused = resolve(&acc, w, h, every, None, None, Some(spare.image));
             assert_eq!(
                 reused.image, fresh.image,
                 "reusing a {sw}x{sh} frame's buffers"
@@ -1167,8 +1149,10 @@ mod tests {
         }
         let image = &fresh.image;
         let per = 3 * light::LIGHT_PASSES as usize;
+        // Samples taken less those dropped.
+        let kept_at = |i: usize| (acc.aux[i][3] - acc.aux[i][2]) as u32;
         for i in 0..(w * h) as usize {
-            let kept = fresh.kept[i];
+            let kept = kept_at(i);
             let hits = acc.aux[i][1];
             assert_eq!(
                 image.light.pixels[i],
@@ -1191,7 +1175,7 @@ mod tests {
         }
         // The catcher's sums make a shadow pass, 1 where no sample was kept.
         let shadow = image.shadow.as_ref().unwrap();
-        assert!((0..(w * h) as usize).all(|i| fresh.kept[i] > 0 || shadow[i] == [1.0; 3]));
+        assert!((0..(w * h) as usize).all(|i| kept_at(i) > 0 || shadow[i] == [1.0; 3]));
     }
 
     #[test]

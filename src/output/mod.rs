@@ -49,7 +49,7 @@ mod exr_blocks;
 mod log;
 
 use crate::denoise::NOISY_LAYER;
-use crate::film::light::LIGHT_PASSES;
+use crate::film::light::{LIGHT_PASSES, LIGHT_PASS_NAMES};
 use crate::film::Image;
 pub(crate) use atomic::io_err;
 pub use atomic::{check_target, temporary_owner, temporary_sibling, write_atomic};
@@ -483,14 +483,18 @@ fn exr_channels<'a>(
     }
     // Light-path passes are colours, as the beauty is: --half applies.
     let light = image.light.pixels.as_flattened().as_flattened();
-    for (&k, pass) in image.light.written.iter().zip(image.light.names()) {
+    for &k in &image.light.written {
         for (c, component) in ["R", "G", "B"].into_iter().enumerate() {
             let samples = Strided {
                 data: light,
                 stride: 3 * LIGHT_PASSES as usize,
                 offset: 3 * k + c,
             };
-            push(format!("{pass}.{component}"), samples, half);
+            push(
+                format!("{}.{component}", LIGHT_PASS_NAMES[k]),
+                samples,
+                half,
+            );
         }
     }
     // Cryptomatte: ids and coverages stay f32 whatever --half says (an id

@@ -800,22 +800,16 @@ impl<'d> PathTracer<'d> {
 
         self.read_accumulators(pixels)?;
         let accumulated = &self.readback;
-        let mut spare = self.spare_images.as_ref().and_then(SpareImages::take);
-        let spare_mattes = spare.as_mut().map(|s| std::mem::take(&mut s.mattes));
-        let mut resolved = film::resolve(accumulated, w, h, self.settings.aovs, spare);
-        if let (Some(c), Some((table, _))) = (&self.settings.cryptomatte, &self.mattes) {
-            resolved.image.mattes = film::cryptomatte::resolve_mattes(
-                &accumulated.matte_slots,
-                &resolved.kept,
-                table,
-                c,
-                spare_mattes.unwrap_or_default(),
-            );
-        }
-        if let (Some(ids), Some((table, _))) = (&mut resolved.image.object_id, &self.mattes) {
-            let slots = accumulated.matte_slots.len() / pixels.max(1);
-            film::cryptomatte::resolve_object_ids(&accumulated.matte_slots, slots, table, ids);
-        }
+        let spare = self.spare_images.as_ref().and_then(SpareImages::take);
+        let resolved = film::resolve(
+            accumulated,
+            w,
+            h,
+            self.settings.aovs,
+            self.settings.cryptomatte.as_ref(),
+            self.mattes.as_ref().map(|(table, _)| table),
+            spare,
+        );
         if resolved.dropped > 0 {
             warnings.push(format!(
                 "path tracing: dropped {} of {} samples with NaN or infinite values",
