@@ -11,6 +11,13 @@
 //! two children (the children a ray is most likely to reach). Nodes are
 //! numbered in the order they are made; node 0 is the root.
 //!
+//! An inner child left in a full node (the only kind with inner children
+//! left) whose subtree holds at most `MERGED_LEAF_MAX` triangles becomes one
+//! leaf of them instead of a node of its own. With the seed's leaves of up
+//! to four triangles, two in five 8-wide nodes were such a subtree: two
+//! leaves in a node of eight slots, a node's fetch and test to reach them.
+//! The leaf's triangles are the same, so the hits are too.
+//!
 //! Leaves: the wide traversals read a leaf's triangles in leaf order, laid
 //! out for the four-lane triangle test, instead of gathering them from the
 //! soup through the primitive-index array. Each leaf gets whole blocks of
@@ -209,13 +216,16 @@ pub fn wide_layout_into<N: WideLayout>(
                             "a leaf of {count} triangles from entry {first} of {prims}"
                         )));
                     }
-                    w.set_slot(k, b, 4 * blocks.len() as u32, count);
-                    for at in (0..count).step_by(4) {
-                        blocks.push(LeafBlock {
-                            first: first + at,
-                            count: (count - at).min(4),
-                        });
+                    set_leaf(&mut w, k, b, first, count, blocks);
+                }
+                Child::Inner(c) if merged_leaf(bvh, c)?.is_some() => {
+                    let (first, count) = merged_leaf(bvh, c)?.unwrap_or_default();
+                    if first as usize + count as usize > prims {
+                        return Err(TraceError::Malformed(format!(
+                            "a leaf of {count} triangles from entry {first} of {prims}"
+                        )));
                     }
+                    set_leaf(&mut w, k, b, first, count, blocks);
                 }
                 Child::Inner(c) => {
                     w.set_slot(k, b, out.len() as u32, 0);
@@ -228,6 +238,79 @@ pub fn wide_layout_into<N: WideLayout>(
         out[wide] = w;
     }
     Ok(())
+}
+
+/// The most triangles of a subtree that a full node takes as one leaf
+/// (`wide_layout_into`): two of the seed's leaves of four, two blocks of the
+/// four-lane test. Merging into leaves of up to 4, 8 and 16 triangles took
+/// 0.96-1.02x, 0.92-1.03x and 0.96-1.03x the time of no merging
+/// (BENCHMARKS.md); 8 was below on 27 of 30 paired medians.
+pub const MERGED_LEAF_MAX: u32 = 8;
+
+/// Slot `k` of `w` as the leaf of entries [first, first + count) of the
+/// primitive-index array, in whole blocks of four appended to `blocks`.
+fn set_leaf<N: WideLayout>(
+    w: &mut N,
+    k: usize,
+    b: &Aabb,
+    first: u32,
+    count: u32,
+    blocks: &mut Vec<LeafBlock>,
+) {
+    w.set_slot(k, b, 4 * blocks.len() as u32, count);
+    for at in (0..count).step_by(4) {
+        blocks.push(LeafBlock {
+            first: first + at,
+            count: (count - at).min(4),
+        });
+    }
+}
+
+/// Binary node `index`'s triangles as one leaf, (first entry, count), when
+/// they are at most `MERGED_LEAF_MAX` and their leaves' entries follow one
+/// another in the primitive-index array (the builders partition in place, so
+/// they do). The walk stops once the count passes the limit, or after as
+/// many inner nodes as such a subtree can have, so it reads a few nodes
+/// whatever the tree.
+fn merged_leaf(bvh: &Bvh, index: u32) -> Result<Option<(u32, u32)>, TraceError> {
+    fn walk(
+        bvh: &Bvh,
+        index: u32,
+        range: &mut Option<(u32, u32)>,
+        inner_left: &mut u32,
+    ) -> Result<bool, TraceError> {
+        if *inner_left == 0 {
+            return Ok(false);
+        }
+        *inner_left -= 1;
+        for (child, _) in children(bvh, index)? {
+            match child {
+                Child::Leaf { first, count } => match range {
+                    None => *range = Some((first, count)),
+                    Some((f, n)) if f.checked_add(*n) == Some(first) => *n += count,
+                    Some(_) => return Ok(false),
+                },
+                Child::Inner(i) => {
+                    if !walk(bvh, i, range, inner_left)? {
+                        return Ok(false);
+                    }
+                }
+                Child::Empty => {}
+            }
+            if range.is_some_and(|(_, n)| n > MERGED_LEAF_MAX) {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+    let (mut range, mut inner_left) = (None, MERGED_LEAF_MAX - 1);
+    Ok(
+        if walk(bvh, index, &mut range, &mut inner_left)? && range.is_some_and(|(_, n)| n > 0) {
+            range
+        } else {
+            None
+        },
+    )
 }
 
 /// The layout's triangles in leaf order (`leaf_gather`'s Rust twin), for
@@ -290,6 +373,22 @@ mod tests {
         out
     }
 
+    /// Per wide node, the triangles in its subtree (children are numbered
+    /// after their parent).
+    fn triangles_under<N: WideLayout>(wide: &[N]) -> Vec<u32> {
+        let mut under = vec![0u32; wide.len()];
+        for i in (0..wide.len()).rev() {
+            under[i] = (0..N::WIDTH)
+                .map(|k| match wide[i].slot(k).0 {
+                    Child::Leaf { count, .. } => count,
+                    Child::Inner(c) => under[c as usize],
+                    Child::Empty => 0,
+                })
+                .sum();
+        }
+        under
+    }
+
     fn check_layout<N: WideLayout>() {
         let w = N::WIDTH;
         for (n, seed) in [(1usize, 1u64), (3, 2), (100, 3), (5000, 4)] {
@@ -321,6 +420,11 @@ mod tests {
                             assert_eq!(first % 4, 0, "{w}/{n}: a leaf at slot {first}");
                             let (f, c) = (first as usize, count as usize);
                             leaves.push(slots[f..f + c].to_vec());
+                            let (lo, hi) = node.slot_box(k);
+                            for &q in &slots[f..f + c] {
+                                let tri = Aabb::of_triangle(&soup, q as usize);
+                                assert!(Aabb { lo, hi }.contains(&tri), "{w}/{n}: leaf box");
+                            }
                             // The last block's unused slots repeat its last
                             // triangle, and each block's lanes are its
                             // slots' coordinates.
@@ -350,8 +454,41 @@ mod tests {
                     }
                 }
             }
-            leaves.sort_unstable();
-            assert_eq!(leaves, leaves_of_binary(&bvh), "{w}/{n}: leaves");
+            // Each leaf is whole leaves of the binary tree, one after
+            // another: one of them, or the merge of a subtree of at most
+            // MERGED_LEAF_MAX triangles.
+            let binary = leaves_of_binary(&bvh);
+            let starting: std::collections::HashMap<u32, &Vec<u32>> =
+                binary.iter().map(|l| (l[0], l)).collect();
+            let mut pieces = Vec::new();
+            for leaf in &leaves {
+                assert!(
+                    leaf.len() <= MERGED_LEAF_MAX.max(4) as usize,
+                    "{w}/{n}: a leaf of {}",
+                    leaf.len()
+                );
+                let mut rest = &leaf[..];
+                while let Some(piece) = rest.first().and_then(|q| starting.get(q)) {
+                    assert!(rest.starts_with(piece), "{w}/{n}: {leaf:?}");
+                    pieces.push(piece.to_vec());
+                    rest = &rest[piece.len()..];
+                }
+                assert!(rest.is_empty(), "{w}/{n}: {leaf:?} is not whole leaves");
+            }
+            pieces.sort_unstable();
+            assert_eq!(pieces, binary, "{w}/{n}: leaves");
+            // And no inner child is left that a leaf could have taken.
+            let under = triangles_under(&wide);
+            for node in &wide {
+                for k in 0..w {
+                    if let Child::Inner(c) = node.slot(k).0 {
+                        assert!(under[c as usize] > MERGED_LEAF_MAX, "{w}/{n}: node {c}");
+                    }
+                }
+            }
+            if n == 5000 {
+                assert!(leaves.iter().any(|l| l.len() > 4), "{w}/{n}: nothing merged");
+            }
             assert!(reached.iter().all(|&r| r == 1), "{w}/{n}: {reached:?}");
             // Each wide node stands for a distinct binary node.
             assert!(
