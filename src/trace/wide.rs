@@ -209,18 +209,18 @@ pub fn wide_layout_into<N: WideLayout>(
         }
         let mut w = N::empty();
         for (k, (child, b)) in slots.iter().enumerate() {
-            match *child {
+            let child = match *child {
+                Child::Inner(c) => {
+                    merged_leaf(bvh, c)?.map_or(Child::Inner(c), |(first, count)| Child::Leaf {
+                        first,
+                        count,
+                    })
+                }
+                other => other,
+            };
+            match child {
                 Child::Leaf { first, count } => {
                     if count == 0 || first as usize + count as usize > prims {
-                        return Err(TraceError::Malformed(format!(
-                            "a leaf of {count} triangles from entry {first} of {prims}"
-                        )));
-                    }
-                    set_leaf(&mut w, k, b, first, count, blocks);
-                }
-                Child::Inner(c) if merged_leaf(bvh, c)?.is_some() => {
-                    let (first, count) = merged_leaf(bvh, c)?.unwrap_or_default();
-                    if first as usize + count as usize > prims {
                         return Err(TraceError::Malformed(format!(
                             "a leaf of {count} triangles from entry {first} of {prims}"
                         )));
@@ -487,7 +487,10 @@ mod tests {
                 }
             }
             if n == 5000 {
-                assert!(leaves.iter().any(|l| l.len() > 4), "{w}/{n}: nothing merged");
+                assert!(
+                    leaves.iter().any(|l| l.len() > 4),
+                    "{w}/{n}: nothing merged"
+                );
             }
             assert!(reached.iter().all(|&r| r == 1), "{w}/{n}: {reached:?}");
             // Each wide node stands for a distinct binary node.
