@@ -285,6 +285,8 @@ fn merged_leaf(bvh: &Bvh, index: u32) -> Result<Option<(u32, u32)>, TraceError> 
         *inner_left -= 1;
         for (child, _) in children(bvh, index)? {
             match child {
+                // Malformed: left to the layout's loop, which reports it.
+                Child::Leaf { count: 0, .. } => return Ok(false),
                 Child::Leaf { first, count } => match range {
                     None => *range = Some((first, count)),
                     Some((f, n)) if f.checked_add(*n) == Some(first) => *n += count,
@@ -304,13 +306,9 @@ fn merged_leaf(bvh: &Bvh, index: u32) -> Result<Option<(u32, u32)>, TraceError> 
         Ok(true)
     }
     let (mut range, mut inner_left) = (None, MERGED_LEAF_MAX - 1);
-    Ok(
-        if walk(bvh, index, &mut range, &mut inner_left)? && range.is_some_and(|(_, n)| n > 0) {
-            range
-        } else {
-            None
-        },
-    )
+    Ok(walk(bvh, index, &mut range, &mut inner_left)?
+        .then_some(range)
+        .flatten())
 }
 
 /// The layout's triangles in leaf order (`leaf_gather`'s Rust twin), for
